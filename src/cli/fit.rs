@@ -1,0 +1,151 @@
+//! `facewire fit`: solve a fit from landmarks and write it as `.fit.toml`, printing how
+//! far the mask lies from the head before (similarity only) and after (with shape units).
+
+use serde::Serialize;
+
+use super::{load_head, load_mask, print_json, CliResult, FilePath};
+use crate::atomic::write_atomic;
+use crate::fit::{residuals, solve_fit, Fit, FitFile, FittedMask, Landmarks, Residuals, SolveOptions};
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The head mesh (OBJ).
+    #[arg(long)]
+    head: FilePath,
+    /// Landmark correspondences (.landmarks.toml).
+    #[arg(long)]
+    landmarks: FilePath,
+    /// Where to write the fit (.fit.toml).
+    #[arg(long)]
+    out: FilePath,
+    /// A CANDIDE-3 .wfm to fit instead of the embedded one.
+    #[arg(long)]
+    mask: Option<FilePath>,
+    /// Millimetres per head unit (default: from the landmarks file, else 63 mm pupils).
+    #[arg(long)]
+    mm_per_unit: Option<f32>,
+    /// Print the result as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Serialize)]
+struct Report {
+    fit: FitFile,
+    mm_per_unit_source: &'static str,
+    iterations: usize,
+    /// Similarity only (shape units at zero).
+    before: Residuals,
+    /// Similarity and shape units.
+    after: Residuals,
+}
+
+pub fn run(args: Args) -> CliResult {
+    let mask = load_mask(args.mask.as_deref())?;
+    let head = load_head(&args.head)?;
+    let landmarks = Landmarks::load(&args.landmarks)?;
+    landmarks.validate(
+        &args.landmarks.display().to_string(),
+        mask.vertices.len(),
+        head.positions.len(),
+    )?;
+    let pairs: Vec<(u32, glam::DVec3)> = landmarks
+        .landmarks
+        .iter()
+        .map(|l| (l.mask_vertex, head.positions[l.head_vertex as usize].as_dvec3()))
+        .collect();
+    let index_pairs: Vec<(u32, u32)> = landmarks
+        .landmarks
+        .iter()
+        .map(|l| (l.mask_vertex, l.head_vertex))
+        .collect();
+
+    let similarity_only = SolveOptions {
+        solve_shape: false,
+        ..SolveOptions::default()
+    };
+    let before = solve_fit(&mask, &pairs, &[], &similarity_only)?;
+    let after = solve_fit(&mask, &pairs, &[], &SolveOptions::default())?;
+
+    let (mm_per_unit, source) = match (args.mm_per_unit, landmarks.mm_per_unit) {
+        (Some(mm), _) => (mm, "command line"),
+        (None, Some(mm)) => (mm, "landmarks file"),
+        (None, None) => (
+            Fit::mm_per_unit_from_pupils(&mask, &after.shape, &after.pose),
+            "63 mm pupil separation",
+        ),
+    };
+    if !(mm_per_unit.is_finite() && mm_per_unit > 0.0) {
+        return Err(format!("mm_per_unit {mm_per_unit} must be a positive number").into());
+    }
+    let used = mask.used_vertices();
+    let measure = |shape: &[f32], pose| {
+        let fit = Fit {
+            pose,
+            shape: shape.to_vec(),
+            nudges: Vec::new(),
+            mm_per_unit,
+        };
+        let fitted = FittedMask::new(mask.clone(), fit);
+        (
+            residuals::measure(&head, &fitted.neutral, &used, &index_pairs, mm_per_unit),
+            fitted.fit,
+        )
+    };
+    let (before_residuals, _) = measure(&before.shape, before.pose);
+    let (after_residuals, fit) = measure(&after.shape, after.pose);
+
+    let head_name = args.head.file_name().map(|n| n.to_string_lossy().into_owned());
+    let file = FitFile::from_fit(&fit, &mask, head_name);
+    write_atomic(&args.out, file.to_toml().as_bytes())
+        .map_err(|e| format!("cannot write {}: {e}", args.out.display()))?;
+
+    if args.json {
+        return print_json(&Report {
+            fit: file,
+            mm_per_unit_source: source,
+            iterations: after.iterations,
+            before: before_residuals,
+            after: after_residuals,
+        });
+    }
+    println!(
+        "fit {} to {} with {} landmarks ({} iterations)",
+        mask_name(&args.mask),
+        args.head.display(),
+        pairs.len(),
+        after.iterations
+    );
+    println!(
+        "mm per head unit: {mm_per_unit:.4} ({source}); scale {:.5} head units per mask unit",
+        fit.pose.scale.x
+    );
+    println!(
+        "{:<34} {:>10} {:>10} {:>8}",
+        "residual (mm)", "mean", "max", "worst"
+    );
+    for (label, r) in [
+        ("before (similarity only)", before_residuals),
+        ("after (with shape units)", after_residuals),
+    ] {
+        println!("{label}");
+        println!(
+            "  {:<32} {:>10.3} {:>10.3} {:>8}",
+            "mask vertices to head surface", r.surface.mean_mm, r.surface.max_mm, r.surface.worst_mask_vertex
+        );
+        println!(
+            "  {:<32} {:>10.3} {:>10.3} {:>8}",
+            "landmarks to their head vertex",
+            r.landmarks.mean_mm,
+            r.landmarks.max_mm,
+            r.landmarks.worst_mask_vertex
+        );
+    }
+    println!("wrote {}", args.out.display());
+    Ok(())
+}
+
+fn mask_name(path: &Option<FilePath>) -> String {
+    path.as_ref()
+        .map_or_else(|| "CANDIDE-3.1.6".to_string(), |p| p.display().to_string())
+}

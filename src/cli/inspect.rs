@@ -1,0 +1,318 @@
+//! `facewire inspect`: what a file holds and what is wrong with it, for people (text) and
+//! scripts (`--json`). The kind of file is told by its name.
+
+use serde::Serialize;
+
+use super::{has_suffix, load_head, load_mask, print_json, CliResult, FilePath};
+use crate::fit::{anchor_mask, residuals, FitFile, FittedMask, Landmarks};
+use crate::head::{Bounds, Problem};
+use crate::mask::{FapuValues, Mask, UnitKind};
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// A .wfm, .obj, .fit.toml or .landmarks.toml file.
+    file: FilePath,
+    /// With a .fit.toml: the head it fits, to report residuals (default: the `head` named
+    /// in the fit, next to it).
+    #[arg(long)]
+    head: Option<FilePath>,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(args: Args) -> CliResult {
+    let path = &args.file;
+    if has_suffix(path, ".wfm") {
+        mask_report(path, args.json)
+    } else if has_suffix(path, ".obj") {
+        head_report(path, args.json)
+    } else if has_suffix(path, ".fit.toml") {
+        fit_report(path, args.head.as_ref(), args.json)
+    } else if has_suffix(path, ".landmarks.toml") {
+        let landmarks = Landmarks::load(path)?;
+        if args.json {
+            return print_json(&landmarks);
+        }
+        println!("{}: {} landmarks", path.display(), landmarks.landmarks.len());
+        for l in &landmarks.landmarks {
+            println!(
+                "  mask vertex {:>3} -> head vertex {:>6}  {}",
+                l.mask_vertex,
+                l.head_vertex,
+                l.name.as_deref().unwrap_or("")
+            );
+        }
+        Ok(())
+    } else {
+        Err(format!(
+            "{}: unknown kind of file; expected .wfm, .obj, .fit.toml or .landmarks.toml",
+            path.display()
+        )
+        .into())
+    }
+}
+
+#[derive(Serialize)]
+struct UnitSummary {
+    index: usize,
+    key: String,
+    title: String,
+    kind: String,
+    vertices: usize,
+}
+
+#[derive(Serialize)]
+struct MaskSummary {
+    units: &'static str,
+    vertices: usize,
+    triangles: usize,
+    unused_vertices: Vec<usize>,
+    bounds: Bounds,
+    fapu: FapuValues,
+    animation_units: Vec<UnitSummary>,
+    shape_units: Vec<UnitSummary>,
+    animation_params: usize,
+    shape_params: usize,
+    texture_coordinates: usize,
+}
+
+fn unit_summaries(units: &[crate::mask::Unit]) -> Vec<UnitSummary> {
+    units
+        .iter()
+        .enumerate()
+        .map(|(index, u)| UnitSummary {
+            index,
+            key: u.key.clone(),
+            title: u.title.clone(),
+            kind: match &u.kind {
+                UnitKind::Auv { auv } => format!("AUV{auv}"),
+                UnitKind::Fap { fap, fapu, .. } => format!("FAP{fap} ({})", fapu.name()),
+                UnitKind::Other => "other".into(),
+                UnitKind::Shape => "shape".into(),
+            },
+            vertices: u.displacements.len(),
+        })
+        .collect()
+}
+
+fn mask_report(path: &std::path::Path, json: bool) -> CliResult {
+    let mask = Mask::load(path)?;
+    let used = mask.used_vertices();
+    let summary = MaskSummary {
+        units: "mask units (CANDIDE model frame: +x face's left, +y up, +z out of the face)",
+        vertices: mask.vertices.len(),
+        triangles: mask.triangles.len(),
+        unused_vertices: (0..used.len()).filter(|&v| !used[v]).collect(),
+        bounds: Bounds::of(&mask.vertices),
+        fapu: FapuValues::measure(&mask.vertices),
+        animation_units: unit_summaries(&mask.animation_units),
+        shape_units: unit_summaries(&mask.shape_units),
+        animation_params: mask.animation_params.len(),
+        shape_params: mask.shape_params.len(),
+        texture_coordinates: mask.texture.len(),
+    };
+    if json {
+        return print_json(&summary);
+    }
+    println!("{}: CANDIDE-3 mask", path.display());
+    println!(
+        "  {} vertices ({} used by no triangle: {:?}), {} triangles",
+        summary.vertices,
+        summary.unused_vertices.len(),
+        summary.unused_vertices,
+        summary.triangles
+    );
+    let auvs = mask
+        .animation_units
+        .iter()
+        .filter(|u| matches!(u.kind, UnitKind::Auv { .. }))
+        .count();
+    println!(
+        "  {} animation units ({auvs} AUVs, {} FAPs), {} shape units",
+        summary.animation_units.len(),
+        summary.animation_units.len() - auvs,
+        summary.shape_units.len()
+    );
+    println!(
+        "  bounds (mask units): min {:?} max {:?}",
+        summary.bounds.min.to_array(),
+        summary.bounds.max.to_array()
+    );
+    let f = summary.fapu;
+    println!(
+        "  FAPU0 (mask units): MNS {:.4} MW {:.4} ENS {:.4} ES {:.4} IRISD {:.4}",
+        f.mns, f.mw, f.ens, f.es, f.irisd
+    );
+    println!(
+        "  parameters: {} animation, {} shape; {} texture coordinates",
+        summary.animation_params, summary.shape_params, summary.texture_coordinates
+    );
+    println!("  animation units (index key: kind, vertices):");
+    for u in &summary.animation_units {
+        println!("    {:>2} {:<28} {:<12} {}", u.index, u.key, u.kind, u.vertices);
+    }
+    println!("  shape units:");
+    for u in &summary.shape_units {
+        println!("    {:>2} {:<28} {}", u.index, u.key, u.vertices);
+    }
+    Ok(())
+}
+
+#[derive(Serialize)]
+struct HeadSummary {
+    units: &'static str,
+    vertices: usize,
+    triangles: usize,
+    edges: usize,
+    boundary_edges: usize,
+    boundary_loops: usize,
+    bounds: Bounds,
+    problems: Vec<Problem>,
+}
+
+fn head_report(path: &std::path::Path, json: bool) -> CliResult {
+    let head = load_head(path)?;
+    let summary = HeadSummary {
+        units: "head units (as stored in the file)",
+        vertices: head.positions.len(),
+        triangles: head.triangles.len(),
+        edges: head.topology.edges.len(),
+        boundary_edges: head.topology.boundary_edge_count(),
+        boundary_loops: head.topology.boundary_loops.len(),
+        bounds: head.bounds(),
+        problems: head.problems.clone(),
+    };
+    if json {
+        return print_json(&summary);
+    }
+    println!("{}: head mesh", path.display());
+    println!(
+        "  {} vertices, {} triangles, {} edges",
+        summary.vertices, summary.triangles, summary.edges
+    );
+    println!(
+        "  {} boundary edges in {} loop(s)",
+        summary.boundary_edges, summary.boundary_loops
+    );
+    let b = summary.bounds;
+    println!(
+        "  bounds (head units): min {:?} max {:?} size {:?}",
+        b.min.to_array(),
+        b.max.to_array(),
+        b.size().to_array()
+    );
+    if summary.problems.is_empty() {
+        println!("  problems: none");
+    } else {
+        println!("  problems:");
+        for p in &summary.problems {
+            println!("    {p}");
+        }
+    }
+    Ok(())
+}
+
+#[derive(Serialize)]
+struct FitSummary {
+    fit: FitFile,
+    mm_per_unit: f32,
+    mm_per_unit_derived: bool,
+    mm_per_mask_unit: f32,
+    fitted_bounds: Bounds,
+    head: Option<String>,
+    residuals: Option<residuals::Residuals>,
+    /// Inner-lip midpoint anchors (mask 87 and 40): distance in space and along the surface, mm.
+    inner_lip_anchor_gap_mm: Option<[f32; 2]>,
+}
+
+fn fit_report(path: &std::path::Path, head_arg: Option<&FilePath>, json: bool) -> CliResult {
+    let mask = load_mask(None)?;
+    let file = FitFile::load(path)?;
+    let fit = file.resolve(&path.display().to_string(), &mask)?;
+    let fitted = FittedMask::new(mask.clone(), fit.clone());
+    let head_path = head_arg.cloned().or_else(|| {
+        let name = file.head.as_ref()?;
+        Some(path.parent().unwrap_or(std::path::Path::new(".")).join(name))
+    });
+    let (residuals, gap) = match &head_path {
+        Some(hp) if hp.exists() => {
+            let head = load_head(hp)?;
+            let r = residuals::measure(
+                &head,
+                &fitted.neutral,
+                &mask.used_vertices(),
+                &[],
+                fit.mm_per_unit,
+            );
+            let anchors = anchor_mask(&head, &fitted.neutral, fit.mm_per_unit);
+            let (up, low) = (
+                anchors.vertex[crate::mask::INNER_LIP_MID_UPPER],
+                anchors.vertex[crate::mask::INNER_LIP_MID_LOWER],
+            );
+            let space = head.positions[up as usize].distance(head.positions[low as usize]) * fit.mm_per_unit;
+            let mut sd = crate::head::SurfaceDistance::new(head.positions.len());
+            sd.run(&head.topology, &[(up, 0.0)], f32::INFINITY);
+            (Some(r), Some([space, sd.distance(low) * fit.mm_per_unit]))
+        }
+        _ => (None, None),
+    };
+    let summary = FitSummary {
+        mm_per_unit: fit.mm_per_unit,
+        mm_per_unit_derived: file.mm_per_unit.is_none(),
+        mm_per_mask_unit: fitted.mm_per_mask_unit(),
+        fitted_bounds: Bounds::of(&fitted.neutral),
+        head: head_path.map(|p| p.display().to_string()),
+        residuals,
+        inner_lip_anchor_gap_mm: gap,
+        fit: file,
+    };
+    if json {
+        return print_json(&summary);
+    }
+    let f = &summary.fit;
+    println!("{}: fit of the CANDIDE-3 mask", path.display());
+    println!(
+        "  rotation {:?} deg, scale {} head units per mask unit, translation {:?} head units",
+        f.rotation_deg, f.scale, f.translation
+    );
+    println!(
+        "  {} mm per head unit ({}), {:.2} mm per mask unit",
+        summary.mm_per_unit,
+        if summary.mm_per_unit_derived {
+            "derived from 63 mm pupils"
+        } else {
+            "given"
+        },
+        summary.mm_per_mask_unit
+    );
+    println!(
+        "  shape units: {}",
+        if f.shape_units.is_empty() {
+            "none".to_string()
+        } else {
+            f.shape_units
+                .iter()
+                .map(|(k, v)| format!("{k}={v:.3}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        }
+    );
+    println!("  nudges: {}", f.nudges.len());
+    let b = summary.fitted_bounds;
+    println!(
+        "  fitted mask bounds (head units): min {:?} max {:?}",
+        b.min.to_array(),
+        b.max.to_array()
+    );
+    if let (Some(head), Some(r)) = (&summary.head, &summary.residuals) {
+        println!(
+            "  against {head}: mask vertices to surface mean {:.2} mm, max {:.2} mm (vertex {})",
+            r.surface.mean_mm, r.surface.max_mm, r.surface.worst_mask_vertex
+        );
+    }
+    if let Some([space, surface]) = summary.inner_lip_anchor_gap_mm {
+        println!("  inner-lip midpoint anchors (87, 40): {space:.2} mm apart in space, {surface:.1} mm along the surface");
+    }
+    Ok(())
+}

@@ -1,0 +1,79 @@
+//! `facewire render`: a PNG of a head, and of its fitted mask when a fit is given, to
+//! check a fit by eye and to make the docs' pictures.
+
+use std::io::BufWriter;
+
+use super::{load_fit, load_head, load_mask, CliResult, FilePath};
+use crate::fit::{anchor_mask, FittedMask};
+use crate::render::{Canvas, View};
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The head mesh (OBJ).
+    #[arg(long)]
+    head: FilePath,
+    /// A fit to draw the mask with (.fit.toml).
+    #[arg(long)]
+    fit: Option<FilePath>,
+    /// A CANDIDE-3 .wfm instead of the embedded one.
+    #[arg(long)]
+    mask: Option<FilePath>,
+    #[arg(long, value_enum, default_value = "front")]
+    view: View,
+    /// Image width and height in pixels.
+    #[arg(long, default_value_t = 800)]
+    size: usize,
+    /// Frame the face (the fitted mask) rather than the whole head.
+    #[arg(long)]
+    face: bool,
+    /// Also mark the anchors (nearest head vertices) of the lip vertices.
+    #[arg(long)]
+    anchors: bool,
+    #[arg(long)]
+    out: FilePath,
+}
+
+pub fn run(args: Args) -> CliResult {
+    let head = load_head(&args.head)?;
+    let mask = load_mask(args.mask.as_deref())?;
+    let fitted = match &args.fit {
+        Some(path) => Some(FittedMask::new(mask.clone(), load_fit(path, &mask)?)),
+        None => None,
+    };
+    let frame_points = match (&fitted, args.face) {
+        (Some(f), true) => f.neutral.clone(),
+        _ => head.positions.clone(),
+    };
+    let mut canvas = Canvas::framing(&frame_points, args.view, args.size, args.size);
+    canvas.draw_mesh(&head.positions, &head.triangles, |_| [0.86, 0.76, 0.68]);
+    if let Some(fitted) = &fitted {
+        let slack = 0.004 * head.bounds().size().length();
+        let used = fitted.mask.used_vertices();
+        for t in &fitted.mask.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
+                canvas.draw_line(fitted.neutral[a], fitted.neutral[b], [20, 90, 200], slack);
+            }
+        }
+        for (j, &p) in fitted.neutral.iter().enumerate().filter(|(j, _)| used[*j]) {
+            let lip = crate::mask::LIP_VERTICES.contains(&j);
+            canvas.draw_dot(p, 2.5, if lip { [200, 30, 30] } else { [20, 60, 160] }, slack);
+        }
+        if args.anchors {
+            let anchors = anchor_mask(&head, &fitted.neutral, fitted.fit.mm_per_unit);
+            for &j in &crate::mask::LIP_VERTICES {
+                let color = if crate::mask::LOWER_LIP.contains(&j) {
+                    [240, 160, 0]
+                } else {
+                    [0, 170, 60]
+                };
+                canvas.draw_dot(head.positions[anchors.vertex[j] as usize], 2.0, color, slack);
+            }
+        }
+    }
+    let file =
+        std::fs::File::create(&args.out).map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
+    canvas.write_png(BufWriter::new(file))?;
+    println!("wrote {}", args.out.display());
+    Ok(())
+}

@@ -1,0 +1,302 @@
+//! The `.fit.toml` file: a small, hand-editable record of one fit, stored next to its head.
+//!
+//! ```toml
+//! head = "makehuman_head.obj"   # the head this fit belongs to (informational)
+//! mm_per_unit = 100.0           # millimetres per head unit; derived from 63 mm pupils if absent
+//! rotation_deg = [0.0, 0.0, 0.0] # rx ry rz, R = Rz Ry Rx
+//! scale = 0.55                  # head units per mask unit
+//! translation = [0.0, 7.2, 1.0] # head units
+//!
+//! [shape_units]                 # weights by unit key (see `facewire inspect candide3.wfm`)
+//! head_height = 0.12
+//!
+//! [[nudge]]                     # optional per-vertex offsets, mask units, before the pose
+//! vertex = 31
+//! offset = [0.0, 0.01, 0.0]
+//! ```
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use super::Fit;
+use crate::mask::{Mask, MaskPose};
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FitFile {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub head: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mm_per_unit: Option<f32>,
+    pub rotation_deg: [f32; 3],
+    pub scale: f32,
+    pub translation: [f32; 3],
+    #[serde(default)]
+    pub shape_units: BTreeMap<String, f32>,
+    #[serde(default, rename = "nudge", skip_serializing_if = "Vec::is_empty")]
+    pub nudges: Vec<Nudge>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Nudge {
+    pub vertex: u32,
+    /// Mask units.
+    pub offset: [f32; 3],
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum FitFileError {
+    #[error("cannot read {path}: {source}")]
+    Io { path: String, source: std::io::Error },
+    #[error("{path}: {message}")]
+    Toml { path: String, message: String },
+    #[error("{path}: field {field}: {message}")]
+    Invalid {
+        path: String,
+        field: String,
+        message: String,
+    },
+}
+
+impl FitFile {
+    pub fn load(path: &Path) -> Result<FitFile, FitFileError> {
+        let text = std::fs::read_to_string(path).map_err(|source| FitFileError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        FitFile::parse(&path.display().to_string(), &text)
+    }
+
+    /// Parses TOML text; `origin` names the source in errors.
+    pub fn parse(origin: &str, text: &str) -> Result<FitFile, FitFileError> {
+        toml::from_str(text).map_err(|e| FitFileError::Toml {
+            path: origin.to_string(),
+            message: e.to_string(),
+        })
+    }
+
+    /// The file's text: a header, then one line per field with arrays inline and numbers
+    /// rounded to what a fit can resolve (1e-4 degrees, 1e-6 head units).
+    pub fn to_toml(&self) -> String {
+        use std::fmt::Write;
+        let mut out = String::from(
+            "# facewire fit: lays the CANDIDE-3 mask on a head.\n\
+             # g = R(rotation_deg; R = Rz Ry Rx) * scale * (g0 + SU sigma + nudge) + translation\n\
+             # rotation in degrees, scale in head units per mask unit, translation in head units,\n\
+             # mm_per_unit in millimetres per head unit.\n",
+        );
+        let vec3 = |v: [f32; 3], digits: usize| {
+            let parts: Vec<String> = v.iter().map(|x| trim_float(*x, digits)).collect();
+            format!("[{}]", parts.join(", "))
+        };
+        if let Some(head) = &self.head {
+            let _ = writeln!(out, "head = {}", toml::Value::String(head.clone()));
+        }
+        if let Some(mm) = self.mm_per_unit {
+            let _ = writeln!(out, "mm_per_unit = {}", trim_float(mm, 4));
+        }
+        let _ = writeln!(out, "rotation_deg = {}", vec3(self.rotation_deg, 4));
+        let _ = writeln!(out, "scale = {}", trim_float(self.scale, 6));
+        let _ = writeln!(out, "translation = {}", vec3(self.translation, 6));
+        let _ = writeln!(out, "\n[shape_units]");
+        for (name, value) in &self.shape_units {
+            let _ = writeln!(out, "{name} = {}", trim_float(*value, 4));
+        }
+        for n in &self.nudges {
+            let _ = writeln!(
+                out,
+                "\n[[nudge]]\nvertex = {}\noffset = {}",
+                n.vertex,
+                vec3(n.offset, 6)
+            );
+        }
+        out
+    }
+
+    /// Resolves unit names against `mask` and checks every value. `origin` names the
+    /// file in errors.
+    pub fn resolve(&self, origin: &str, mask: &Mask) -> Result<Fit, FitFileError> {
+        let invalid = |field: &str, message: String| FitFileError::Invalid {
+            path: origin.to_string(),
+            field: field.to_string(),
+            message,
+        };
+        let finite3 = |field: &str, v: [f32; 3]| {
+            if v.iter().all(|x| x.is_finite()) {
+                Ok(Vec3::from_array(v))
+            } else {
+                Err(invalid(field, format!("{v:?} is not finite")))
+            }
+        };
+        let rotation = finite3("rotation_deg", self.rotation_deg)?;
+        let translation = finite3("translation", self.translation)?;
+        if !(self.scale.is_finite() && self.scale > 0.0) {
+            return Err(invalid(
+                "scale",
+                format!("{} must be a positive number", self.scale),
+            ));
+        }
+        let mut shape = vec![0.0; mask.shape_units.len()];
+        for (name, &value) in &self.shape_units {
+            let field = format!("shape_units.{name}");
+            let index = mask
+                .shape_unit(name)
+                .map_err(|e| invalid(&field, e.to_string()))?;
+            if !value.is_finite() {
+                return Err(invalid(&field, format!("{value} is not finite")));
+            }
+            shape[index] = value;
+        }
+        let mut nudges = Vec::with_capacity(self.nudges.len());
+        for (i, n) in self.nudges.iter().enumerate() {
+            if n.vertex as usize >= mask.vertices.len() {
+                return Err(invalid(
+                    &format!("nudge[{i}].vertex"),
+                    format!(
+                        "{} is out of range (the mask has {} vertices)",
+                        n.vertex,
+                        mask.vertices.len()
+                    ),
+                ));
+            }
+            nudges.push((n.vertex, finite3(&format!("nudge[{i}].offset"), n.offset)?));
+        }
+        let pose = MaskPose::similarity(rotation * (std::f32::consts::PI / 180.0), self.scale, translation);
+        let mm_per_unit = match self.mm_per_unit {
+            Some(mm) if mm.is_finite() && mm > 0.0 => mm,
+            Some(mm) => return Err(invalid("mm_per_unit", format!("{mm} must be a positive number"))),
+            None => Fit::mm_per_unit_from_pupils(mask, &shape, &pose),
+        };
+        Ok(Fit {
+            pose,
+            shape,
+            nudges,
+            mm_per_unit,
+        })
+    }
+
+    /// The file form of a resolved fit; shape units at zero are left out.
+    pub fn from_fit(fit: &Fit, mask: &Mask, head: Option<String>) -> FitFile {
+        let degrees = fit.pose.rotation_rad * (180.0 / std::f32::consts::PI);
+        FitFile {
+            head,
+            mm_per_unit: Some(fit.mm_per_unit),
+            rotation_deg: degrees.to_array(),
+            scale: fit.pose.scale.x,
+            translation: fit.pose.translation.to_array(),
+            shape_units: mask
+                .shape_units
+                .iter()
+                .zip(&fit.shape)
+                .filter(|(_, &w)| w.abs() >= 5e-5)
+                .map(|(u, &w)| (u.key.clone(), w))
+                .collect(),
+            nudges: fit
+                .nudges
+                .iter()
+                .map(|&(vertex, offset)| Nudge {
+                    vertex,
+                    offset: offset.to_array(),
+                })
+                .collect(),
+        }
+    }
+}
+
+/// `x` with at most `digits` decimals and no trailing zeros, always with a decimal point
+/// (so TOML reads it as a float); `-0` prints as `0.0`.
+fn trim_float(x: f32, digits: usize) -> String {
+    let text = format!("{x:.digits$}");
+    let text = text.trim_end_matches('0');
+    let text = if text.ends_with('.') {
+        format!("{text}0")
+    } else {
+        text.to_string()
+    };
+    if text.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
+        "0.0".to_string()
+    } else {
+        text
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SAMPLE: &str = r#"
+head = "h.obj"
+mm_per_unit = 100.0
+rotation_deg = [10.0, 0.0, 0.0]
+scale = 0.5
+translation = [0.0, 7.0, 1.0]
+[shape_units]
+head_height = 0.25
+[[nudge]]
+vertex = 31
+offset = [0.0, 0.01, 0.0]
+"#;
+
+    #[test]
+    fn round_trips_through_toml() {
+        let mask = Mask::candide3();
+        let file = FitFile::parse("sample", SAMPLE).unwrap();
+        let fit = file.resolve("sample", &mask).unwrap();
+        assert_eq!(fit.shape[0], 0.25);
+        assert!((fit.pose.rotation_rad.x - 10f32.to_radians()).abs() < 1e-7);
+        assert_eq!(fit.nudges, vec![(31, Vec3::new(0.0, 0.01, 0.0))]);
+        let again = FitFile::parse(
+            "again",
+            &FitFile::from_fit(&fit, &mask, file.head.clone()).to_toml(),
+        )
+        .unwrap();
+        let fit_again = again.resolve("again", &mask).unwrap();
+        assert_eq!(fit_again.shape, fit.shape);
+        assert_eq!(fit_again.nudges, fit.nudges);
+        assert!(fit_again
+            .pose
+            .rotation_rad
+            .abs_diff_eq(fit.pose.rotation_rad, 1e-6));
+    }
+
+    #[test]
+    fn floats_are_written_short_and_as_floats() {
+        assert_eq!(trim_float(1.5, 4), "1.5");
+        assert_eq!(trim_float(2.0, 4), "2.0");
+        assert_eq!(trim_float(-3.4e-15, 4), "0.0");
+        assert_eq!(trim_float(0.123456789, 6), "0.123457");
+    }
+
+    #[test]
+    fn errors_name_the_field() {
+        let mask = Mask::candide3();
+        let bad = SAMPLE.replace("head_height", "head_hieght");
+        let err = FitFile::parse("f.fit.toml", &bad)
+            .unwrap()
+            .resolve("f.fit.toml", &mask)
+            .unwrap_err();
+        assert!(
+            err.to_string()
+                .starts_with("f.fit.toml: field shape_units.head_hieght: unknown shape unit"),
+            "{err}"
+        );
+        let bad = SAMPLE.replace("vertex = 31", "vertex = 500");
+        let err = FitFile::parse("f", &bad)
+            .unwrap()
+            .resolve("f", &mask)
+            .unwrap_err();
+        assert!(err.to_string().contains("nudge[0].vertex"), "{err}");
+        let bad = SAMPLE.replace("scale = 0.5", "scale = -1.0");
+        let err = FitFile::parse("f", &bad)
+            .unwrap()
+            .resolve("f", &mask)
+            .unwrap_err();
+        assert!(err.to_string().contains("field scale"), "{err}");
+        let err = FitFile::parse("f", "scale = 1\nrotation = 3").unwrap_err();
+        assert!(err.to_string().starts_with("f: "), "{err}");
+    }
+}

@@ -1,0 +1,138 @@
+//! A dense head mesh: positions in **head units** (whatever the OBJ file uses), triangles,
+//! connectivity, spatial indexes and surface distances. Built once per registered head.
+
+pub mod geodesic;
+pub mod obj;
+pub mod spatial;
+pub mod topology;
+pub mod validate;
+
+use std::path::Path;
+
+use glam::Vec3;
+use serde::Serialize;
+
+pub use geodesic::SurfaceDistance;
+pub use obj::ObjError;
+pub use spatial::{SurfaceIndex, SurfacePoint, VertexIndex};
+pub use topology::{Edge, Fan, Topology};
+pub use validate::Problem;
+
+#[derive(Debug, thiserror::Error)]
+pub enum HeadError {
+    #[error("cannot read {path}: {source}")]
+    Io { path: String, source: std::io::Error },
+    #[error("{path}: {source}")]
+    Obj { path: String, source: ObjError },
+}
+
+/// A triangle mesh with its topology and nearest-point indexes.
+#[derive(Debug, Clone)]
+pub struct Head {
+    /// Where it came from (file name or upload name), for messages.
+    pub name: String,
+    /// Vertex positions in head units, in file order.
+    pub positions: Vec<Vec3>,
+    pub triangles: Vec<[u32; 3]>,
+    pub topology: Topology,
+    pub vertices: VertexIndex,
+    pub surface: SurfaceIndex,
+    /// Problems found while loading (empty for a clean mesh).
+    pub problems: Vec<Problem>,
+}
+
+/// Axis-aligned bounds.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Bounds {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Bounds {
+    pub fn of(points: &[Vec3]) -> Bounds {
+        let (min, max) = points.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(p), hi.max(p)),
+        );
+        Bounds { min, max }
+    }
+
+    pub fn size(&self) -> Vec3 {
+        self.max - self.min
+    }
+
+    pub fn center(&self) -> Vec3 {
+        0.5 * (self.min + self.max)
+    }
+}
+
+impl Head {
+    /// Loads an OBJ file.
+    pub fn load(path: &Path) -> Result<Head, HeadError> {
+        let bytes = std::fs::read(path).map_err(|source| HeadError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        let name = path.file_name().map_or_else(
+            || path.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        );
+        Head::from_obj_bytes(&name, &bytes).map_err(|source| HeadError::Obj {
+            path: path.display().to_string(),
+            source,
+        })
+    }
+
+    /// Parses OBJ bytes (UTF-8 or Latin-1 comments are both fine: only ASCII records are read).
+    pub fn from_obj_bytes(name: &str, bytes: &[u8]) -> Result<Head, ObjError> {
+        let text = String::from_utf8_lossy(bytes);
+        let mesh = obj::parse(&text)?;
+        Ok(Head::new(name, mesh.positions, mesh.triangles))
+    }
+
+    /// Builds topology, indexes and the problem report. `triangles` must index `positions`.
+    pub fn new(name: &str, positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Head {
+        let topology = Topology::new(&positions, &triangles);
+        let diagonal = Bounds::of(&positions).size().length();
+        let problems = validate::check(&positions, &triangles, &topology, 1e-12 * diagonal * diagonal);
+        let vertices = VertexIndex::new(&positions);
+        let surface = SurfaceIndex::new(&positions, &triangles);
+        Head {
+            name: name.to_string(),
+            positions,
+            triangles,
+            topology,
+            vertices,
+            surface,
+            problems,
+        }
+    }
+
+    pub fn bounds(&self) -> Bounds {
+        Bounds::of(&self.positions)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn problems_are_counted_with_examples() {
+        let text =
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 2 2\nv 0 0 1\nf 1 2 3\nf 1 3 2\nf 1 2 2\nf 1 2 5\nf 1 2 5\n";
+        let head = Head::from_obj_bytes("t.obj", text.as_bytes()).unwrap();
+        let kinds: Vec<(&str, usize)> = head.problems.iter().map(|p| (p.kind, p.count)).collect();
+        assert!(kinds.contains(&("repeated_corner_triangles", 1)), "{kinds:?}");
+        assert!(kinds.contains(&("duplicate_triangles", 2)), "{kinds:?}");
+        assert!(kinds.contains(&("non_manifold_edges", 1)), "{kinds:?}");
+        assert!(kinds.contains(&("unreferenced_vertices", 1)), "{kinds:?}");
+        assert!(kinds.contains(&("inconsistent_winding_edges", 2)), "{kinds:?}");
+        let unused = head
+            .problems
+            .iter()
+            .find(|p| p.kind == "unreferenced_vertices")
+            .unwrap();
+        assert_eq!(unused.examples, vec!["3"]);
+    }
+}

@@ -1,0 +1,203 @@
+//! Wavefront OBJ reader for dense heads: `v` and `f` records, polygons fanned into
+//! triangles, everything else (normals, UVs, groups, materials) skipped.
+//!
+//! Why not tobj: its `single_index: false` mode renumbers vertices in first-use order per
+//! object and drops unreferenced ones, and facewire's vertex-indexed data (expression
+//! targets, deformed frames written "in the same vertex order as the input") needs the
+//! file's own numbering. Its errors also carry no line numbers, which ours always do.
+
+use glam::Vec3;
+
+/// Refuses files with more vertices or triangles than this (bounded memory on uploads).
+pub const MAX_ELEMENTS: usize = 5_000_000;
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ObjError {
+    #[error("line {line}: {field} {found:?} is not a number")]
+    NotANumber {
+        line: usize,
+        field: &'static str,
+        found: String,
+    },
+    #[error("line {line}: vertex {vertex} has a non-finite coordinate ({value})")]
+    NotFinite { line: usize, vertex: usize, value: f32 },
+    #[error("line {line}: vertex record needs 3 coordinates, found {found}")]
+    ShortVertex { line: usize, found: usize },
+    #[error("line {line}: face needs at least 3 corners, found {found}")]
+    ShortFace { line: usize, found: usize },
+    #[error("line {line}: face corner {index} is out of range (the file has {count} vertices so far)")]
+    IndexOutOfRange { line: usize, index: i64, count: usize },
+    #[error("line {line}: more than {limit} vertices or triangles")]
+    TooLarge { line: usize, limit: usize },
+    #[error("the file has no triangles")]
+    NoTriangles,
+}
+
+/// Vertices (head units, file order) and triangles (0-based indices) of an OBJ text.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObjMesh {
+    pub positions: Vec<Vec3>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+pub fn parse(text: &str) -> Result<ObjMesh, ObjError> {
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    let mut corners: Vec<u32> = Vec::with_capacity(8);
+    for (i, raw) in text.lines().enumerate() {
+        let line = i + 1;
+        let mut fields = raw.split_whitespace();
+        match fields.next() {
+            Some("v") => {
+                if positions.len() >= MAX_ELEMENTS {
+                    return Err(ObjError::TooLarge {
+                        line,
+                        limit: MAX_ELEMENTS,
+                    });
+                }
+                let mut xyz = [0.0f32; 3];
+                let mut found = 0;
+                for (k, text) in fields.take(3).enumerate() {
+                    let value: f32 = text.parse().map_err(|_| ObjError::NotANumber {
+                        line,
+                        field: ["x", "y", "z"][k],
+                        found: text.to_string(),
+                    })?;
+                    if !value.is_finite() {
+                        return Err(ObjError::NotFinite {
+                            line,
+                            vertex: positions.len(),
+                            value,
+                        });
+                    }
+                    xyz[k] = value;
+                    found += 1;
+                }
+                if found < 3 {
+                    return Err(ObjError::ShortVertex { line, found });
+                }
+                positions.push(Vec3::from_array(xyz));
+            }
+            Some("f") => {
+                corners.clear();
+                for corner in fields {
+                    corners.push(parse_corner(line, corner, positions.len())?);
+                }
+                if corners.len() < 3 {
+                    return Err(ObjError::ShortFace {
+                        line,
+                        found: corners.len(),
+                    });
+                }
+                if triangles.len() + corners.len() > MAX_ELEMENTS {
+                    return Err(ObjError::TooLarge {
+                        line,
+                        limit: MAX_ELEMENTS,
+                    });
+                }
+                for k in 1..corners.len() - 1 {
+                    triangles.push([corners[0], corners[k], corners[k + 1]]);
+                }
+            }
+            _ => {}
+        }
+    }
+    if triangles.is_empty() {
+        return Err(ObjError::NoTriangles);
+    }
+    Ok(ObjMesh { positions, triangles })
+}
+
+/// `7`, `7/1`, `7//3`, `7/1/3` or a negative (relative) index.
+fn parse_corner(line: usize, text: &str, count: usize) -> Result<u32, ObjError> {
+    let vertex = text.split('/').next().unwrap_or(text);
+    let index: i64 = vertex.parse().map_err(|_| ObjError::NotANumber {
+        line,
+        field: "face corner",
+        found: text.to_string(),
+    })?;
+    let resolved = if index > 0 {
+        index - 1
+    } else {
+        count as i64 + index
+    };
+    if index == 0 || resolved < 0 || resolved >= count as i64 {
+        return Err(ObjError::IndexOutOfRange { line, index, count });
+    }
+    Ok(resolved as u32)
+}
+
+/// Writes positions and triangles as OBJ text (1-based indices), `header` lines as
+/// `#` comments first.
+pub fn write(
+    out: &mut impl std::io::Write,
+    header: &[String],
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+) -> std::io::Result<()> {
+    for line in header {
+        writeln!(out, "# {line}")?;
+    }
+    for p in positions {
+        writeln!(out, "v {} {} {}", p.x, p.y, p.z)?;
+    }
+    for t in triangles {
+        writeln!(out, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_polygons_slashes_and_negative_indices() {
+        let text =
+            "# quad\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1 4//1\nf -4 -3 -1\n";
+        let mesh = parse(text).unwrap();
+        assert_eq!(mesh.positions.len(), 4);
+        assert_eq!(mesh.triangles, vec![[0, 1, 2], [0, 2, 3], [0, 1, 3]]);
+    }
+
+    #[test]
+    fn keeps_unreferenced_vertices_in_file_order() {
+        let mesh = parse("v 9 9 9\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 2 3 4\n").unwrap();
+        assert_eq!(mesh.positions[0], Vec3::splat(9.0));
+        assert_eq!(mesh.triangles, vec![[1, 2, 3]]);
+    }
+
+    #[test]
+    fn errors_name_the_line() {
+        assert_eq!(
+            parse("v 0 0 0\nv 1 x 0\n"),
+            Err(ObjError::NotANumber {
+                line: 2,
+                field: "y",
+                found: "x".into()
+            })
+        );
+        match parse("v 0 0 0\nv 1 nan 0\n") {
+            Err(ObjError::NotFinite {
+                line: 2,
+                vertex: 1,
+                value,
+            }) => assert!(value.is_nan()),
+            other => panic!("expected NotFinite, got {other:?}"),
+        }
+        assert_eq!(
+            parse("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n"),
+            Err(ObjError::IndexOutOfRange {
+                line: 4,
+                index: 4,
+                count: 3
+            })
+        );
+        assert_eq!(parse("v 0 0\n"), Err(ObjError::ShortVertex { line: 1, found: 2 }));
+        assert_eq!(
+            parse("v 0 0 0\nf 1 1\n"),
+            Err(ObjError::ShortFace { line: 2, found: 2 })
+        );
+        assert_eq!(parse("garbage\n"), Err(ObjError::NoTriangles));
+    }
+}

@@ -1,0 +1,14 @@
+//! facewire: animate real 3D heads from CANDIDE-3 / MPEG-4 parameter streams.
+//!
+//! The geometry core (mask, head, fit) is plain synchronous Rust; the service and the CLI
+//! are thin layers around it. Units are named everywhere: **mask units** (CANDIDE's model
+//! frame), **head units** (whatever the head's OBJ uses) and **mm** (via the fit's
+//! `mm_per_unit`).
+
+pub mod atomic;
+pub mod cli;
+pub mod fit;
+pub mod head;
+pub mod mask;
+pub mod render;
+pub mod stream;

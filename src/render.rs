@@ -1,0 +1,223 @@
+//! A small software renderer for pictures of heads and fitted masks: orthographic view,
+//! z-buffer, Lambert shading, depth-tested wireframe overlay, PNG output. It exists so a
+//! fit can be checked by eye (`facewire render`) and so the docs' pictures are
+//! reproducible without a GPU or a browser.
+
+use std::io::Write;
+
+use glam::{Mat3, Vec3};
+
+/// Where the camera looks from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum View {
+    /// Looking at the face (down -z).
+    Front,
+    /// From the face's right side.
+    Side,
+    /// Halfway between front and the face's right side.
+    ThreeQuarter,
+}
+
+impl View {
+    /// Rotation taking head coordinates (+y up, +z out of the face) to camera coordinates
+    /// (+x right on screen, +y up, +z towards the viewer).
+    fn rotation(self) -> Mat3 {
+        match self {
+            View::Front => Mat3::IDENTITY,
+            View::Side => Mat3::from_rotation_y(std::f32::consts::FRAC_PI_2),
+            View::ThreeQuarter => Mat3::from_rotation_y(std::f32::consts::FRAC_PI_4),
+        }
+    }
+}
+
+/// An RGB image with a depth buffer.
+pub struct Canvas {
+    pub width: usize,
+    pub height: usize,
+    rgb: Vec<[u8; 3]>,
+    depth: Vec<f32>,
+    rotation: Mat3,
+    /// Pixels per unit and the camera-space point at the image centre.
+    zoom: f32,
+    center: Vec3,
+}
+
+impl Canvas {
+    /// A canvas framing `bounds_points` (any points of the scene) seen from `view`.
+    pub fn framing(points: &[Vec3], view: View, width: usize, height: usize) -> Canvas {
+        let rotation = view.rotation();
+        let (lo, hi) = points.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), &p| {
+                let q = rotation * p;
+                (lo.min(q), hi.max(q))
+            },
+        );
+        let size = (hi - lo).max(Vec3::splat(1e-6));
+        let zoom = 0.92 * (width as f32 / size.x).min(height as f32 / size.y);
+        Canvas {
+            width,
+            height,
+            rgb: vec![[250, 250, 252]; width * height],
+            depth: vec![f32::NEG_INFINITY; width * height],
+            rotation,
+            zoom,
+            center: 0.5 * (lo + hi),
+        }
+    }
+
+    /// Screen position (pixels, y down) and depth (larger is nearer) of a scene point.
+    fn project(&self, p: Vec3) -> Vec3 {
+        let q = self.rotation * p - self.center;
+        Vec3::new(
+            self.width as f32 * 0.5 + q.x * self.zoom,
+            self.height as f32 * 0.5 - q.y * self.zoom,
+            q.z * self.zoom,
+        )
+    }
+
+    /// Fills shaded triangles. `color` gives the base colour of each triangle.
+    pub fn draw_mesh(
+        &mut self,
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+        color: impl Fn(usize) -> [f32; 3],
+    ) {
+        let light = Vec3::new(-0.35, 0.45, 1.0).normalize();
+        for (i, t) in triangles.iter().enumerate() {
+            let [a, b, c] = t.map(|v| positions[v as usize]);
+            let normal = self.rotation * (b - a).cross(c - a);
+            if normal.length_squared() == 0.0 {
+                continue;
+            }
+            // Two-sided lighting: scans are not always consistently wound.
+            let shade = 0.25 + 0.75 * normal.normalize().dot(light).abs();
+            let base = color(i);
+            let rgb = base.map(|c| (c * shade * 255.0).clamp(0.0, 255.0) as u8);
+            self.fill_triangle(self.project(a), self.project(b), self.project(c), rgb);
+        }
+    }
+
+    fn fill_triangle(&mut self, a: Vec3, b: Vec3, c: Vec3, rgb: [u8; 3]) {
+        let min_x = a.x.min(b.x).min(c.x).floor().max(0.0) as usize;
+        let max_x = (a.x.max(b.x).max(c.x).ceil() as usize).min(self.width.saturating_sub(1));
+        let min_y = a.y.min(b.y).min(c.y).floor().max(0.0) as usize;
+        let max_y = (a.y.max(b.y).max(c.y).ceil() as usize).min(self.height.saturating_sub(1));
+        let area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+        if area.abs() < 1e-12 {
+            return;
+        }
+        for y in min_y..=max_y {
+            for x in min_x..=max_x {
+                let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+                let w0 = ((b.x - px) * (c.y - py) - (b.y - py) * (c.x - px)) / area;
+                let w1 = ((c.x - px) * (a.y - py) - (c.y - py) * (a.x - px)) / area;
+                let w2 = 1.0 - w0 - w1;
+                if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
+                    continue;
+                }
+                let z = w0 * a.z + w1 * b.z + w2 * c.z;
+                let k = y * self.width + x;
+                if z > self.depth[k] {
+                    self.depth[k] = z;
+                    self.rgb[k] = rgb;
+                }
+            }
+        }
+    }
+
+    /// Draws a line, hidden where the mesh is nearer than `slack` (scene units) in front.
+    pub fn draw_line(&mut self, p: Vec3, q: Vec3, rgb: [u8; 3], slack: f32) {
+        let (a, b) = (self.project(p), self.project(q));
+        let steps = ((b - a).truncate().length().ceil() as usize).max(1);
+        for s in 0..=steps {
+            let t = s as f32 / steps as f32;
+            let m = a.lerp(b, t);
+            self.plot(m, rgb, slack * self.zoom);
+        }
+    }
+
+    /// Draws a filled dot of radius `radius` pixels, depth-tested like lines.
+    pub fn draw_dot(&mut self, p: Vec3, radius: f32, rgb: [u8; 3], slack: f32) {
+        let c = self.project(p);
+        let r = radius.ceil() as i64;
+        for dy in -r..=r {
+            for dx in -r..=r {
+                if ((dx * dx + dy * dy) as f32) <= radius * radius {
+                    self.plot(c + Vec3::new(dx as f32, dy as f32, 0.0), rgb, slack * self.zoom);
+                }
+            }
+        }
+    }
+
+    fn plot(&mut self, m: Vec3, rgb: [u8; 3], slack_px: f32) {
+        if m.x < 0.0 || m.y < 0.0 {
+            return;
+        }
+        let (x, y) = (m.x as usize, m.y as usize);
+        if x >= self.width || y >= self.height {
+            return;
+        }
+        let k = y * self.width + x;
+        if m.z + slack_px >= self.depth[k] {
+            self.rgb[k] = rgb;
+        }
+    }
+
+    /// Writes the image as an 8-bit RGB PNG.
+    pub fn write_png(&self, out: impl Write) -> Result<(), png::EncodingError> {
+        let mut encoder = png::Encoder::new(out, self.width as u32, self.height as u32);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        let mut writer = encoder.write_header()?;
+        let bytes: Vec<u8> = self.rgb.iter().flatten().copied().collect();
+        writer.write_image_data(&bytes)?;
+        writer.finish()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nearer_triangle_wins_and_lines_hide_behind_it() {
+        let p = vec![
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(-1.0, -1.0, 1.0),
+            Vec3::new(1.0, -1.0, 1.0),
+            Vec3::new(0.0, 1.0, 1.0),
+        ];
+        let mut canvas = Canvas::framing(&p, View::Front, 64, 64);
+        canvas.draw_mesh(&p, &[[0, 1, 2], [3, 4, 5]], |i| {
+            if i == 0 {
+                [1.0, 0.0, 0.0]
+            } else {
+                [0.0, 0.0, 1.0]
+            }
+        });
+        let centre = canvas.rgb[32 * 64 + 32];
+        assert!(centre[2] > 0 && centre[0] == 0, "{centre:?}");
+        // a line on the far plane is hidden, one on the near plane shows
+        canvas.draw_line(
+            Vec3::new(-0.2, 0.0, 0.0),
+            Vec3::new(0.2, 0.0, 0.0),
+            [0, 255, 0],
+            0.01,
+        );
+        assert_ne!(canvas.rgb[canvas.width * 32 + 32], [0, 255, 0]);
+        canvas.draw_line(
+            Vec3::new(-0.2, 0.0, 1.0),
+            Vec3::new(0.2, 0.0, 1.0),
+            [0, 255, 0],
+            0.01,
+        );
+        let row = &canvas.rgb[canvas.width * 32..canvas.width * 33];
+        assert!(row.contains(&[0, 255, 0]));
+        let mut png = Vec::new();
+        canvas.write_png(&mut png).unwrap();
+        assert_eq!(&png[1..4], b"PNG");
+    }
+}
