@@ -30,6 +30,26 @@ impl View {
     }
 }
 
+/// Colours of an overlay: where it is in front of the surface and, optionally, where it
+/// is behind it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Ink {
+    pub visible: [u8; 3],
+    pub hidden: Option<[u8; 3]>,
+}
+
+impl Ink {
+    /// Shown only where visible.
+    pub fn opaque(visible: [u8; 3]) -> Ink {
+        Ink { visible, hidden: None }
+    }
+
+    /// Shown everywhere, blended with the surface where hidden.
+    pub fn see_through(visible: [u8; 3]) -> Ink {
+        Ink { visible, hidden: Some(visible) }
+    }
+}
+
 /// An RGB image with a depth buffer.
 pub struct Canvas {
     pub width: usize,
@@ -126,31 +146,32 @@ impl Canvas {
         }
     }
 
-    /// Draws a line, hidden where the mesh is nearer than `slack` (scene units) in front.
-    pub fn draw_line(&mut self, p: Vec3, q: Vec3, rgb: [u8; 3], slack: f32) {
+    /// Draws a line in `ink`; where the mesh is more than `slack` (scene units) in front
+    /// of it, it is drawn in `ink.hidden` or not at all.
+    pub fn draw_line(&mut self, p: Vec3, q: Vec3, ink: Ink, slack: f32) {
         let (a, b) = (self.project(p), self.project(q));
         let steps = ((b - a).truncate().length().ceil() as usize).max(1);
         for s in 0..=steps {
             let t = s as f32 / steps as f32;
             let m = a.lerp(b, t);
-            self.plot(m, rgb, slack * self.zoom);
+            self.plot(m, ink, slack * self.zoom);
         }
     }
 
     /// Draws a filled dot of radius `radius` pixels, depth-tested like lines.
-    pub fn draw_dot(&mut self, p: Vec3, radius: f32, rgb: [u8; 3], slack: f32) {
+    pub fn draw_dot(&mut self, p: Vec3, radius: f32, ink: Ink, slack: f32) {
         let c = self.project(p);
         let r = radius.ceil() as i64;
         for dy in -r..=r {
             for dx in -r..=r {
                 if ((dx * dx + dy * dy) as f32) <= radius * radius {
-                    self.plot(c + Vec3::new(dx as f32, dy as f32, 0.0), rgb, slack * self.zoom);
+                    self.plot(c + Vec3::new(dx as f32, dy as f32, 0.0), ink, slack * self.zoom);
                 }
             }
         }
     }
 
-    fn plot(&mut self, m: Vec3, rgb: [u8; 3], slack_px: f32) {
+    fn plot(&mut self, m: Vec3, ink: Ink, slack_px: f32) {
         if m.x < 0.0 || m.y < 0.0 {
             return;
         }
@@ -160,7 +181,11 @@ impl Canvas {
         }
         let k = y * self.width + x;
         if m.z + slack_px >= self.depth[k] {
-            self.rgb[k] = rgb;
+            self.rgb[k] = ink.visible;
+        } else if let Some(hidden) = ink.hidden {
+            // behind the surface: blend, so the surface still shows through
+            let under = self.rgb[k];
+            self.rgb[k] = std::array::from_fn(|c| ((u16::from(under[c]) + u16::from(hidden[c])) / 2) as u8);
         }
     }
 

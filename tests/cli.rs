@@ -1,0 +1,107 @@
+//! The `facewire` binary as a user runs it: real processes, real files.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn data(path: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path)
+}
+
+fn facewire(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_facewire")).args(args).output().expect("facewire runs")
+}
+
+fn json(args: &[&str]) -> serde_json::Value {
+    let out = facewire(args);
+    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).expect("valid JSON")
+}
+
+#[test]
+fn inspect_reports_the_model_and_the_heads() {
+    let wfm = data("candide3/candide3.wfm");
+    let mask = json(&["inspect", wfm.to_str().unwrap(), "--json"]);
+    assert_eq!(mask["vertices"], 113);
+    assert_eq!(mask["triangles"], 184);
+    assert_eq!(mask["animation_units"].as_array().unwrap().len(), 65);
+    assert_eq!(mask["shape_units"].as_array().unwrap().len(), 14);
+    assert_eq!(mask["animation_units"][11]["key"], "fap3_open_jaw");
+
+    let scan = data("heads/lee_perry_smith_head.obj");
+    let head = json(&["inspect", scan.to_str().unwrap(), "--json"]);
+    assert_eq!(head["vertices"], 8838);
+    assert_eq!(head["triangles"], 17672);
+    assert_eq!(head["boundary_loops"], 0);
+    assert_eq!(head["problems"].as_array().unwrap().len(), 0);
+
+    let fit = data("heads/makehuman_head.fit.toml");
+    let report = json(&["inspect", fit.to_str().unwrap(), "--json"]);
+    assert_eq!(report["mm_per_unit"], 100.0);
+    let mean = report["residuals"]["surface"]["mean_mm"].as_f64().unwrap();
+    assert!(mean > 0.5 && mean < 3.5, "{mean}");
+}
+
+#[test]
+fn inspect_refuses_bad_files_with_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.obj");
+    std::fs::write(&bad, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n").unwrap();
+    let out = facewire(&["inspect", bad.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bad.obj: line 4: face corner 7 is out of range"), "{err}");
+
+    let unknown = dir.path().join("notes.txt");
+    std::fs::write(&unknown, "hello").unwrap();
+    let out = facewire(&["inspect", unknown.to_str().unwrap()]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown kind of file"));
+}
+
+#[test]
+fn fit_reproduces_the_shipped_fits() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["makehuman_head", "lee_perry_smith_head"] {
+        let out_path = dir.path().join(format!("{name}.fit.toml"));
+        let head = data(&format!("heads/{name}.obj"));
+        let landmarks = data(&format!("heads/{name}.landmarks.toml"));
+        let out = facewire(&[
+            "fit",
+            "--head",
+            head.to_str().unwrap(),
+            "--landmarks",
+            landmarks.to_str().unwrap(),
+            "--out",
+            out_path.to_str().unwrap(),
+        ]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(stdout.contains("before (similarity only)") && stdout.contains("after (with shape units)"));
+        let shipped = std::fs::read_to_string(data(&format!("heads/{name}.fit.toml"))).unwrap();
+        assert_eq!(std::fs::read_to_string(&out_path).unwrap(), shipped, "{name}");
+    }
+}
+
+#[test]
+fn render_writes_a_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("mh.png");
+    let head = data("heads/makehuman_head.obj");
+    let fit = data("heads/makehuman_head.fit.toml");
+    let out = facewire(&[
+        "render",
+        "--head",
+        head.to_str().unwrap(),
+        "--fit",
+        fit.to_str().unwrap(),
+        "--size",
+        "64",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let bytes = std::fs::read(&png).unwrap();
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+    // IHDR: width and height, big-endian, at bytes 16..24
+    assert_eq!(&bytes[16..24], &[0, 0, 0, 64, 0, 0, 0, 64]);
+}
