@@ -229,14 +229,14 @@ mod tests {
         canvas.draw_line(
             Vec3::new(-0.2, 0.0, 0.0),
             Vec3::new(0.2, 0.0, 0.0),
-            [0, 255, 0],
+            Ink::opaque([0, 255, 0]),
             0.01,
         );
         assert_ne!(canvas.rgb[canvas.width * 32 + 32], [0, 255, 0]);
         canvas.draw_line(
             Vec3::new(-0.2, 0.0, 1.0),
             Vec3::new(0.2, 0.0, 1.0),
-            [0, 255, 0],
+            Ink::opaque([0, 255, 0]),
             0.01,
         );
         let row = &canvas.rgb[canvas.width * 32..canvas.width * 33];

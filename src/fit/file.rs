@@ -268,7 +268,7 @@ offset = [0.0, 0.01, 0.0]
         assert_eq!(trim_float(1.5, 4), "1.5");
         assert_eq!(trim_float(2.0, 4), "2.0");
         assert_eq!(trim_float(-3.4e-15, 4), "0.0");
-        assert_eq!(trim_float(0.123456789, 6), "0.123457");
+        assert_eq!(trim_float(0.1234567, 6), "0.123457");
     }
 
     #[test]

@@ -285,7 +285,7 @@ fn find_unit(units: &[Unit], name: &str, what: &'static str) -> Result<usize, Un
         }
     }
     let lower = wanted.to_ascii_lowercase();
-    if let Some(i) = units.iter().position(|u| u.names().iter().any(|n| *n == lower)) {
+    if let Some(i) = units.iter().position(|u| u.names().contains(&lower)) {
         return Ok(i);
     }
     Err(UnknownUnit {

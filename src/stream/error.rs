@@ -1,0 +1,197 @@
+//! Errors of the stream readers and writers. A reader error always says where it happened
+//! (file when known, 1-based line) and which field was wrong, so that a producer can fix
+//! its file from the message alone; a writer error names the frame and the field.
+
+use std::fmt;
+use std::sync::Arc;
+
+use crate::mask::UnknownUnit;
+
+/// A position in a stream: the file (when known) and the 1-based line.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Location {
+    pub file: Option<Arc<str>>,
+    pub line: u64,
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match &self.file {
+            Some(file) => write!(f, "{file}: line {}", self.line),
+            None => write!(f, "line {}", self.line),
+        }
+    }
+}
+
+/// Everything that can go wrong while reading or writing a parameter stream.
+///
+/// Readers stop at their first error: the iterator yields it once and then ends.
+#[derive(Debug, thiserror::Error)]
+pub enum StreamError {
+    #[error("cannot open {path}: {source}")]
+    Open { path: String, source: std::io::Error },
+    #[error("{path}: unknown stream format {extension:?}; expected .jsonl, .fap, .fau, .au.txt or .txt")]
+    UnknownFormat { path: String, extension: String },
+    #[error("{at}: cannot read: {source}")]
+    Read { at: Location, source: std::io::Error },
+    #[error("{at}: line is longer than {limit} bytes")]
+    LineTooLong { at: Location, limit: usize },
+    #[error("{at}: line is not valid UTF-8 (byte {offset})")]
+    NotUtf8 { at: Location, offset: usize },
+    #[error("{at}: {field}: file ends early, expected {expected}")]
+    Truncated {
+        at: Location,
+        field: String,
+        expected: String,
+    },
+    #[error("{at}: {field}: {message}")]
+    Syntax {
+        at: Location,
+        field: String,
+        message: String,
+    },
+    #[error("{at}: {field}: {found} is not {expected}")]
+    NotANumber {
+        at: Location,
+        field: String,
+        found: String,
+        expected: &'static str,
+    },
+    #[error("{at}: {field}: {found} is not a finite number")]
+    NotFinite {
+        at: Location,
+        field: String,
+        found: String,
+    },
+    #[error("{at}: {field}: {found} is out of range (expected {expected})")]
+    OutOfRange {
+        at: Location,
+        field: String,
+        found: String,
+        expected: String,
+    },
+    #[error("{at}: {field}: has {found} entries, expected {expected}")]
+    WrongLength {
+        at: Location,
+        field: String,
+        found: usize,
+        expected: String,
+    },
+    #[error("{at}: {field}: {source}")]
+    UnknownUnit {
+        at: Location,
+        field: String,
+        source: Box<UnknownUnit>,
+    },
+    #[error("{at}: {field}: unknown {what} {name:?}; valid: {valid}")]
+    UnknownName {
+        at: Location,
+        field: String,
+        what: &'static str,
+        name: String,
+        valid: String,
+    },
+    #[error("{at}: {field}: names the same {what} as {other:?}")]
+    Duplicate {
+        at: Location,
+        field: String,
+        what: &'static str,
+        other: String,
+    },
+    #[error("{at}: {field}: time {time} s is before the previous frame's {previous} s")]
+    TimeBackwards {
+        at: Location,
+        field: String,
+        time: f64,
+        previous: f64,
+    },
+    #[error("{at}: {field}: {seq} does not increase on the previous frame's {previous}")]
+    SeqNotIncreasing {
+        at: Location,
+        field: String,
+        seq: u64,
+        previous: u64,
+    },
+    #[error("{at}: data after the {frames} frames the header announces")]
+    TrailingData { at: Location, frames: u64 },
+    #[error("frame {seq}: {field}: {reason}")]
+    InvalidFrame { seq: u64, field: String, reason: String },
+    #[error("frame {seq}: {field}: the {format} format cannot carry it")]
+    Unrepresentable {
+        seq: u64,
+        field: String,
+        format: &'static str,
+    },
+    #[error("the header announces {announced} frames but {written} were written")]
+    FrameCountMismatch { announced: u64, written: u64 },
+    #[error("cannot write: {source}")]
+    Write { source: std::io::Error },
+    #[error("{option} must be {expected}, got {found}")]
+    InvalidOption {
+        option: &'static str,
+        expected: &'static str,
+        found: String,
+    },
+}
+
+impl From<std::io::Error> for StreamError {
+    /// Only writers convert I/O errors implicitly; readers attach a [`Location`].
+    fn from(source: std::io::Error) -> Self {
+        StreamError::Write { source }
+    }
+}
+
+/// Parses a finite `f32` or `f64`, straight from the decimal text (so a value written with
+/// `{}` reads back bit for bit).
+pub(crate) fn parse_finite<T>(at: &Location, text: &str, field: &str) -> Result<T, StreamError>
+where
+    T: std::str::FromStr + Into<f64> + Copy,
+{
+    let value: T = text.parse().map_err(|_| StreamError::NotANumber {
+        at: at.clone(),
+        field: field.to_string(),
+        found: format!("{text:?}"),
+        expected: "a number",
+    })?;
+    if value.into().is_finite() {
+        Ok(value)
+    } else {
+        Err(StreamError::NotFinite {
+            at: at.clone(),
+            field: field.to_string(),
+            found: text.to_string(),
+        })
+    }
+}
+
+/// Fails when a frame's time goes backwards or its sequence number does not increase.
+/// `previous` is `(seq, time_s)` of the frame before, if any.
+pub(crate) fn check_order(
+    at: &Location,
+    previous: Option<(u64, f64)>,
+    seq: u64,
+    time_s: f64,
+    seq_field: &str,
+    time_field: &str,
+) -> Result<(), StreamError> {
+    let Some((previous_seq, previous_time)) = previous else {
+        return Ok(());
+    };
+    if seq <= previous_seq {
+        return Err(StreamError::SeqNotIncreasing {
+            at: at.clone(),
+            field: seq_field.to_string(),
+            seq,
+            previous: previous_seq,
+        });
+    }
+    if time_s < previous_time {
+        return Err(StreamError::TimeBackwards {
+            at: at.clone(),
+            field: time_field.to_string(),
+            time: time_s,
+            previous: previous_time,
+        });
+    }
+    Ok(())
+}

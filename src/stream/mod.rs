@@ -1,0 +1,87 @@
+//! Parameter streams: where animation frames come from and go to when they are files or
+//! byte streams rather than live sockets. Every format reads into the same [`Frame`]:
+//! facewire's JSONL, MPEG-4 `.fap` files, the legacy tool's AU text, and the generated
+//! syllable stream. Readers are iterators over any `BufRead` that read one line at a time
+//! (an hour-long file is never loaded whole) and stop at the first error, which names the
+//! file, line and field. The formats are specified in `docs/STREAMS.md`.
+//!
+//! Plain synchronous Rust: the service wraps these in its own tasks.
+
+pub mod au_text;
+mod error;
+pub mod fap_file;
+mod frame;
+pub mod jsonl;
+mod lines;
+pub mod summary;
+pub mod syllables;
+
+use std::fs::File;
+use std::io::BufReader;
+use std::path::Path;
+use std::sync::Arc;
+
+pub use au_text::{AuTextOptions, AuTextReader, AuTextWriter};
+pub use error::{Location, StreamError};
+pub use fap_file::{FapHeader, FapReader, FapWriter};
+pub use frame::{
+    arkit_index, ExpressionFap, Frame, VisemeFap, ARKIT_BLENDSHAPES, HEAD_ROTATION_FAPS,
+    RADIANS_PER_ANGLE_COUNT,
+};
+pub use jsonl::{JsonlReader, JsonlWriter};
+pub use lines::MAX_LINE_BYTES;
+pub use summary::{summarize, StreamSummary};
+
+use crate::mask::Mask;
+
+/// A stream of frames from any source, ending at its first error.
+pub type FrameStream<'m> = Box<dyn Iterator<Item = Result<Frame, StreamError>> + Send + 'm>;
+
+/// The file formats, told apart by extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StreamFormat {
+    /// `.jsonl`
+    Jsonl,
+    /// `.fap`
+    Fap,
+    /// `.fau`, `.au.txt` or `.txt`
+    AuText,
+}
+
+impl StreamFormat {
+    /// The format of a path by its extension, case-insensitively.
+    pub fn from_path(path: &Path) -> Result<StreamFormat, StreamError> {
+        let extension = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        match extension.as_str() {
+            "jsonl" => Ok(StreamFormat::Jsonl),
+            "fap" => Ok(StreamFormat::Fap),
+            "fau" | "txt" => Ok(StreamFormat::AuText),
+            _ => Err(StreamError::UnknownFormat {
+                path: path.display().to_string(),
+                extension,
+            }),
+        }
+    }
+}
+
+/// Opens a stream file, choosing the reader by extension ([`StreamFormat::from_path`]).
+/// AU text is read with [`AuTextOptions::default`]. `mask` resolves unit names.
+pub fn open_stream<'m>(path: &Path, mask: &'m Mask) -> Result<FrameStream<'m>, StreamError> {
+    let format = StreamFormat::from_path(path)?;
+    let file = File::open(path).map_err(|source| StreamError::Open {
+        path: path.display().to_string(),
+        source,
+    })?;
+    let input = BufReader::new(file);
+    let name: Arc<str> = path.display().to_string().into();
+    Ok(match format {
+        StreamFormat::Jsonl => Box::new(JsonlReader::new(input, mask).with_source_name(name)),
+        StreamFormat::Fap => Box::new(FapReader::new(input).with_source_name(name)),
+        StreamFormat::AuText => {
+            Box::new(AuTextReader::new(input, mask, AuTextOptions::default())?.with_source_name(name))
+        }
+    })
+}

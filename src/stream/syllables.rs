@@ -1,0 +1,381 @@
+//! The syllable stream the thesis recorded: 27 consonant-vowel syllables, generated from a
+//! viseme table in CANDIDE-3 animation-unit terms, so integration tests, benchmarks and
+//! demos replay the same speech-like motion. The generated stream at 30 fps ships as
+//! `data/streams/syllables.jsonl` (a test keeps the two identical byte for byte).
+//!
+//! Each syllable lasts [`SYLLABLE_S`]: from rest the mouth moves to the consonant, holds
+//! it, opens to the vowel, holds it and returns to rest ([`KEYFRAMES`]). Between
+//! keyframes every weight follows a smoothstep, so motion starts and stops with zero
+//! speed and never jumps. Co-articulation: a consonant only fixes the channels its
+//! articulation needs; every other channel anticipates the coming vowel at
+//! [`ANTICIPATION`] of the vowel's value (the lips round during the `p` of `pu` and
+//! spread during the `p` of `pi`).
+
+use super::error::StreamError;
+use super::frame::Frame;
+
+/// One animation unit the visemes use, with the range the table keeps it in.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VisemeChannel {
+    /// The unit's key in CANDIDE-3.1.6.
+    pub key: &'static str,
+    /// Its index among the mask's animation units.
+    pub unit: u16,
+    /// Weights stay within `min..=max` (mask units along the unit's direction).
+    pub min: f32,
+    pub max: f32,
+}
+
+/// The channels of the viseme table, in unit order. AUV weights scale the unit's stored
+/// displacements (jaw_drop 1.0 lowers the lower lip 0.26 mask units, about 27 mm); FAP
+/// unit weights are distances in mask units (0.04 is about 4 mm).
+#[rustfmt::skip]
+pub const CHANNELS: [VisemeChannel; 8] = [
+    VisemeChannel { key: "upper_lip_raiser",     unit: 0,  min: 0.0,   max: 0.35 },
+    VisemeChannel { key: "jaw_drop",             unit: 1,  min: 0.0,   max: 0.6 },
+    VisemeChannel { key: "lip_stretcher",        unit: 2,  min: -0.5,  max: 0.55 },
+    VisemeChannel { key: "lip_corner_depressor", unit: 4,  min: 0.0,   max: 0.2 },
+    VisemeChannel { key: "lip_presser",          unit: 9,  min: 0.0,   max: 0.7 },
+    VisemeChannel { key: "fap5_raise_b_midlip",  unit: 13, min: 0.0,   max: 0.05 },
+    VisemeChannel { key: "fap16_push_b_lip",     unit: 24, min: -0.04, max: 0.05 },
+    VisemeChannel { key: "fap17_push_t_lip",     unit: 25, min: 0.0,   max: 0.05 },
+];
+
+/// A vowel's target weight for every channel of [`CHANNELS`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Vowel {
+    pub name: &'static str,
+    pub targets: [f32; 8],
+}
+
+/// A consonant's target per channel; `None` leaves the channel to the vowel
+/// (co-articulation: it takes [`ANTICIPATION`] times the vowel's target).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Consonant {
+    pub name: &'static str,
+    /// How it is articulated, in words.
+    pub articulation: &'static str,
+    pub targets: [Option<f32>; 8],
+}
+
+/// The vowels: `a` opens the jaw with slightly spread lips, `i` spreads the lips over a
+/// small jaw opening, `u` rounds (negative stretcher: corners in and forward) and
+/// protrudes both lips.
+#[rustfmt::skip]
+pub const VOWELS: [Vowel; 3] = [
+    Vowel { name: "a", targets: [0.10, 0.55, 0.15, 0.10, 0.0, 0.0, 0.0, 0.0] },
+    Vowel { name: "i", targets: [0.15, 0.15, 0.50, 0.0, 0.0, 0.0, 0.0, 0.0] },
+    Vowel { name: "u", targets: [0.0, 0.12, -0.45, 0.0, 0.0, 0.0, 0.035, 0.04] },
+];
+
+const BILABIAL_CLOSURE: [Option<f32>; 8] = [
+    Some(0.0),
+    Some(0.0),
+    None,
+    Some(0.0),
+    Some(0.0),
+    Some(0.0),
+    None,
+    None,
+];
+
+const fn bilabial(name: &'static str, articulation: &'static str, presser: f32) -> Consonant {
+    let mut targets = BILABIAL_CLOSURE;
+    targets[4] = Some(presser);
+    Consonant {
+        name,
+        articulation,
+        targets,
+    }
+}
+
+/// A consonant made with the tongue against the teeth or palate: the lips stay free,
+/// the jaw nearly closed.
+const fn lingual(
+    name: &'static str,
+    articulation: &'static str,
+    upper_lip_raiser: f32,
+    jaw_drop: f32,
+    lip_stretcher: Option<f32>,
+) -> Consonant {
+    Consonant {
+        name,
+        articulation,
+        targets: [
+            Some(upper_lip_raiser),
+            Some(jaw_drop),
+            lip_stretcher,
+            None,
+            Some(0.0),
+            Some(0.0),
+            None,
+            None,
+        ],
+    }
+}
+
+/// The consonants in the thesis's order (the syllables are these times [`VOWELS`]).
+pub const CONSONANTS: [Consonant; 9] = [
+    bilabial("p", "bilabial stop: lips closed and pressed, jaw closed", 0.6),
+    lingual(
+        "t",
+        "alveolar stop: tongue tip behind the teeth, small jaw opening",
+        0.05,
+        0.10,
+        None,
+    ),
+    lingual(
+        "k",
+        "velar stop: tongue back on the palate, jaw a little open",
+        0.03,
+        0.18,
+        None,
+    ),
+    bilabial(
+        "b",
+        "voiced bilabial stop: lips closed, pressed less than p",
+        0.45,
+    ),
+    bilabial("m", "bilabial nasal: lips closed, lightly pressed", 0.35),
+    Consonant {
+        name: "f",
+        articulation: "labiodental: lower lip raised and drawn back under the upper teeth, \
+                       upper lip lifted off them",
+        targets: [
+            Some(0.30),
+            Some(0.08),
+            None,
+            Some(0.0),
+            Some(0.0),
+            Some(0.03),
+            Some(-0.025),
+            None,
+        ],
+    },
+    lingual("s", "alveolar fricative: teeth almost together", 0.08, 0.05, None),
+    lingual(
+        "y",
+        "palatal approximant: an i-like spread over a small opening",
+        0.10,
+        0.08,
+        Some(0.35),
+    ),
+    lingual(
+        "d",
+        "voiced alveolar stop: like t, jaw slightly more open",
+        0.05,
+        0.12,
+        None,
+    ),
+];
+
+/// Share of the vowel's target a consonant takes on the channels it leaves free.
+pub const ANTICIPATION: f32 = 0.7;
+
+/// The 27 syllables in the thesis's order: each consonant of [`CONSONANTS`] with `a`,
+/// `i`, `u`.
+pub const SYLLABLES: [&str; 27] = [
+    "pa", "pi", "pu", "ta", "ti", "tu", "ka", "ki", "ku", "ba", "bi", "bu", "ma", "mi", "mu", "fa", "fi",
+    "fu", "sa", "si", "su", "ya", "yi", "yu", "da", "di", "du",
+];
+
+/// Which target a keyframe holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Phase {
+    Rest,
+    Consonant,
+    Vowel,
+}
+
+/// The keyframes of one syllable: seconds from its start and the target reached then.
+/// Rest to consonant in 100 ms, hold 60 ms, to the vowel in 140 ms, hold 120 ms, back to
+/// rest in 180 ms.
+pub const KEYFRAMES: [(f64, Phase); 6] = [
+    (0.0, Phase::Rest),
+    (0.10, Phase::Consonant),
+    (0.16, Phase::Consonant),
+    (0.30, Phase::Vowel),
+    (0.42, Phase::Vowel),
+    (0.60, Phase::Rest),
+];
+
+/// Length of one syllable, seconds.
+pub const SYLLABLE_S: f64 = 0.60;
+
+/// Frame rate of the shipped `data/streams/syllables.jsonl`.
+pub const SHIPPED_FPS: f64 = 30.0;
+
+/// Weights are rounded to this step, which keeps the shipped file short and exact.
+pub const WEIGHT_STEP: f64 = 1e-4;
+
+const MAX_FPS: f64 = 1000.0;
+
+/// The consonant's targets with the free channels filled from the vowel.
+pub fn coarticulated(consonant: &Consonant, vowel: &Vowel) -> [f32; 8] {
+    let mut out = [0.0; 8];
+    for ((slot, target), vowel_target) in out.iter_mut().zip(consonant.targets).zip(vowel.targets) {
+        *slot = target.unwrap_or(ANTICIPATION * vowel_target);
+    }
+    out
+}
+
+fn smoothstep(x: f64) -> f64 {
+    let x = x.clamp(0.0, 1.0);
+    x * x * (3.0 - 2.0 * x)
+}
+
+/// Channel weights `local_s` seconds into a syllable.
+fn pose(consonant: &Consonant, vowel: &Vowel, local_s: f64) -> [f64; 8] {
+    let consonant_targets = coarticulated(consonant, vowel);
+    let target = |phase: Phase| -> [f32; 8] {
+        match phase {
+            Phase::Rest => [0.0; 8],
+            Phase::Consonant => consonant_targets,
+            Phase::Vowel => vowel.targets,
+        }
+    };
+    let segment = KEYFRAMES
+        .windows(2)
+        .find(|pair| local_s < pair[1].0)
+        .unwrap_or(&KEYFRAMES[KEYFRAMES.len() - 2..]);
+    let ((start_s, from), (end_s, to)) = (segment[0], segment[1]);
+    let s = smoothstep((local_s - start_s) / (end_s - start_s));
+    let (from, to) = (target(from), target(to));
+    let mut out = [0.0; 8];
+    for ((slot, a), b) in out.iter_mut().zip(from).zip(to) {
+        let (a, b) = (f64::from(a), f64::from(b));
+        *slot = a + (b - a) * s;
+    }
+    out
+}
+
+/// The 27 syllables at `fps` frames per second (at most 1000): frame `i` at `i / fps`
+/// seconds, from rest at 0 to rest at `27 * SYLLABLE_S`, every frame labelled with its
+/// syllable. Deterministic: the same `fps` gives the same frames on every machine.
+pub fn generate(fps: f64) -> Result<Vec<Frame>, StreamError> {
+    if !(fps.is_finite() && fps > 0.0 && fps <= MAX_FPS) {
+        return Err(StreamError::InvalidOption {
+            option: "syllable stream fps",
+            expected: "a positive number up to 1000",
+            found: fps.to_string(),
+        });
+    }
+    let syllables: Vec<(&Consonant, &Vowel)> = CONSONANTS
+        .iter()
+        .flat_map(|c| VOWELS.iter().map(move |v| (c, v)))
+        .collect();
+    let total_s = SYLLABLE_S * syllables.len() as f64;
+    let last_frame = (total_s * fps).round() as u64;
+    let frames = (0..=last_frame)
+        .map(|seq| {
+            let time_s = seq as f64 / fps;
+            // The epsilon puts a frame that lands on a boundary in the syllable it starts.
+            let index = ((time_s / SYLLABLE_S + 1e-9).floor() as usize).min(syllables.len() - 1);
+            let (consonant, vowel) = syllables[index];
+            let local_s = (time_s - index as f64 * SYLLABLE_S).max(0.0);
+            let weights = pose(consonant, vowel, local_s);
+            let animation = CHANNELS
+                .iter()
+                .zip(weights)
+                .map(|(channel, w)| (channel.unit, ((w / WEIGHT_STEP).round() * WEIGHT_STEP) as f32))
+                .filter(|&(_, w)| w != 0.0)
+                .collect();
+            Frame {
+                label: Some(format!("{}{}", consonant.name, vowel.name)),
+                animation,
+                ..Frame::at(seq, time_s)
+            }
+        })
+        .collect();
+    Ok(frames)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mask::Mask;
+
+    #[test]
+    fn channels_name_the_candide_units() {
+        let mask = Mask::candide3();
+        for channel in CHANNELS {
+            assert_eq!(
+                mask.animation_unit(channel.key),
+                Ok(usize::from(channel.unit)),
+                "{}",
+                channel.key
+            );
+            assert_eq!(mask.animation_units[usize::from(channel.unit)].key, channel.key);
+            assert!(channel.min <= 0.0 && 0.0 <= channel.max, "{channel:?}");
+        }
+    }
+
+    #[test]
+    fn syllables_are_consonants_times_vowels() {
+        let built: Vec<String> = CONSONANTS
+            .iter()
+            .flat_map(|c| VOWELS.iter().map(move |v| format!("{}{}", c.name, v.name)))
+            .collect();
+        assert_eq!(built, SYLLABLES);
+    }
+
+    #[test]
+    fn every_target_is_inside_its_channel_range() {
+        let in_range = |k: usize, w: f32| CHANNELS[k].min <= w && w <= CHANNELS[k].max;
+        for vowel in VOWELS {
+            for (k, w) in vowel.targets.into_iter().enumerate() {
+                assert!(in_range(k, w), "{} {}: {w}", vowel.name, CHANNELS[k].key);
+            }
+            for consonant in CONSONANTS {
+                for (k, w) in coarticulated(&consonant, &vowel).into_iter().enumerate() {
+                    assert!(
+                        in_range(k, w),
+                        "{}{} {}",
+                        consonant.name,
+                        vowel.name,
+                        CHANNELS[k].key
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn bilabials_close_the_jaw_and_press_the_lips() {
+        for consonant in &CONSONANTS[3..5] {
+            assert_eq!(consonant.targets[1], Some(0.0), "{}", consonant.name);
+            assert!(consonant.targets[4].unwrap() > 0.3, "{}", consonant.name);
+        }
+        assert_eq!(CONSONANTS[0].name, "p");
+        assert_eq!(CONSONANTS[0].targets[4], Some(0.6));
+    }
+
+    #[test]
+    fn keyframes_span_one_syllable_from_rest_to_rest() {
+        assert_eq!(KEYFRAMES[0], (0.0, Phase::Rest));
+        assert_eq!(KEYFRAMES[KEYFRAMES.len() - 1], (SYLLABLE_S, Phase::Rest));
+        assert!(KEYFRAMES.windows(2).all(|pair| pair[0].0 < pair[1].0));
+    }
+
+    #[test]
+    fn pose_hits_the_keyframe_targets() {
+        let (p, u) = (&CONSONANTS[0], &VOWELS[2]);
+        let at = |t: f64| pose(p, u, t).map(|w| (w * 1e6).round() / 1e6);
+        assert_eq!(at(0.0), [0.0; 8]);
+        // Consonant hold of "pu": lips closed and pressed, already rounding.
+        assert_eq!(at(0.13), [0.0, 0.0, -0.315, 0.0, 0.6, 0.0, 0.0245, 0.028]);
+        assert_eq!(at(0.36), [0.0, 0.12, -0.45, 0.0, 0.0, 0.0, 0.035, 0.04]);
+        assert_eq!(at(0.60), [0.0; 8]);
+        assert_eq!(at(0.75), [0.0; 8]);
+        // Halfway between two keyframes smoothstep is halfway too.
+        let mid = pose(p, u, 0.23);
+        assert!((mid[1] - 0.06).abs() < 1e-7, "{}", mid[1]);
+    }
+
+    #[test]
+    fn bad_rates_are_refused() {
+        for fps in [0.0, -30.0, f64::NAN, f64::INFINITY, 1e6] {
+            assert!(generate(fps).is_err(), "{fps}");
+        }
+    }
+}
