@@ -7,8 +7,10 @@
 
 pub mod atomic;
 pub mod cli;
+pub mod deform;
 pub mod fit;
 pub mod head;
 pub mod mask;
+pub mod metrics;
 pub mod render;
 pub mod stream;

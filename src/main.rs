@@ -5,6 +5,12 @@ use std::process::ExitCode;
 use clap::Parser;
 
 fn main() -> ExitCode {
+    // Rust ignores SIGPIPE, turning a closed pipe into a panic on the next print; a
+    // command-line tool should just stop, as other Unix tools do.
+    // SAFETY: called before any other thread exists; SIG_DFL is a valid handler.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = facewire::cli::Cli::parse();
     match facewire::cli::run(cli) {
         Ok(()) => ExitCode::SUCCESS,

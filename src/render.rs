@@ -41,12 +41,18 @@ pub struct Ink {
 impl Ink {
     /// Shown only where visible.
     pub fn opaque(visible: [u8; 3]) -> Ink {
-        Ink { visible, hidden: None }
+        Ink {
+            visible,
+            hidden: None,
+        }
     }
 
     /// Shown everywhere, blended with the surface where hidden.
     pub fn see_through(visible: [u8; 3]) -> Ink {
-        Ink { visible, hidden: Some(visible) }
+        Ink {
+            visible,
+            hidden: Some(visible),
+        }
     }
 }
 

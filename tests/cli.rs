@@ -8,12 +8,19 @@ fn data(path: &str) -> PathBuf {
 }
 
 fn facewire(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_facewire")).args(args).output().expect("facewire runs")
+    Command::new(env!("CARGO_BIN_EXE_facewire"))
+        .args(args)
+        .output()
+        .expect("facewire runs")
 }
 
 fn json(args: &[&str]) -> serde_json::Value {
     let out = facewire(args);
-    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     serde_json::from_slice(&out.stdout).expect("valid JSON")
 }
 
@@ -49,9 +56,12 @@ fn inspect_refuses_bad_files_with_the_line() {
     let out = facewire(&["inspect", bad.to_str().unwrap()]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("bad.obj: line 4: face corner 7 is out of range"), "{err}");
+    assert!(
+        err.contains("bad.obj: line 4: face corner 7 is out of range"),
+        "{err}"
+    );
 
-    let unknown = dir.path().join("notes.txt");
+    let unknown = dir.path().join("notes.md");
     std::fs::write(&unknown, "hello").unwrap();
     let out = facewire(&["inspect", unknown.to_str().unwrap()]);
     assert!(!out.status.success());

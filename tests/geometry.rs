@@ -13,7 +13,11 @@ fn data(path: &str) -> PathBuf {
 }
 
 fn wfm_text() -> String {
-    std::fs::read(data("candide3/candide3.wfm")).unwrap().iter().map(|&b| char::from(b)).collect()
+    std::fs::read(data("candide3/candide3.wfm"))
+        .unwrap()
+        .iter()
+        .map(|&b| char::from(b))
+        .collect()
 }
 
 #[test]
@@ -25,7 +29,13 @@ fn the_real_model_parses_with_every_section() {
     assert_eq!(mask.shape_units.len(), 14);
     assert!(mask.animation_params.is_empty() && mask.shape_params.is_empty() && mask.texture.is_empty());
     assert_eq!(mask.global_motion.scale, Vec3::ONE);
-    let unused: Vec<usize> = mask.used_vertices().iter().enumerate().filter(|(_, u)| !**u).map(|(v, _)| v).collect();
+    let unused: Vec<usize> = mask
+        .used_vertices()
+        .iter()
+        .enumerate()
+        .filter(|(_, u)| !**u)
+        .map(|(v, _)| v)
+        .collect();
     assert_eq!(unused, vec![4, 35, 36, 37, 38, 39, 41, 42, 43]);
     assert_eq!(mask.vertices[31], Vec3::new(0.246, -0.461, 0.0));
     assert_eq!(mask.animation_units[1].title, "AUV11 Jaw drop (AU26/27)");
@@ -67,10 +77,25 @@ fn malformed_models_name_the_line() {
     );
     assert_eq!(err.to_string(), "line 40: vertex 0 y \"abc\" is not a number");
     let err = Mask::from_wfm_bytes(with_line(156, "0 1 113").as_bytes()).unwrap_err();
-    assert!(matches!(err, WfmError::OutOfRange { line: 156, value: 113, limit: 113, .. }), "{err}");
+    assert!(
+        matches!(
+            err,
+            WfmError::OutOfRange {
+                line: 156,
+                value: 113,
+                limit: 113,
+                ..
+            }
+        ),
+        "{err}"
+    );
     // A count larger than the data: the reader runs into the next section's title.
     let err = Mask::from_wfm_bytes(with_line(155, "185").as_bytes()).unwrap_err();
-    assert!(err.to_string().starts_with("line 342: expected 3 number(s) for face 184"), "{err}");
+    assert!(
+        err.to_string()
+            .starts_with("line 342: expected 3 number(s) for face 184"),
+        "{err}"
+    );
     let err = Mask::from_wfm_bytes(with_line(39, "99999999").as_bytes()).unwrap_err();
     assert!(matches!(err, WfmError::CountTooLarge { line: 39, .. }), "{err}");
     let err = Mask::from_wfm_bytes(with_line(40, "0.0 inf 0.0").as_bytes()).unwrap_err();
@@ -101,7 +126,11 @@ fn open_jaw_at_512_moves_the_jaw_half_an_mns() {
         } else {
             Vec3::ZERO
         };
-        assert!((*moved - *rest).abs_diff_eq(expected, 1e-6), "vertex {v}: {}", *moved - *rest);
+        assert!(
+            (*moved - *rest).abs_diff_eq(expected, 1e-6),
+            "vertex {v}: {}",
+            *moved - *rest
+        );
     }
 }
 
@@ -154,7 +183,8 @@ fn load_fitted(name: &str) -> Fitted {
 #[test]
 fn shipped_fits_lay_the_mask_within_a_few_mm_of_both_heads() {
     // (head, mean mm bound, max mm bound): the figures docs/FITTING.md quotes.
-    for (name, mean_bound, max_bound) in [("makehuman_head", 3.5, 10.0), ("lee_perry_smith_head", 3.5, 20.0)] {
+    for (name, mean_bound, max_bound) in [("makehuman_head", 3.5, 10.0), ("lee_perry_smith_head", 3.5, 20.0)]
+    {
         let Fitted { head, fitted } = load_fitted(name);
         assert!(head.problems.is_empty(), "{name}: {:?}", head.problems);
         let r = residuals::measure(
@@ -175,13 +205,19 @@ fn inner_lip_anchors_touch_in_space_but_are_far_apart_along_the_surface() {
         let Fitted { head, fitted } = load_fitted(name);
         let mm = fitted.fit.mm_per_unit;
         let anchors = anchor_mask(&head, &fitted.neutral, mm);
-        let (up, low) = (anchors.vertex[INNER_LIP_MID_UPPER], anchors.vertex[INNER_LIP_MID_LOWER]);
+        let (up, low) = (
+            anchors.vertex[INNER_LIP_MID_UPPER],
+            anchors.vertex[INNER_LIP_MID_LOWER],
+        );
         let space_mm = head.positions[up as usize].distance(head.positions[low as usize]) * mm;
         let mut sd = SurfaceDistance::new(head.positions.len());
         sd.run(&head.topology, &[(up, 0.0)], f32::INFINITY);
         let surface_mm = sd.distance(low) * mm;
         assert!(space_mm < 3.0, "{name}: {space_mm} mm apart in space");
-        assert!(surface_mm > 20.0, "{name}: {surface_mm} mm apart along the surface");
+        assert!(
+            surface_mm > 20.0,
+            "{name}: {surface_mm} mm apart along the surface"
+        );
         // every lip pair that coincides in the neutral mask gets two different anchors
         for (a, b) in [(87, 40), (81, 83), (82, 84)] {
             assert_ne!(anchors.vertex[a], anchors.vertex[b], "{name}: {a}/{b}");
@@ -210,7 +246,11 @@ fn fitted_mask_controls_are_zero_at_rest_and_follow_the_pose() {
     fitted.controls_into(&animation, &mut controls);
     // vertex 8 (lower lip) moves by the rotated, scaled AUV displacement (0, -0.26, -0.05)
     let expected = fitted.fit.pose.rotation() * (fitted.fit.pose.scale * Vec3::new(0.0, -0.26, -0.05));
-    assert!(controls[8].abs_diff_eq(expected, 1e-5), "{} vs {expected}", controls[8]);
+    assert!(
+        controls[8].abs_diff_eq(expected, 1e-5),
+        "{} vs {expected}",
+        controls[8]
+    );
     assert_eq!(controls[5], Vec3::ZERO);
 }
 
@@ -222,7 +262,10 @@ fn bad_obj_input_gives_clear_errors() {
     let garbage = Head::from_obj_bytes("g.obj", &[0xff, 0x00, 0x13, 0x37]).unwrap_err();
     assert_eq!(garbage, ObjError::NoTriangles);
     let nan = Head::from_obj_bytes("n.obj", b"v 0 0 0\nv NaN 0 0\nv 0 1 0\nf 1 2 3\n").unwrap_err();
-    assert_eq!(nan.to_string(), "line 2: vertex 1 has a non-finite coordinate (NaN)");
+    assert_eq!(
+        nan.to_string(),
+        "line 2: vertex 1 has a non-finite coordinate (NaN)"
+    );
     let range = Head::from_obj_bytes("r.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n").unwrap_err();
     assert_eq!(
         range.to_string(),
@@ -238,7 +281,10 @@ fn expression_targets_index_the_head_in_file_order() {
     let open = Head::load(&data("heads/makehuman_head_jawopen.obj")).unwrap();
     let mut moved = neutral.positions.clone();
     let target = std::fs::read_to_string(data("heads/makehuman_arkit/jawOpen.target")).unwrap();
-    for line in target.lines().filter(|l| !l.starts_with('#') && !l.trim().is_empty()) {
+    for line in target
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+    {
         let f: Vec<f32> = line.split_whitespace().map(|x| x.parse().unwrap()).collect();
         moved[f[0] as usize] += Vec3::new(f[1], f[2], f[3]);
     }

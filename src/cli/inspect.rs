@@ -7,10 +7,13 @@ use super::{has_suffix, load_head, load_mask, print_json, CliResult, FilePath};
 use crate::fit::{anchor_mask, residuals, FitFile, FittedMask, Landmarks};
 use crate::head::{Bounds, Problem};
 use crate::mask::{FapuValues, Mask, UnitKind};
+use crate::stream::summary::ChannelKind;
+use crate::stream::{open_stream, summarize, StreamFormat};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// A .wfm, .obj, .fit.toml or .landmarks.toml file.
+    /// A .wfm, .obj, .fit.toml or .landmarks.toml file, or a parameter stream (.jsonl, .fap,
+    /// .fau, .txt).
     file: FilePath,
     /// With a .fit.toml: the head it fits, to report residuals (default: the `head` named
     /// in the fit, next to it).
@@ -44,9 +47,11 @@ pub fn run(args: Args) -> CliResult {
             );
         }
         Ok(())
+    } else if StreamFormat::from_path(path).is_ok() {
+        stream_report(path, args.json)
     } else {
         Err(format!(
-            "{}: unknown kind of file; expected .wfm, .obj, .fit.toml or .landmarks.toml",
+            "{}: unknown kind of file; expected .wfm, .obj, .fit.toml, .landmarks.toml, .jsonl, .fap, .fau or .txt",
             path.display()
         )
         .into())
@@ -315,4 +320,77 @@ fn fit_report(path: &std::path::Path, head_arg: Option<&FilePath>, json: bool) -
         println!("  inner-lip midpoint anchors (87, 40): {space:.2} mm apart in space, {surface:.1} mm along the surface");
     }
     Ok(())
+}
+
+/// A parameter stream, read once: frames, rate, duration, the range of every channel
+/// (animation units by key) and the labels.
+fn stream_report(path: &std::path::Path, json: bool) -> CliResult {
+    let mask = load_mask(None)?;
+    let mut summary = summarize(open_stream(path, &mask)?).map_err(|error| {
+        // `.txt` is the one extension that other text files share: say what was assumed.
+        let plain_txt = has_suffix(path, ".txt") && !has_suffix(path, ".au.txt");
+        if plain_txt {
+            format!("{error} (a .txt file is read as an AU text stream; anything else is an unknown kind of file)")
+        } else {
+            error.to_string()
+        }
+    })?;
+    summary.name_animation_units(&mask);
+    if json {
+        return print_json(&summary);
+    }
+    println!("{}: parameter stream", path.display());
+    let rate = summary.fps_estimate.map_or_else(
+        || "no rate (zero duration)".to_string(),
+        |fps| format!("{} fps", round3(fps)),
+    );
+    println!(
+        "  {} frames at {rate}, {} s ({} to {} s)",
+        summary.frames,
+        round3(summary.duration_s),
+        summary.first_time_s.map_or(0.0, round3),
+        summary.last_time_s.map_or(0.0, round3)
+    );
+    if summary.frames_with_controls > 0 {
+        println!(
+            "  {} frames carry raw control displacements",
+            summary.frames_with_controls
+        );
+    }
+    if summary.channels.is_empty() {
+        println!("  channels: none (every frame at rest)");
+    } else {
+        println!("  channels (kind, name: min .. max, frames):");
+    }
+    for channel in &summary.channels {
+        let kind = match channel.kind {
+            ChannelKind::Animation => "animation",
+            ChannelKind::Fap => "fap",
+            ChannelKind::Arkit => "arkit",
+            ChannelKind::HeadRotationRad => "head_rotation_rad",
+            ChannelKind::HeadTranslation => "head_translation",
+        };
+        let name = channel
+            .name
+            .clone()
+            .unwrap_or_else(|| format!("#{}", channel.index));
+        println!(
+            "    {kind:<17} {name:<28} {} .. {}  ({} frames)",
+            channel.min, channel.max, channel.frames
+        );
+    }
+    if !summary.labels.is_empty() {
+        let labels: Vec<String> = summary
+            .labels
+            .iter()
+            .map(|l| format!("{} ({})", l.label, l.frames))
+            .collect();
+        println!("  {} labels (frames): {}", labels.len(), labels.join(" "));
+    }
+    Ok(())
+}
+
+/// Rounded to 3 decimals for display (25.000000001 fps prints as 25).
+fn round3(x: f64) -> f64 {
+    (x * 1000.0).round() / 1000.0
 }

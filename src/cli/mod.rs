@@ -1,8 +1,12 @@
 //! Command-line interface: one file per command, each a thin layer over the library.
 
+mod algos;
+mod arkit_basis;
+mod deform;
 mod fit;
 mod inspect;
 mod render;
+mod syllables;
 
 use std::path::{Path, PathBuf};
 
@@ -28,12 +32,21 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Summarize a mask (.wfm), head (.obj), fit (.fit.toml) or landmarks (.landmarks.toml).
+    /// Summarize a mask (.wfm), head (.obj), fit (.fit.toml), landmarks (.landmarks.toml)
+    /// or parameter stream (.jsonl, .fap, .fau, .txt).
     Inspect(inspect::Args),
     /// Solve a fit of the CANDIDE-3 mask to a head from landmark correspondences.
     Fit(fit::Args),
     /// Render a head, optionally with its fitted mask, to a PNG picture.
     Render(render::Args),
+    /// Write the generated 27-syllable parameter stream as JSONL.
+    Syllables(syllables::Args),
+    /// Derive the ARKit retarget basis from a head's expression targets and its fit.
+    ArkitBasis(arkit_basis::Args),
+    /// List every interpolation variant (thesis letters A-T) with its spec.
+    Algos(algos::Args),
+    /// Deform a head with one algorithm over a stream, writing OBJ frames and control.tsv.
+    Deform(deform::Args),
 }
 
 pub fn run(cli: Cli) -> CliResult {
@@ -41,6 +54,10 @@ pub fn run(cli: Cli) -> CliResult {
         Command::Inspect(args) => inspect::run(args),
         Command::Fit(args) => fit::run(args),
         Command::Render(args) => render::run(args),
+        Command::Syllables(args) => syllables::run(args),
+        Command::ArkitBasis(args) => arkit_basis::run(args),
+        Command::Algos(args) => algos::run(args),
+        Command::Deform(args) => deform::run(args),
     }
 }
 

@@ -52,12 +52,22 @@ pub fn run(args: Args) -> CliResult {
         for t in &fitted.mask.triangles {
             for k in 0..3 {
                 let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
-                canvas.draw_line(fitted.neutral[a], fitted.neutral[b], Ink::see_through([20, 90, 200]), slack);
+                canvas.draw_line(
+                    fitted.neutral[a],
+                    fitted.neutral[b],
+                    Ink::see_through([20, 90, 200]),
+                    slack,
+                );
             }
         }
         for (j, &p) in fitted.neutral.iter().enumerate().filter(|(j, _)| used[*j]) {
             let lip = crate::mask::LIP_VERTICES.contains(&j);
-            canvas.draw_dot(p, 2.5, Ink::see_through(if lip { [200, 30, 30] } else { [20, 60, 160] }), slack);
+            canvas.draw_dot(
+                p,
+                2.5,
+                Ink::see_through(if lip { [200, 30, 30] } else { [20, 60, 160] }),
+                slack,
+            );
         }
         if args.anchors {
             let anchors = anchor_mask(&head, &fitted.neutral, fitted.fit.mm_per_unit);
@@ -67,7 +77,12 @@ pub fn run(args: Args) -> CliResult {
                 } else {
                     [0, 170, 60]
                 };
-                canvas.draw_dot(head.positions[anchors.vertex[j] as usize], 2.0, Ink::opaque(color), slack);
+                canvas.draw_dot(
+                    head.positions[anchors.vertex[j] as usize],
+                    2.0,
+                    Ink::opaque(color),
+                    slack,
+                );
             }
         }
     }

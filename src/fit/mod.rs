@@ -94,6 +94,17 @@ impl FittedMask {
         self.fit.pose.apply_all(out);
     }
 
+    /// Like [`FittedMask::pose_into`], with per-vertex offsets (mask units, one per mask
+    /// vertex: raw control displacements, ARKit retargeting) added before the pose.
+    pub fn pose_with_offsets_into(&self, animation: &[f32], offsets: &[Vec3], out: &mut [Vec3]) {
+        out.copy_from_slice(&self.base);
+        crate::mask::add_units(&self.mask.animation_units, animation, out);
+        for (p, o) in out.iter_mut().zip(offsets) {
+            *p += *o;
+        }
+        self.fit.pose.apply_all(out);
+    }
+
     /// Control displacements `c' - c` in head units for animation weights.
     pub fn controls_into(&self, animation: &[f32], out: &mut [Vec3]) {
         self.pose_into(animation, out);

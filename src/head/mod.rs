@@ -4,6 +4,7 @@
 pub mod geodesic;
 pub mod obj;
 pub mod spatial;
+pub mod subdivide;
 pub mod topology;
 pub mod validate;
 

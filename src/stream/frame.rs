@@ -3,8 +3,12 @@
 //!
 //! A frame is a full state, not a change: whatever it does not mention is at rest. It can
 //! carry parameters in three vocabularies at once (CANDIDE animation units, MPEG-4 FAP
-//! counts, ARKit blendshape weights); the first two add up in [`Frame::animation_weights`].
+//! counts, ARKit blendshape weights); the first two add up in [`Frame::animation_weights`],
+//! the ARKit weights (through a retarget basis) and raw controls in [`Frame::mask_offsets`].
 
+use glam::Vec3;
+
+use super::arkit::ArkitBasis;
 use crate::mask::{FapuValues, Mask, UnitKind};
 
 /// Radians per FAP count of an angle FAP (the MPEG-4 unit AU).
@@ -116,11 +120,10 @@ pub struct ExpressionFap {
 
 /// One frame of facial-animation parameters, whatever format it came from.
 ///
-/// Readers return the sparse lists sorted by index with no index twice. **ARKit weights
-/// are carried, not applied**: turning them into CANDIDE motion needs a retarget basis
-/// (each blendshape expressed in animation units, fitted per head), which is a separate
-/// piece of work; until a caller supplies one, [`Frame::animation_weights`] leaves
-/// `arkit` out and a frame that only has ARKit weights poses the mask at rest.
+/// Readers return the sparse lists sorted by index with no index twice. A frame moves the
+/// mask in two parts: animation-unit weights ([`Frame::animation_weights`]: `animation`
+/// and `faps`) and per-vertex offsets ([`Frame::mask_offsets`]: `controls` and the `arkit`
+/// weights through an [`ArkitBasis`]), which `FittedMask::pose_with_offsets_into` combines.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Frame {
     /// Producer sequence number; strictly increasing along a stream.
@@ -165,7 +168,8 @@ impl Frame {
     /// sum of the `animation` entries and of the FAPs CANDIDE implements, each FAP count
     /// converted with `fapu` (`FapuValues::weight`). FAPs the mask has no unit for (1-2,
     /// the head rotation 48-50, which [`Frame::head_rotation`] returns, the tongue 43-47
-    /// and the ears 65-68), ARKit weights and indices beyond `out` are left out.
+    /// and the ears 65-68), ARKit weights ([`Frame::mask_offsets`] has them) and indices
+    /// beyond `out` are left out.
     /// Allocates nothing.
     pub fn animation_weights(&self, mask: &Mask, fapu: &FapuValues, out: &mut [f32]) {
         out.fill(0.0);
@@ -184,6 +188,21 @@ impl Frame {
                 *slot += fapu.weight(*kind, count);
             }
         }
+    }
+
+    /// Fills `out` with this frame's per-vertex offsets of the mask, mask units (`out` is
+    /// zeroed first; pass one slot per mask vertex, 113 for CANDIDE-3): the raw `controls`
+    /// plus the `arkit` weights retargeted through `basis` (`sum_k w_k B_k`). Entries
+    /// beyond `out` are left out. Allocates nothing.
+    ///
+    /// With [`Frame::animation_weights`] this is the whole per-frame path:
+    /// `fitted.pose_with_offsets_into(&weights, &offsets, &mut posed)`.
+    pub fn mask_offsets(&self, basis: &ArkitBasis, out: &mut [Vec3]) {
+        out.fill(Vec3::ZERO);
+        for (slot, control) in out.iter_mut().zip(self.controls.iter().flatten()) {
+            *slot += Vec3::from_array(*control);
+        }
+        basis.apply(&self.arkit, out);
     }
 
     /// Head rotation (rx, ry, rz) in radians: `head_rotation_rad` plus FAPs 48 (pitch,
@@ -248,6 +267,26 @@ mod tests {
         let mut out = [0.0; 65];
         frame.animation_weights(&mask, &fapu, &mut out);
         assert!((out[31] - 0.085).abs() < 1e-6, "{}", out[31]);
+    }
+
+    #[test]
+    fn offsets_add_controls_and_retargeted_arkit_weights() {
+        let basis = ArkitBasis::parse("b", "jawOpen 1 0 -0.5 0\nmouthClose 2 0 0.25 0\n").unwrap();
+        let mut controls = vec![[0.0; 3]; 3];
+        controls[1] = [0.1, 0.0, 0.0];
+        let frame = Frame {
+            controls: Some(controls),
+            arkit: vec![(17, 0.5), (18, 1.0)],
+            ..Frame::default()
+        };
+        let mut out = [Vec3::ONE; 3];
+        frame.mask_offsets(&basis, &mut out);
+        assert_eq!(
+            out,
+            [Vec3::ZERO, Vec3::new(0.1, -0.25, 0.0), Vec3::new(0.0, 0.25, 0.0)]
+        );
+        Frame::default().mask_offsets(&basis, &mut out);
+        assert_eq!(out, [Vec3::ZERO; 3]);
     }
 
     #[test]

@@ -3,10 +3,12 @@
 //! facewire's JSONL, MPEG-4 `.fap` files, the legacy tool's AU text, and the generated
 //! syllable stream. Readers are iterators over any `BufRead` that read one line at a time
 //! (an hour-long file is never loaded whole) and stop at the first error, which names the
-//! file, line and field. The formats are specified in `docs/STREAMS.md`.
+//! file, line and field. ARKit blendshape weights reach the mask through a retarget basis
+//! ([`arkit`]). The formats are specified in `docs/STREAMS.md`.
 //!
 //! Plain synchronous Rust: the service wraps these in its own tasks.
 
+pub mod arkit;
 pub mod au_text;
 mod error;
 pub mod fap_file;
@@ -21,6 +23,7 @@ use std::io::BufReader;
 use std::path::Path;
 use std::sync::Arc;
 
+pub use arkit::{ArkitBasis, ArkitBasisError};
 pub use au_text::{AuTextOptions, AuTextReader, AuTextWriter};
 pub use error::{Location, StreamError};
 pub use fap_file::{FapHeader, FapReader, FapWriter};

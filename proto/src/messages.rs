@@ -1,0 +1,117 @@
+//! JSON messages: what the server says to producers and viewers over WebSocket text
+//! frames, and the HTTP resources. Every message has a `type` field.
+
+use serde::{Deserialize, Serialize};
+
+/// First message on a viewer socket: everything needed to show the frames that follow.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Snapshot {
+    pub protocol: String,
+    pub head: String,
+    pub stream: String,
+    /// Canonical algorithm spec.
+    pub algorithm: String,
+    pub vertices: u32,
+    pub triangles: u32,
+    /// Rest mesh, binary (`mesh.bin`: see PROTOCOL.md) and OBJ.
+    pub rest_mesh: String,
+    pub rest_obj: String,
+    /// Millimetres per head unit.
+    pub mm_per_unit: f32,
+    /// Quantization step of the deltas, head units per count.
+    pub step: f32,
+    /// The CANDIDE-3 lip vertices the per-lip-vertex roughness values belong to.
+    pub lip_vertices: Vec<u32>,
+    /// Whether frames carry per-vertex face roughness.
+    pub face_roughness: bool,
+}
+
+/// Messages the server sends as JSON text.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum ServerMessage {
+    Snapshot(Snapshot),
+    /// A producer frame was accepted.
+    Ack {
+        seq: u64,
+        received_us: u64,
+    },
+    /// Something was refused; `seq` and `field` say which frame and field when known.
+    Error {
+        code: String,
+        message: String,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        seq: Option<u64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        field: Option<String>,
+    },
+    /// The stream ended (producer finished, head deleted, server shutting down).
+    End {
+        reason: String,
+    },
+}
+
+/// Control messages a producer may send as JSON text besides frames.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum ProducerMessage {
+    /// The producer is done; viewers get `end`.
+    End,
+}
+
+/// A registered head as `GET /v1/heads` and `GET /v1/heads/{id}` describe it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HeadInfo {
+    pub id: String,
+    pub vertices: u32,
+    pub triangles: u32,
+    pub mm_per_unit: f32,
+    /// `registering`, `ready` or `failed`.
+    pub status: String,
+    /// Registration progress, 0..1.
+    pub progress: f32,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// Streams with a producer or recent frames.
+    pub streams: Vec<String>,
+    /// Algorithms bound so far (canonical specs).
+    pub algorithms: Vec<String>,
+}
+
+/// The body of every HTTP error response.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ErrorBody {
+    pub error: String,
+    pub message: String,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn messages_are_tagged() {
+        let ack = ServerMessage::Ack {
+            seq: 3,
+            received_us: 10,
+        };
+        assert_eq!(
+            serde_json::to_string(&ack).unwrap(),
+            r#"{"type":"ack","seq":3,"received_us":10}"#
+        );
+        let end: ProducerMessage = serde_json::from_str(r#"{"type":"end"}"#).unwrap();
+        assert_eq!(end, ProducerMessage::End);
+        let error = ServerMessage::Error {
+            code: "bad_frame".into(),
+            message: "line 1".into(),
+            seq: Some(4),
+            field: None,
+        };
+        let text = serde_json::to_string(&error).unwrap();
+        assert_eq!(
+            text,
+            r#"{"type":"error","code":"bad_frame","message":"line 1","seq":4}"#
+        );
+        assert_eq!(serde_json::from_str::<ServerMessage>(&text).unwrap(), error);
+    }
+}

@@ -1,0 +1,161 @@
+//! `facewire deform`: bind an algorithm to a head and write the deformed head of every
+//! frame of a stream as OBJ, with the control displacements as TSV, for offline study and
+//! for checking the live service against.
+
+use std::io::{BufWriter, Write};
+use std::path::Path;
+use std::time::Instant;
+
+use glam::Vec3;
+
+use super::{load_fit, load_head, load_mask, CliResult, FilePath};
+use crate::deform::{bind, AlgoSpec, Registration};
+use crate::fit::FittedMask;
+use crate::head::obj;
+use crate::stream::open_stream;
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The head mesh (OBJ).
+    #[arg(long)]
+    head: FilePath,
+    /// Its fit (.fit.toml).
+    #[arg(long)]
+    fit: FilePath,
+    /// Algorithm spec or thesis letter (see `facewire algos`).
+    #[arg(long, default_value = "rbf")]
+    algo: String,
+    /// Parameter stream (.jsonl, .fap, .fau).
+    #[arg(long)]
+    stream: FilePath,
+    /// Output directory (created if missing).
+    #[arg(long)]
+    out: FilePath,
+    /// Only frames A..B (0-based, B excluded; either end may be left out: `10..`, `..50`).
+    #[arg(long)]
+    frames: Option<String>,
+    /// A CANDIDE-3 .wfm instead of the embedded one.
+    #[arg(long)]
+    mask: Option<FilePath>,
+}
+
+/// Parses `A..B`, `A..`, `..B` into a half-open range.
+fn parse_range(text: &str) -> Result<std::ops::Range<usize>, String> {
+    let (a, b) = text
+        .split_once("..")
+        .ok_or_else(|| format!("--frames {text:?}: expected A..B"))?;
+    let bound = |s: &str, default: usize| -> Result<usize, String> {
+        if s.trim().is_empty() {
+            Ok(default)
+        } else {
+            s.trim()
+                .parse()
+                .map_err(|_| format!("--frames {text:?}: {s:?} is not a frame number"))
+        }
+    };
+    let range = bound(a, 0)?..bound(b, usize::MAX)?;
+    if range.start >= range.end {
+        return Err(format!("--frames {text:?}: the range is empty"));
+    }
+    Ok(range)
+}
+
+pub fn run(args: Args) -> CliResult {
+    let spec: AlgoSpec = args.algo.parse()?;
+    let range = args
+        .frames
+        .as_deref()
+        .map(parse_range)
+        .transpose()?
+        .unwrap_or(0..usize::MAX);
+    let mask = load_mask(args.mask.as_deref())?;
+    let fit = load_fit(&args.fit, &mask)?;
+    let head = load_head(&args.head)?;
+    let started = Instant::now();
+    let registration = Registration::new(head, FittedMask::new(mask.clone(), fit));
+    let registered = started.elapsed();
+    let binding = bind(&registration, &spec);
+    eprintln!(
+        "registered {} ({} vertices) in {:.0} ms, bound {spec} in {:.0} ms",
+        args.head.display(),
+        registration.vertex_count(),
+        registered.as_secs_f64() * 1e3,
+        (started.elapsed() - registered).as_secs_f64() * 1e3
+    );
+
+    std::fs::create_dir_all(&args.out).map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
+    let control_path = args.out.join("control.tsv");
+    let mut control = BufWriter::new(create(&control_path)?);
+    writeln!(control, "frame\tmask_vertex\tanchor\tx\ty\tz\tdx\tdy\tdz")?;
+
+    let fitted = &registration.fitted;
+    let mut weights = vec![0.0f32; mask.animation_units.len()];
+    let mut mask_now = vec![Vec3::ZERO; mask.vertices.len()];
+    let mut scratch = binding.scratch(mask.vertices.len(), mask.triangles.len());
+    let mut deformed = vec![Vec3::ZERO; registration.vertex_count()];
+    let header = vec![
+        format!("facewire deform: {} with {spec}", args.head.display()),
+        format!(
+            "stream {}; head units, same vertex order and faces as the input",
+            args.stream.display()
+        ),
+    ];
+    let mut written = 0usize;
+    for (index, frame) in open_stream(&args.stream, &mask)?.enumerate() {
+        if index >= range.end {
+            break;
+        }
+        let frame = frame?;
+        if index < range.start {
+            continue;
+        }
+        frame.animation_weights(&mask, &fitted.fapu, &mut weights);
+        fitted.pose_into(&weights, &mut mask_now);
+        binding.deform(
+            &registration.head.positions,
+            registration.mask_rest(),
+            &mask_now,
+            registration.mask_triangles(),
+            &mut scratch,
+            &mut deformed,
+        );
+        let path = args.out.join(format!("frame_{index:05}.obj"));
+        let mut file = BufWriter::new(create(&path)?);
+        obj::write(&mut file, &header, &deformed, &registration.head.triangles)?;
+        file.flush()?;
+        for (j, (now, rest)) in mask_now.iter().zip(registration.mask_rest()).enumerate() {
+            let d = *now - *rest;
+            writeln!(
+                control,
+                "{index}\t{j}\t{}\t{}\t{}\t{}\t{}\t{}\t{}",
+                registration.anchors.vertex[j], now.x, now.y, now.z, d.x, d.y, d.z
+            )?;
+        }
+        written += 1;
+        if written % 50 == 0 {
+            eprint!("\r{written} frames");
+        }
+    }
+    control.flush()?;
+    eprintln!("\rwrote {written} frames to {}", args.out.display());
+    Ok(())
+}
+
+fn create(path: &Path) -> Result<std::fs::File, String> {
+    std::fs::File::create(path).map_err(|e| format!("cannot create {}: {e}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_range;
+
+    #[test]
+    fn frame_ranges() {
+        assert_eq!(parse_range("3..7"), Ok(3..7));
+        assert_eq!(parse_range("10.."), Ok(10..usize::MAX));
+        assert_eq!(parse_range("..5"), Ok(0..5));
+        assert!(parse_range("7..3").is_err());
+        assert!(parse_range("x..3").unwrap_err().contains("not a frame number"));
+        assert!(parse_range("5").is_err());
+    }
+}

@@ -1,0 +1,50 @@
+//! `bary2` (thesis B; with weights C, D = Singh's surface-oriented FFD): every head vertex
+//! is expressed in the local frame `(B - A, C - A, n)` of its projection triangle, or of
+//! every triangle the weight system selects, and follows those frames. Rigid motions of
+//! the mask move the head rigidly; outside the mask the frames extrapolate.
+
+use rayon::prelude::*;
+
+use super::binding::{Binding, Csr, FrameTerm, TriangleFrame};
+use super::spec::{AlgoSpec, Weights};
+use super::{triangle_weights, Registration};
+
+pub fn bind(reg: &Registration, spec: AlgoSpec, weights: &Weights) -> Binding {
+    let rows: Vec<Vec<FrameTerm>> = (0..reg.vertex_count() as u32)
+        .into_par_iter()
+        .map_init(Vec::new, |chosen, v| {
+            triangle_weights(reg, v, weights, chosen);
+            frame_terms(reg, v, chosen)
+        })
+        .collect();
+    Binding::new(
+        spec,
+        Csr::empty(rows.len()),
+        Csr::from_rows(rows),
+        Csr::empty(reg.vertex_count()),
+    )
+}
+
+/// Frame terms of head vertex `v` for weighted triangles; degenerate triangles are skipped
+/// and the remaining weights renormalized.
+pub(super) fn frame_terms(reg: &Registration, v: u32, chosen: &[(u16, f32)]) -> Vec<FrameTerm> {
+    let p = reg.head.positions[v as usize];
+    let mask = reg.mask_rest();
+    let mut terms: Vec<FrameTerm> = chosen
+        .iter()
+        .filter_map(|&(t, weight)| {
+            let [a, b, c] = reg.mask_triangles()[t as usize].map(|j| mask[j as usize]);
+            let coords = TriangleFrame::of(a, b, c).coords(p)?;
+            Some(FrameTerm {
+                triangle: t,
+                coords,
+                weight,
+            })
+        })
+        .collect();
+    let total: f32 = terms.iter().map(|t| t.weight).sum();
+    if total > 0.0 {
+        terms.iter_mut().for_each(|t| t.weight /= total);
+    }
+    terms
+}

@@ -1,0 +1,222 @@
+//! What binding produces and deforming consumes: per head vertex, a short list of terms.
+//!
+//! - **Linear** terms `w * delta_j`: a sparse weight matrix over the control displacements
+//!   (point distance, renato, geometric, Kshirsagar, RBF).
+//! - **Frame** terms `w * (A' + a (B'-A') + b (C'-A') + c n' - P)`: local coordinates in a
+//!   mask triangle's frame, re-evaluated on the moved mask (barycentric, SOFFD).
+//! - **Bone** terms: planar bones' region frames (see `planar_bones`).
+//!
+//! A vertex's new position is `P + sum(linear) + sum(frame) + sum(bone)`. Every term list
+//! is stored in compressed rows; deforming walks them once and allocates nothing.
+
+use glam::{Vec3, Vec3A};
+
+use super::planar_bones::{BoneFrames, BoneTerm};
+use super::spec::AlgoSpec;
+
+/// Compressed rows: the items of row `v` are `items[offsets[v]..offsets[v + 1]]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Csr<T> {
+    offsets: Vec<u32>,
+    items: Vec<T>,
+}
+
+impl<T> Csr<T> {
+    /// `rows` empty rows.
+    pub fn empty(rows: usize) -> Csr<T> {
+        Csr {
+            offsets: vec![0; rows + 1],
+            items: Vec::new(),
+        }
+    }
+
+    pub fn from_rows(rows: Vec<Vec<T>>) -> Csr<T> {
+        let mut offsets = Vec::with_capacity(rows.len() + 1);
+        offsets.push(0u32);
+        let total: usize = rows.iter().map(Vec::len).sum();
+        let mut items = Vec::with_capacity(total);
+        for row in rows {
+            items.extend(row);
+            offsets.push(items.len() as u32);
+        }
+        Csr { offsets, items }
+    }
+
+    pub fn rows(&self) -> usize {
+        self.offsets.len() - 1
+    }
+
+    pub fn row(&self, v: usize) -> &[T] {
+        &self.items[self.offsets[v] as usize..self.offsets[v + 1] as usize]
+    }
+
+    pub fn items(&self) -> &[T] {
+        &self.items
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.items.is_empty()
+    }
+}
+
+/// `weight * delta[control]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinearTerm {
+    pub control: u16,
+    pub weight: f32,
+}
+
+/// `weight * (frame_t'(coords) - P)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameTerm {
+    pub triangle: u16,
+    /// (a, b, c): `P - A = a (B - A) + b (C - A) + c n`, n the unit normal.
+    pub coords: Vec3,
+    pub weight: f32,
+}
+
+/// A mask triangle's frame on the moved mask: origin, edges and unit normal.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct TriangleFrame {
+    pub origin: Vec3A,
+    pub e1: Vec3A,
+    pub e2: Vec3A,
+    pub normal: Vec3A,
+}
+
+impl TriangleFrame {
+    pub fn of(a: Vec3, b: Vec3, c: Vec3) -> TriangleFrame {
+        let (a, b, c) = (Vec3A::from(a), Vec3A::from(b), Vec3A::from(c));
+        let e1 = b - a;
+        let e2 = c - a;
+        TriangleFrame {
+            origin: a,
+            e1,
+            e2,
+            normal: e1.cross(e2).normalize_or_zero(),
+        }
+    }
+
+    /// Local coordinates (a, b, c) of `p`, or `None` for a degenerate triangle.
+    pub fn coords(&self, p: Vec3) -> Option<Vec3> {
+        let m = glam::Mat3A::from_cols(self.e1, self.e2, self.normal);
+        let det = m.determinant();
+        if det.abs() <= f32::MIN_POSITIVE || !det.is_finite() {
+            return None;
+        }
+        Some(Vec3::from(m.inverse() * (Vec3A::from(p) - self.origin)))
+    }
+
+    pub fn point(&self, coords: Vec3) -> Vec3A {
+        self.origin + coords.x * self.e1 + coords.y * self.e2 + coords.z * self.normal
+    }
+}
+
+/// A bound algorithm: the terms of every head vertex.
+#[derive(Debug, Clone)]
+pub struct Binding {
+    pub spec: AlgoSpec,
+    pub linear: Csr<LinearTerm>,
+    pub frames: Csr<FrameTerm>,
+    pub bones: Csr<BoneTerm>,
+}
+
+/// Per-frame buffers, allocated once per binding user.
+#[derive(Debug, Clone, Default)]
+pub struct DeformScratch {
+    deltas: Vec<Vec3A>,
+    frames: Vec<TriangleFrame>,
+    bones: BoneFrames,
+}
+
+impl Binding {
+    pub fn new(
+        spec: AlgoSpec,
+        linear: Csr<LinearTerm>,
+        frames: Csr<FrameTerm>,
+        bones: Csr<BoneTerm>,
+    ) -> Binding {
+        debug_assert!(linear.rows() == frames.rows() && frames.rows() == bones.rows());
+        Binding {
+            spec,
+            linear,
+            frames,
+            bones,
+        }
+    }
+
+    /// A binding of linear terms only.
+    pub fn linear(spec: AlgoSpec, rows: Vec<Vec<LinearTerm>>) -> Binding {
+        let n = rows.len();
+        Binding {
+            spec,
+            linear: Csr::from_rows(rows),
+            frames: Csr::empty(n),
+            bones: Csr::empty(n),
+        }
+    }
+
+    pub fn vertex_count(&self) -> usize {
+        self.linear.rows()
+    }
+
+    /// Buffers sized for a mask of `mask_vertices` vertices and `mask_triangles` triangles.
+    pub fn scratch(&self, mask_vertices: usize, mask_triangles: usize) -> DeformScratch {
+        DeformScratch {
+            deltas: vec![Vec3A::ZERO; mask_vertices],
+            frames: vec![TriangleFrame::default(); mask_triangles],
+            bones: BoneFrames::with_capacity(mask_triangles),
+        }
+    }
+
+    /// Deforms the head: `rest` its rest positions, `mask_rest` and `mask_now` the fitted
+    /// mask at rest and in this frame (head units), `triangles` the mask's triangles.
+    /// Writes every vertex of `out`. Allocates nothing.
+    pub fn deform(
+        &self,
+        rest: &[Vec3],
+        mask_rest: &[Vec3],
+        mask_now: &[Vec3],
+        triangles: &[[u32; 3]],
+        scratch: &mut DeformScratch,
+        out: &mut [Vec3],
+    ) {
+        debug_assert_eq!(rest.len(), self.vertex_count());
+        debug_assert_eq!(out.len(), rest.len());
+        for ((d, now), was) in scratch.deltas.iter_mut().zip(mask_now).zip(mask_rest) {
+            *d = Vec3A::from(*now) - Vec3A::from(*was);
+        }
+        let has_frames = !self.frames.is_empty();
+        if has_frames {
+            for (frame, t) in scratch.frames.iter_mut().zip(triangles) {
+                *frame = TriangleFrame::of(
+                    mask_now[t[0] as usize],
+                    mask_now[t[1] as usize],
+                    mask_now[t[2] as usize],
+                );
+            }
+        }
+        let has_bones = !self.bones.is_empty();
+        if has_bones {
+            scratch.bones.update(mask_rest, mask_now, triangles);
+        }
+        for (v, (o, p)) in out.iter_mut().zip(rest).enumerate() {
+            let p = Vec3A::from(*p);
+            let mut moved = p;
+            for term in self.linear.row(v) {
+                moved += term.weight * scratch.deltas[term.control as usize];
+            }
+            if has_frames {
+                for term in self.frames.row(v) {
+                    moved += term.weight * (scratch.frames[term.triangle as usize].point(term.coords) - p);
+                }
+            }
+            if has_bones {
+                for term in self.bones.row(v) {
+                    moved += term.weight * (scratch.bones.point(term) - p);
+                }
+            }
+            *o = Vec3::from(moved);
+        }
+    }
+}

@@ -1,0 +1,49 @@
+//! Deforming a dense head from the moved CANDIDE-3 mask, with every interpolation
+//! variant of the thesis plus Kshirsagar as published and RBF.
+//!
+//! Each algorithm is split into **bind** (once per head, fit and spec; sees the neutral
+//! geometry; may be slow and runs in parallel) and **deform** (every frame; one pass over
+//! the bound terms, no allocation). See docs/ALGORITHMS.md for each variant.
+
+mod bary1;
+mod bary2;
+mod binding;
+mod geometric;
+mod kshirsagar;
+pub mod planar_bones;
+mod point_distance;
+pub mod projection;
+mod rbf;
+mod registration;
+mod renato1;
+mod renato2;
+mod renato3;
+pub mod spec;
+mod weights;
+
+pub use binding::{Binding, Csr, DeformScratch, FrameTerm, LinearTerm, TriangleFrame};
+pub use projection::Projection;
+pub use registration::Registration;
+pub use spec::{AlgoSpec, Kernel, Metric, RbfParams, SpecError, Weights};
+pub use weights::triangle_weights;
+
+/// Binds `spec` to a registered head.
+pub fn bind(reg: &Registration, spec: &AlgoSpec) -> Binding {
+    match *spec {
+        AlgoSpec::Bary1 { alpha } => bary1::bind(reg, *spec, alpha),
+        AlgoSpec::Bary2 { weights } => bary2::bind(reg, *spec, &weights),
+        AlgoSpec::Geometric { weights } => geometric::bind(reg, *spec, &weights),
+        AlgoSpec::PointDistance { k, local } => point_distance::bind(reg, *spec, k, local),
+        AlgoSpec::PlanarBones { weights } => planar_bones::bind(reg, *spec, &weights),
+        AlgoSpec::Renato1 => renato1::bind(reg, *spec),
+        AlgoSpec::Renato2 { alpha } => renato2::bind(reg, *spec, alpha),
+        AlgoSpec::Renato3 { weights } => renato3::bind(reg, *spec, &weights),
+        AlgoSpec::Kshirsagar => kshirsagar::bind(reg, *spec),
+        AlgoSpec::Rbf(params) => rbf::bind(reg, *spec, &params),
+    }
+}
+
+/// `exp(-|P - C| / alpha^2)`: the legacy falloff of eq. 1.2, `distance` in mask units.
+pub(crate) fn legacy_falloff(distance_mask_units: f32, alpha: f32) -> f32 {
+    (-distance_mask_units / (alpha * alpha)).exp()
+}

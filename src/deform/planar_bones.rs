@@ -1,0 +1,314 @@
+//! `planar_bones` (thesis I-M; Sanchez Lorenzo & Maddock 2003): each mask triangle is a
+//! "bone" whose influence on a point depends on where the point lies relative to it
+//! (thesis eq. 2.8-2.14), classified by the Voronoi regions of the triangle in its plane:
+//!
+//! - **R_A**, foot point inside: the triangle's affine frame `(B-A, C-A, n)` (eq. 2.8).
+//! - **R_B,i**, nearest to the interior of edge i (V_i -> V_i+1): the edge frame
+//!   `(e_i, u_i, n)` with `u_i = e_i x n / |e_i x n|` the edge's outward normal (eq. 2.9-2.10):
+//!   the point stretches along the edge and keeps its distance from it.
+//! - **R_C,i**, nearest to corner i: the corner frame `(u_i, u_i-1, n)` of the two
+//!   outward edge normals; the in-plane offset is carried by it and rescaled to keep its
+//!   length (the `D_i(P) / d_i(P)` factor of eq. 2.12-2.14).
+//!
+//! Rest frames use the rest normal n and moved frames the moved normal n' (the thesis prints
+//! n' in both, which cannot be meant). With this classification the three rules agree on
+//! every region border, so a single bone is continuous; several bones are blended with a
+//! weight system (eq. 2.15-2.16). Every frame is rigid under a rigid motion of the mask.
+
+use glam::{Vec3, Vec3A};
+
+use super::binding::{Binding, Csr, TriangleFrame};
+use super::spec::{AlgoSpec, Weights};
+use super::{triangle_weights, Registration};
+use rayon::prelude::*;
+
+/// The region of a point relative to one bone.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Region {
+    /// Foot point inside the triangle.
+    Inside,
+    /// Nearest to the interior of edge i (from corner i to corner i+1).
+    Edge(u8),
+    /// Nearest to corner i.
+    Corner(u8),
+}
+
+/// One bone's influence on a head vertex.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BoneTerm {
+    pub triangle: u16,
+    pub region: Region,
+    /// Inside: (a, b, c) in the affine frame. Edge: (t, s, h) with
+    /// `P - V_i = t e_i + s u_i + h n`. Corner: (x, y, h) with the in-plane offset
+    /// `x u_i + y u_i-1` and height h.
+    pub coords: Vec3,
+    /// Corner regions: the rest length of the in-plane offset (head units).
+    pub offset_length: f32,
+    pub weight: f32,
+}
+
+/// A bone's geometry in one pose: corners, edges, outward edge normals, unit normal.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Bone {
+    pub corners: [Vec3A; 3],
+    pub edges: [Vec3A; 3],
+    pub outward: [Vec3A; 3],
+    pub normal: Vec3A,
+}
+
+impl Bone {
+    pub fn of(a: Vec3, b: Vec3, c: Vec3) -> Bone {
+        let corners = [Vec3A::from(a), Vec3A::from(b), Vec3A::from(c)];
+        let edges = [
+            corners[1] - corners[0],
+            corners[2] - corners[1],
+            corners[0] - corners[2],
+        ];
+        let normal = edges[0].cross(corners[2] - corners[0]).normalize_or_zero();
+        let outward = edges.map(|e| e.cross(normal).normalize_or_zero());
+        Bone {
+            corners,
+            edges,
+            outward,
+            normal,
+        }
+    }
+
+    fn frame(&self) -> TriangleFrame {
+        TriangleFrame {
+            origin: self.corners[0],
+            e1: self.edges[0],
+            e2: self.corners[2] - self.corners[0],
+            normal: self.normal,
+        }
+    }
+
+    /// Classifies `p` and computes its coordinates; `None` for a degenerate bone.
+    pub fn bind(&self, p: Vec3) -> Option<(Region, Vec3, f32)> {
+        if self.normal == Vec3A::ZERO {
+            return None;
+        }
+        let p = Vec3A::from(p);
+        let height = (p - self.corners[0]).dot(self.normal);
+        let foot = p - height * self.normal;
+        // Outside edge i when the foot is beyond its outward normal.
+        let beyond = |i: usize| (foot - self.corners[i]).dot(self.outward[i]) > 0.0;
+        if !(0..3).any(beyond) {
+            return Some((Region::Inside, self.frame().coords(p.into())?, 0.0));
+        }
+        let mut best_edge: Option<(usize, f32)> = None;
+        for i in 0..3 {
+            let length = self.edges[i].length();
+            let along = (foot - self.corners[i]).dot(self.edges[i]) / length;
+            if beyond(i) && (0.0..=length).contains(&along) {
+                let gap = (foot - self.corners[i]).dot(self.outward[i]);
+                if best_edge.is_none_or(|(_, g)| gap < g) {
+                    best_edge = Some((i, gap));
+                }
+            }
+        }
+        if let Some((i, gap)) = best_edge {
+            let t = (foot - self.corners[i]).dot(self.edges[i]) / self.edges[i].length_squared();
+            return Some((Region::Edge(i as u8), Vec3::new(t, gap, height), 0.0));
+        }
+        let i = (0..3)
+            .min_by(|&a, &b| {
+                foot.distance(self.corners[a])
+                    .total_cmp(&foot.distance(self.corners[b]))
+            })
+            .expect("three corners");
+        let offset = foot - self.corners[i];
+        let (x, y) = self.corner_coords(i, offset)?;
+        Some((Region::Corner(i as u8), Vec3::new(x, y, height), offset.length()))
+    }
+
+    /// Coordinates of an in-plane offset in the corner frame (u_i, u_i-1).
+    fn corner_coords(&self, i: usize, offset: Vec3A) -> Option<(f32, f32)> {
+        let (u, w) = (self.outward[i], self.outward[(i + 2) % 3]);
+        let (uu, uw, ww) = (u.dot(u), u.dot(w), w.dot(w));
+        let det = uu * ww - uw * uw;
+        if det.abs() <= 1e-12 {
+            return None;
+        }
+        let (ou, ow) = (offset.dot(u), offset.dot(w));
+        Some(((ou * ww - ow * uw) / det, (ow * uu - ou * uw) / det))
+    }
+
+    /// The bound point in this pose.
+    pub fn point(&self, region: Region, coords: Vec3, offset_length: f32) -> Vec3A {
+        match region {
+            Region::Inside => self.frame().point(coords),
+            Region::Edge(i) => {
+                let i = i as usize;
+                self.corners[i]
+                    + coords.x * self.edges[i]
+                    + coords.y * self.outward[i]
+                    + coords.z * self.normal
+            }
+            Region::Corner(i) => {
+                let i = i as usize;
+                let offset = coords.x * self.outward[i] + coords.y * self.outward[(i + 2) % 3];
+                let length = offset.length();
+                let scaled = if length > 0.0 {
+                    offset * (offset_length / length)
+                } else {
+                    offset
+                };
+                self.corners[i] + scaled + coords.z * self.normal
+            }
+        }
+    }
+}
+
+/// Every bone in the current pose; rebuilt once per frame.
+#[derive(Debug, Clone, Default)]
+pub struct BoneFrames {
+    bones: Vec<Bone>,
+}
+
+impl BoneFrames {
+    pub fn with_capacity(triangles: usize) -> BoneFrames {
+        BoneFrames {
+            bones: Vec::with_capacity(triangles),
+        }
+    }
+
+    /// Rebuilds the bones from the moved mask. Allocates nothing once sized.
+    pub fn update(&mut self, _mask_rest: &[Vec3], mask_now: &[Vec3], triangles: &[[u32; 3]]) {
+        self.bones.clear();
+        self.bones.extend(triangles.iter().map(|t| {
+            Bone::of(
+                mask_now[t[0] as usize],
+                mask_now[t[1] as usize],
+                mask_now[t[2] as usize],
+            )
+        }));
+    }
+
+    pub fn point(&self, term: &BoneTerm) -> Vec3A {
+        self.bones[term.triangle as usize].point(term.region, term.coords, term.offset_length)
+    }
+}
+
+pub fn bind(reg: &Registration, spec: AlgoSpec, weights: &Weights) -> Binding {
+    let mask = reg.mask_rest();
+    let bones: Vec<Bone> = reg
+        .mask_triangles()
+        .iter()
+        .map(|t| Bone::of(mask[t[0] as usize], mask[t[1] as usize], mask[t[2] as usize]))
+        .collect();
+    let rows: Vec<Vec<BoneTerm>> = (0..reg.vertex_count() as u32)
+        .into_par_iter()
+        .map_init(Vec::new, |chosen, v| {
+            triangle_weights(reg, v, weights, chosen);
+            let p = reg.head.positions[v as usize];
+            let mut terms: Vec<BoneTerm> = chosen
+                .iter()
+                .filter_map(|&(t, weight)| {
+                    let (region, coords, offset_length) = bones[t as usize].bind(p)?;
+                    Some(BoneTerm {
+                        triangle: t,
+                        region,
+                        coords,
+                        offset_length,
+                        weight,
+                    })
+                })
+                .collect();
+            let total: f32 = terms.iter().map(|t| t.weight).sum();
+            if total > 0.0 {
+                terms.iter_mut().for_each(|t| t.weight /= total);
+            }
+            terms
+        })
+        .collect();
+    let n = rows.len();
+    Binding::new(spec, Csr::empty(n), Csr::empty(n), Csr::from_rows(rows))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bone() -> Bone {
+        Bone::of(Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 0.0))
+    }
+
+    #[test]
+    fn regions_are_the_voronoi_regions_of_the_triangle() {
+        let b = bone();
+        assert_eq!(b.bind(Vec3::new(0.5, 0.5, 1.0)).unwrap().0, Region::Inside);
+        assert_eq!(b.bind(Vec3::new(1.0, -1.0, 0.0)).unwrap().0, Region::Edge(0));
+        assert_eq!(b.bind(Vec3::new(2.0, 2.0, 0.0)).unwrap().0, Region::Edge(1));
+        assert_eq!(b.bind(Vec3::new(-1.0, 1.0, 0.0)).unwrap().0, Region::Edge(2));
+        assert_eq!(b.bind(Vec3::new(-1.0, -1.0, 0.0)).unwrap().0, Region::Corner(0));
+        assert_eq!(b.bind(Vec3::new(3.0, -0.5, 0.0)).unwrap().0, Region::Corner(1));
+        assert_eq!(b.bind(Vec3::new(-0.5, 3.0, 0.0)).unwrap().0, Region::Corner(2));
+    }
+
+    #[test]
+    fn rest_pose_reproduces_every_point() {
+        let b = bone();
+        for p in [
+            Vec3::new(0.5, 0.5, 1.0),
+            Vec3::new(1.0, -1.0, 0.3),
+            Vec3::new(-1.0, -1.0, -0.2),
+            Vec3::new(3.0, -0.5, 0.0),
+            Vec3::new(2.0, 2.0, 0.5),
+        ] {
+            let (region, coords, len) = b.bind(p).unwrap();
+            assert!(
+                Vec3::from(b.point(region, coords, len)).abs_diff_eq(p, 1e-5),
+                "{p} {region:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn hand_computed_stretch() {
+        // Stretch edge 0 to length 4: a point below its middle slides along and keeps its
+        // distance; a point beyond corner 0 keeps its distance from the corner.
+        let rest = bone();
+        let moved = Bone::of(Vec3::ZERO, Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 0.0));
+        let (r, c, l) = rest.bind(Vec3::new(1.0, -1.0, 0.5)).unwrap();
+        assert_eq!(r, Region::Edge(0));
+        assert!(Vec3::from(moved.point(r, c, l)).abs_diff_eq(Vec3::new(2.0, -1.0, 0.5), 1e-5));
+        let (r, c, l) = rest.bind(Vec3::new(-1.0, -1.0, 0.0)).unwrap();
+        assert_eq!(r, Region::Corner(0));
+        let q = Vec3::from(moved.point(r, c, l));
+        assert!((q.length() - 2f32.sqrt()).abs() < 1e-5, "{q}");
+    }
+
+    #[test]
+    fn continuous_across_region_borders() {
+        // Deform the bone non-rigidly and walk a point across every border: no jumps larger
+        // than the step times the largest stretch (here 3) plus rounding.
+        let rest = bone();
+        let moved = Bone::of(
+            Vec3::new(0.1, 0.0, 0.2),
+            Vec3::new(3.0, 0.5, -0.3),
+            Vec3::new(-0.4, 2.5, 0.4),
+        );
+        let step = 1e-3;
+        for (start, dir) in [
+            (Vec3::new(-1.5, -1.0, 0.3), Vec3::X),
+            (Vec3::new(3.0, -2.0, 0.0), Vec3::Y),
+            (Vec3::new(-2.0, 3.0, -0.4), Vec3::new(1.0, -1.0, 0.0).normalize()),
+        ] {
+            let mut previous: Option<Vec3A> = None;
+            for k in 0..5000 {
+                let p = start + dir * (k as f32 * step);
+                let (r, c, l) = rest.bind(p).unwrap();
+                let q = moved.point(r, c, l);
+                if let Some(prev) = previous {
+                    assert!(
+                        q.distance(prev) < 3.0 * step + 1e-4,
+                        "jump at {p}: {}",
+                        q.distance(prev)
+                    );
+                }
+                previous = Some(q);
+            }
+        }
+    }
+}

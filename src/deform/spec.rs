@@ -1,0 +1,648 @@
+//! Algorithm spec strings: one string selects any variant and its parameters, in the CLI,
+//! config files and the wire protocol. `name[:key=value,...]` or a thesis letter:
+//!
+//! ```text
+//! renato2                      bary2:weights=distance,r_mm=10
+//! planar_bones:r_pct=30        rbf:kernel=wendland,r_mm=40
+//! E                            point_distance:k=all
+//! ```
+//!
+//! [`AlgoSpec`]'s `Display` prints the canonical form (every parameter), which round-trips.
+
+use std::fmt;
+use std::str::FromStr;
+
+/// How several control elements (triangles, or feature points for `geometric`) are
+/// blended. Distances are surface distances in mm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Weights {
+    /// The single nearest element.
+    None,
+    /// Singh's `w = 1 / (1 + d^local)` for `d < r_mm`, normalized.
+    Distance { r_mm: f32, local: f32 },
+    /// Planar bones' `w = (0.5 (1 + cos(pi d / r)))^n` for `d < r`, `r = r_pct %` of each
+    /// triangle's longest edge, normalized.
+    PlanarBones { r_pct: f32, n: f32 },
+    /// Kshirsagar's `W = sin(pi/2 (1 - d / r_mm))` with eq. 5's `1/d^2` blend
+    /// (`geometric` only).
+    Kshirsagar { r_mm: f32 },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kernel {
+    Gaussian,
+    Multiquadric,
+    InverseMultiquadric,
+    ThinPlate,
+    Wendland,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Metric {
+    Euclidean,
+    Surface,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RbfParams {
+    pub kernel: Kernel,
+    pub metric: Metric,
+    /// Kernel scale (Gaussian, multiquadrics) or support radius (Wendland), mm.
+    pub r_mm: f32,
+    /// Add the linear polynomial term (reproduces affine motions exactly).
+    pub polynomial: bool,
+}
+
+/// One interpolation variant with all its parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum AlgoSpec {
+    Bary1 { alpha: f32 },
+    Bary2 { weights: Weights },
+    Geometric { weights: Weights },
+    PointDistance { k: Option<u32>, local: f32 },
+    PlanarBones { weights: Weights },
+    Renato1,
+    Renato2 { alpha: f32 },
+    Renato3 { weights: Weights },
+    Kshirsagar,
+    Rbf(RbfParams),
+}
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum SpecError {
+    #[error("unknown algorithm {name:?}; valid: {valid} or a thesis letter A-T")]
+    UnknownAlgorithm { name: String, valid: String },
+    #[error("{algorithm}: unknown parameter {key:?}; valid: {valid}")]
+    UnknownParameter {
+        algorithm: &'static str,
+        key: String,
+        valid: String,
+    },
+    #[error("{algorithm}: parameter {key}={value:?}: {problem}")]
+    BadValue {
+        algorithm: &'static str,
+        key: String,
+        value: String,
+        problem: String,
+    },
+    #[error("{algorithm}: {problem}")]
+    Inconsistent {
+        algorithm: &'static str,
+        problem: String,
+    },
+}
+
+/// Names of every algorithm, in catalogue order.
+pub const ALGORITHM_NAMES: [&str; 10] = [
+    "bary1",
+    "bary2",
+    "geometric",
+    "point_distance",
+    "planar_bones",
+    "renato1",
+    "renato2",
+    "renato3",
+    "kshirsagar",
+    "rbf",
+];
+
+/// The thesis's table 4.5 presets plus `kshirsagar` (S) and `rbf` (T), with one line each.
+pub const PRESETS: [(char, &str, &str); 20] = [
+    (
+        'A',
+        "bary1",
+        "barycentric local frame inside the mask, eq. 1.2 over the 3 nearest controls outside",
+    ),
+    (
+        'B',
+        "bary2",
+        "local frame of the nearest triangle everywhere (extrapolates outside)",
+    ),
+    (
+        'C',
+        "bary2:weights=distance,r_mm=10",
+        "surface-oriented FFD: triangles within 10 mm blended",
+    ),
+    (
+        'D',
+        "bary2:weights=distance,r_mm=30",
+        "surface-oriented FFD: triangles within 30 mm blended",
+    ),
+    (
+        'E',
+        "geometric",
+        "moves rigidly with the single nearest feature point",
+    ),
+    (
+        'F',
+        "geometric:weights=kshirsagar,r_mm=10",
+        "feature points within 10 mm, Kshirsagar weights",
+    ),
+    ('G', "point_distance:k=3", "3 nearest controls, 1/(1+d^2) weights"),
+    (
+        'H',
+        "point_distance:k=all",
+        "every reachable control, 1/(1+d^2) weights",
+    ),
+    (
+        'I',
+        "planar_bones:weights=planar_bones,r_pct=10",
+        "planar bones, radius 10% of the longest edge",
+    ),
+    (
+        'J',
+        "planar_bones:weights=planar_bones,r_pct=30",
+        "planar bones, radius 30% of the longest edge",
+    ),
+    (
+        'K',
+        "planar_bones:weights=planar_bones,r_pct=100",
+        "planar bones, radius 100% of the longest edge",
+    ),
+    (
+        'L',
+        "planar_bones:weights=distance,r_mm=10",
+        "planar bones with distance weights, 10 mm",
+    ),
+    (
+        'M',
+        "planar_bones:weights=distance,r_mm=30",
+        "planar bones with distance weights, 30 mm",
+    ),
+    (
+        'N',
+        "renato1",
+        "legacy: barycentric inside, |mu| outside (overshoots)",
+    ),
+    (
+        'O',
+        "renato2",
+        "legacy: barycentric inside, eq. 1.2 exponential falloff outside",
+    ),
+    (
+        'P',
+        "renato3",
+        "barycentric rule of the nearest triangle everywhere",
+    ),
+    (
+        'Q',
+        "renato3:weights=distance,r_mm=10",
+        "renato3 over triangles within 10 mm",
+    ),
+    (
+        'R',
+        "renato3:weights=distance,r_mm=30",
+        "renato3 over triangles within 30 mm",
+    ),
+    (
+        'S',
+        "kshirsagar",
+        "Kshirsagar et al. 2001 as published: surface-grown feature-point regions",
+    ),
+    (
+        'T',
+        "rbf",
+        "radial basis functions with a linear term (Wendland C2, surface distance, 40 mm)",
+    ),
+];
+
+impl AlgoSpec {
+    pub fn name(&self) -> &'static str {
+        match self {
+            AlgoSpec::Bary1 { .. } => "bary1",
+            AlgoSpec::Bary2 { .. } => "bary2",
+            AlgoSpec::Geometric { .. } => "geometric",
+            AlgoSpec::PointDistance { .. } => "point_distance",
+            AlgoSpec::PlanarBones { .. } => "planar_bones",
+            AlgoSpec::Renato1 => "renato1",
+            AlgoSpec::Renato2 { .. } => "renato2",
+            AlgoSpec::Renato3 { .. } => "renato3",
+            AlgoSpec::Kshirsagar => "kshirsagar",
+            AlgoSpec::Rbf(_) => "rbf",
+        }
+    }
+
+    /// Whether deforming is one sparse matrix-vector product over control displacements.
+    pub fn is_linear(&self) -> bool {
+        !matches!(
+            self,
+            AlgoSpec::Bary1 { .. } | AlgoSpec::Bary2 { .. } | AlgoSpec::PlanarBones { .. }
+        )
+    }
+
+    /// The thesis letter of this exact variant, if it is a preset.
+    pub fn letter(&self) -> Option<char> {
+        PRESETS
+            .iter()
+            .find(|(_, spec, _)| spec.parse::<AlgoSpec>().as_ref() == Ok(self))
+            .map(|(l, _, _)| *l)
+    }
+
+    /// Every preset, parsed.
+    pub fn presets() -> Vec<(char, AlgoSpec, &'static str)> {
+        PRESETS
+            .iter()
+            .map(|&(l, s, d)| (l, s.parse().expect("presets parse"), d))
+            .collect()
+    }
+
+    fn defaults(name: &str) -> Option<AlgoSpec> {
+        Some(match name {
+            "bary1" => AlgoSpec::Bary1 { alpha: 0.4 },
+            "bary2" => AlgoSpec::Bary2 {
+                weights: Weights::None,
+            },
+            "geometric" => AlgoSpec::Geometric {
+                weights: Weights::None,
+            },
+            "point_distance" => AlgoSpec::PointDistance {
+                k: Some(3),
+                local: 2.0,
+            },
+            "planar_bones" => AlgoSpec::PlanarBones {
+                weights: Weights::PlanarBones { r_pct: 10.0, n: 1.0 },
+            },
+            "renato1" => AlgoSpec::Renato1,
+            "renato2" => AlgoSpec::Renato2 { alpha: 0.4 },
+            "renato3" => AlgoSpec::Renato3 {
+                weights: Weights::None,
+            },
+            "kshirsagar" => AlgoSpec::Kshirsagar,
+            "rbf" => AlgoSpec::Rbf(RbfParams {
+                kernel: Kernel::Wendland,
+                metric: Metric::Surface,
+                r_mm: 40.0,
+                polynomial: true,
+            }),
+            _ => return None,
+        })
+    }
+
+    /// Parameter keys each algorithm accepts.
+    fn valid_keys(&self) -> &'static [&'static str] {
+        match self {
+            AlgoSpec::Bary1 { .. } | AlgoSpec::Renato2 { .. } => &["alpha"],
+            AlgoSpec::Bary2 { .. } | AlgoSpec::PlanarBones { .. } | AlgoSpec::Renato3 { .. } => {
+                &["weights", "r_mm", "local", "r_pct", "n"]
+            }
+            AlgoSpec::Geometric { .. } => &["weights", "r_mm", "local"],
+            AlgoSpec::PointDistance { .. } => &["k", "local"],
+            AlgoSpec::Renato1 | AlgoSpec::Kshirsagar => &[],
+            AlgoSpec::Rbf(_) => &["kernel", "distance", "r_mm", "poly"],
+        }
+    }
+}
+
+impl FromStr for AlgoSpec {
+    type Err = SpecError;
+
+    fn from_str(text: &str) -> Result<AlgoSpec, SpecError> {
+        let text = text.trim();
+        let mut chars = text.chars();
+        if let (Some(letter), None) = (chars.next(), chars.next()) {
+            let letter = letter.to_ascii_uppercase();
+            if let Some((_, spec, _)) = PRESETS.iter().find(|(l, _, _)| *l == letter) {
+                return spec.parse();
+            }
+        }
+        let (name, params) = text.split_once(':').unwrap_or((text, ""));
+        let name = name.trim().to_ascii_lowercase();
+        let mut spec = AlgoSpec::defaults(&name).ok_or_else(|| SpecError::UnknownAlgorithm {
+            name: name.clone(),
+            valid: ALGORITHM_NAMES.join(", "),
+        })?;
+        let mut pairs = Vec::new();
+        for item in params.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+            let (key, value) = item.split_once('=').ok_or_else(|| SpecError::BadValue {
+                algorithm: spec.name(),
+                key: item.to_string(),
+                value: String::new(),
+                problem: "expected key=value".into(),
+            })?;
+            let key = key.trim().to_ascii_lowercase();
+            if !spec.valid_keys().contains(&key.as_str()) {
+                return Err(SpecError::UnknownParameter {
+                    algorithm: spec.name(),
+                    key,
+                    valid: if spec.valid_keys().is_empty() {
+                        "none".into()
+                    } else {
+                        spec.valid_keys().join(", ")
+                    },
+                });
+            }
+            pairs.push((key, value.trim().to_string()));
+        }
+        apply(&mut spec, &pairs)?;
+        Ok(spec)
+    }
+}
+
+fn number(algorithm: &'static str, key: &str, value: &str, positive: bool) -> Result<f32, SpecError> {
+    let bad = |problem: &str| SpecError::BadValue {
+        algorithm,
+        key: key.to_string(),
+        value: value.to_string(),
+        problem: problem.to_string(),
+    };
+    let x: f32 = value.parse().map_err(|_| bad("not a number"))?;
+    if !x.is_finite() || (positive && x <= 0.0) {
+        return Err(bad(if positive {
+            "must be a positive number"
+        } else {
+            "must be finite"
+        }));
+    }
+    Ok(x)
+}
+
+fn apply(spec: &mut AlgoSpec, pairs: &[(String, String)]) -> Result<(), SpecError> {
+    let algorithm = spec.name();
+    let get = |key: &str| pairs.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str());
+    let num = |key: &str| get(key).map(|v| number(algorithm, key, v, true)).transpose();
+    match spec {
+        AlgoSpec::Bary1 { alpha } | AlgoSpec::Renato2 { alpha } => {
+            if let Some(a) = num("alpha")? {
+                *alpha = a;
+            }
+        }
+        AlgoSpec::Bary2 { weights } | AlgoSpec::PlanarBones { weights } | AlgoSpec::Renato3 { weights } => {
+            *weights = parse_weights(algorithm, *weights, pairs, false)?;
+        }
+        AlgoSpec::Geometric { weights } => {
+            *weights = parse_weights(algorithm, *weights, pairs, true)?;
+        }
+        AlgoSpec::PointDistance { k, local } => {
+            if let Some(v) = get("k") {
+                *k = if v.eq_ignore_ascii_case("all") {
+                    None
+                } else {
+                    let n = number(algorithm, "k", v, true)?;
+                    if n.fract() != 0.0 {
+                        return Err(SpecError::BadValue {
+                            algorithm,
+                            key: "k".into(),
+                            value: v.into(),
+                            problem: "must be a whole number or \"all\"".into(),
+                        });
+                    }
+                    Some(n as u32)
+                };
+            }
+            if let Some(l) = num("local")? {
+                *local = l;
+            }
+        }
+        AlgoSpec::Rbf(params) => {
+            if let Some(v) = get("kernel") {
+                params.kernel =
+                    match v.to_ascii_lowercase().as_str() {
+                        "gaussian" => Kernel::Gaussian,
+                        "multiquadric" => Kernel::Multiquadric,
+                        "inverse_multiquadric" => Kernel::InverseMultiquadric,
+                        "thin_plate" => Kernel::ThinPlate,
+                        "wendland" => Kernel::Wendland,
+                        _ => return Err(SpecError::BadValue {
+                            algorithm,
+                            key: "kernel".into(),
+                            value: v.into(),
+                            problem:
+                                "valid: gaussian, multiquadric, inverse_multiquadric, thin_plate, wendland"
+                                    .into(),
+                        }),
+                    };
+            }
+            if let Some(v) = get("distance") {
+                params.metric = match v.to_ascii_lowercase().as_str() {
+                    "euclidean" => Metric::Euclidean,
+                    "surface" => Metric::Surface,
+                    _ => {
+                        return Err(SpecError::BadValue {
+                            algorithm,
+                            key: "distance".into(),
+                            value: v.into(),
+                            problem: "valid: euclidean, surface".into(),
+                        })
+                    }
+                };
+            }
+            if let Some(r) = num("r_mm")? {
+                params.r_mm = r;
+            }
+            if let Some(v) = get("poly") {
+                params.polynomial = match v.to_ascii_lowercase().as_str() {
+                    "linear" => true,
+                    "none" => false,
+                    _ => {
+                        return Err(SpecError::BadValue {
+                            algorithm,
+                            key: "poly".into(),
+                            value: v.into(),
+                            problem: "valid: linear, none".into(),
+                        })
+                    }
+                };
+            }
+        }
+        AlgoSpec::Renato1 | AlgoSpec::Kshirsagar => {}
+    }
+    Ok(())
+}
+
+fn parse_weights(
+    algorithm: &'static str,
+    default: Weights,
+    pairs: &[(String, String)],
+    feature_points: bool,
+) -> Result<Weights, SpecError> {
+    let get = |key: &str| pairs.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str());
+    let num = |key: &str| get(key).map(|v| number(algorithm, key, v, true)).transpose();
+    let system = match get("weights") {
+        Some(s) => s.to_ascii_lowercase(),
+        None if get("r_mm").is_some() => {
+            if feature_points {
+                "kshirsagar".into()
+            } else {
+                "distance".into()
+            }
+        }
+        None if get("r_pct").is_some() => "planar_bones".into(),
+        None => match default {
+            Weights::None => "none".into(),
+            Weights::Distance { .. } => "distance".into(),
+            Weights::PlanarBones { .. } => "planar_bones".into(),
+            Weights::Kshirsagar { .. } => "kshirsagar".into(),
+        },
+    };
+    let stray = |keys: &[&str], system: &str| -> Result<(), SpecError> {
+        match keys.iter().find(|k| get(k).is_some()) {
+            Some(k) => Err(SpecError::Inconsistent {
+                algorithm,
+                problem: format!("parameter {k} does not apply to weights={system}"),
+            }),
+            None => Ok(()),
+        }
+    };
+    let valid = if feature_points {
+        "none, distance, kshirsagar"
+    } else {
+        "none, distance, planar_bones"
+    };
+    match system.as_str() {
+        "none" => {
+            stray(&["r_mm", "local", "r_pct", "n"], "none")?;
+            Ok(Weights::None)
+        }
+        "distance" => {
+            stray(&["r_pct", "n"], "distance")?;
+            Ok(Weights::Distance {
+                r_mm: num("r_mm")?.unwrap_or(10.0),
+                local: num("local")?.unwrap_or(2.0),
+            })
+        }
+        "planar_bones" if !feature_points => {
+            stray(&["r_mm", "local"], "planar_bones")?;
+            Ok(Weights::PlanarBones {
+                r_pct: num("r_pct")?.unwrap_or(10.0),
+                n: num("n")?.unwrap_or(1.0),
+            })
+        }
+        "kshirsagar" if feature_points => {
+            stray(&["local"], "kshirsagar")?;
+            Ok(Weights::Kshirsagar {
+                r_mm: num("r_mm")?.unwrap_or(10.0),
+            })
+        }
+        other => Err(SpecError::BadValue {
+            algorithm,
+            key: "weights".into(),
+            value: other.into(),
+            problem: format!("valid: {valid}"),
+        }),
+    }
+}
+
+impl fmt::Display for Weights {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Weights::None => write!(f, "weights=none"),
+            Weights::Distance { r_mm, local } => write!(f, "weights=distance,r_mm={r_mm},local={local}"),
+            Weights::PlanarBones { r_pct, n } => write!(f, "weights=planar_bones,r_pct={r_pct},n={n}"),
+            Weights::Kshirsagar { r_mm } => write!(f, "weights=kshirsagar,r_mm={r_mm}"),
+        }
+    }
+}
+
+impl fmt::Display for AlgoSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let name = self.name();
+        match self {
+            AlgoSpec::Bary1 { alpha } | AlgoSpec::Renato2 { alpha } => write!(f, "{name}:alpha={alpha}"),
+            AlgoSpec::Bary2 { weights }
+            | AlgoSpec::PlanarBones { weights }
+            | AlgoSpec::Renato3 { weights }
+            | AlgoSpec::Geometric { weights } => write!(f, "{name}:{weights}"),
+            AlgoSpec::PointDistance { k, local } => match k {
+                Some(k) => write!(f, "{name}:k={k},local={local}"),
+                None => write!(f, "{name}:k=all,local={local}"),
+            },
+            AlgoSpec::Renato1 | AlgoSpec::Kshirsagar => write!(f, "{name}"),
+            AlgoSpec::Rbf(p) => {
+                let kernel = match p.kernel {
+                    Kernel::Gaussian => "gaussian",
+                    Kernel::Multiquadric => "multiquadric",
+                    Kernel::InverseMultiquadric => "inverse_multiquadric",
+                    Kernel::ThinPlate => "thin_plate",
+                    Kernel::Wendland => "wendland",
+                };
+                let metric = match p.metric {
+                    Metric::Euclidean => "euclidean",
+                    Metric::Surface => "surface",
+                };
+                let poly = if p.polynomial { "linear" } else { "none" };
+                write!(
+                    f,
+                    "{name}:kernel={kernel},distance={metric},r_mm={},poly={poly}",
+                    p.r_mm
+                )
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn letters_and_names_parse() {
+        assert_eq!("O".parse::<AlgoSpec>(), Ok(AlgoSpec::Renato2 { alpha: 0.4 }));
+        assert_eq!(
+            "bary2:weights=distance,r_mm=10".parse::<AlgoSpec>(),
+            Ok(AlgoSpec::Bary2 {
+                weights: Weights::Distance {
+                    r_mm: 10.0,
+                    local: 2.0
+                }
+            })
+        );
+        assert_eq!("c".parse::<AlgoSpec>(), "bary2:r_mm=10".parse::<AlgoSpec>());
+        assert_eq!(
+            "planar_bones:r_pct=30".parse::<AlgoSpec>(),
+            Ok(AlgoSpec::PlanarBones {
+                weights: Weights::PlanarBones { r_pct: 30.0, n: 1.0 }
+            })
+        );
+        assert_eq!(
+            "point_distance:k=all".parse::<AlgoSpec>(),
+            Ok(AlgoSpec::PointDistance { k: None, local: 2.0 })
+        );
+        let rbf: AlgoSpec = "rbf:kernel=gaussian,distance=euclidean,r_mm=25".parse().unwrap();
+        assert_eq!(
+            rbf,
+            AlgoSpec::Rbf(RbfParams {
+                kernel: Kernel::Gaussian,
+                metric: Metric::Euclidean,
+                r_mm: 25.0,
+                polynomial: true
+            })
+        );
+    }
+
+    #[test]
+    fn canonical_form_round_trips_and_presets_have_letters() {
+        for (letter, spec, _) in AlgoSpec::presets() {
+            let text = spec.to_string();
+            assert_eq!(text.parse::<AlgoSpec>(), Ok(spec), "{text}");
+            assert_eq!(spec.letter(), Some(letter), "{text}");
+        }
+        assert!(!AlgoSpec::presets()
+            .iter()
+            .any(|(_, s, _)| matches!(s, AlgoSpec::Bary2 { .. }) && s.is_linear()));
+    }
+
+    #[test]
+    fn bad_specs_list_what_is_valid() {
+        let err = "smooth".parse::<AlgoSpec>().unwrap_err();
+        assert!(
+            err.to_string().contains("renato2") && err.to_string().contains("rbf"),
+            "{err}"
+        );
+        let err = "bary2:radius=3".parse::<AlgoSpec>().unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "bary2: unknown parameter \"radius\"; valid: weights, r_mm, local, r_pct, n"
+        );
+        let err = "renato1:alpha=1".parse::<AlgoSpec>().unwrap_err();
+        assert!(err.to_string().contains("valid: none"), "{err}");
+        let err = "bary2:weights=distance,r_pct=4".parse::<AlgoSpec>().unwrap_err();
+        assert!(matches!(err, SpecError::Inconsistent { .. }), "{err}");
+        let err = "rbf:kernel=cubic".parse::<AlgoSpec>().unwrap_err();
+        assert!(err.to_string().contains("wendland"), "{err}");
+        let err = "bary2:r_mm=-3".parse::<AlgoSpec>().unwrap_err();
+        assert!(err.to_string().contains("positive"), "{err}");
+        let err = "geometric:weights=planar_bones".parse::<AlgoSpec>().unwrap_err();
+        assert!(err.to_string().contains("none, distance, kshirsagar"), "{err}");
+        assert!("point_distance:k=2.5".parse::<AlgoSpec>().is_err());
+    }
+}

@@ -1,0 +1,368 @@
+//! Every interpolation variant on both shipped heads: invariants, lips, ground truth.
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use facewire::deform::{bind, AlgoSpec, Binding, Registration};
+use facewire::fit::{FitFile, FittedMask};
+use facewire::head::Head;
+use facewire::mask::{Mask, LOWER_LIP};
+use facewire::stream::{open_stream, Frame};
+use glam::{Mat3, Vec3};
+
+fn data(path: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path)
+}
+
+fn register(name: &str) -> Registration {
+    let head = Head::load(&data(&format!("heads/{name}.obj"))).unwrap();
+    let mask = Mask::candide3();
+    let fit = FitFile::load(&data(&format!("heads/{name}.fit.toml")))
+        .unwrap()
+        .resolve(name, &mask)
+        .unwrap();
+    Registration::new(head, FittedMask::new(mask, fit))
+}
+
+fn scan() -> &'static Registration {
+    static REG: OnceLock<Registration> = OnceLock::new();
+    REG.get_or_init(|| register("lee_perry_smith_head"))
+}
+
+fn makehuman() -> &'static Registration {
+    static REG: OnceLock<Registration> = OnceLock::new();
+    REG.get_or_init(|| register("makehuman_head"))
+}
+
+fn heads() -> [(&'static str, &'static Registration); 2] {
+    [("scan", scan()), ("makehuman", makehuman())]
+}
+
+/// Every preset (A-T) plus a few non-preset variants.
+fn variants() -> Vec<AlgoSpec> {
+    let mut specs: Vec<AlgoSpec> = AlgoSpec::presets().into_iter().map(|(_, s, _)| s).collect();
+    for extra in [
+        "geometric:weights=distance,r_mm=15",
+        "renato3:weights=planar_bones,r_pct=50",
+        "rbf:kernel=wendland,distance=surface,r_mm=25,poly=none",
+        "rbf:kernel=thin_plate,distance=euclidean,r_mm=50",
+    ] {
+        specs.push(extra.parse().unwrap());
+    }
+    specs
+}
+
+fn deform_with(reg: &Registration, binding: &Binding, mask_now: &[Vec3]) -> Vec<Vec3> {
+    let mut scratch = binding.scratch(mask_now.len(), reg.mask_triangles().len());
+    let mut out = vec![Vec3::ZERO; reg.vertex_count()];
+    binding.deform(
+        &reg.head.positions,
+        reg.mask_rest(),
+        mask_now,
+        reg.mask_triangles(),
+        &mut scratch,
+        &mut out,
+    );
+    out
+}
+
+fn posed(reg: &Registration, animation: &[f32]) -> Vec<Vec3> {
+    let mut mask_now = vec![Vec3::ZERO; reg.mask_rest().len()];
+    reg.fitted.pose_into(animation, &mut mask_now);
+    mask_now
+}
+
+fn head_size(reg: &Registration) -> f32 {
+    reg.head.bounds().size().length()
+}
+
+#[test]
+fn zero_displacement_moves_nothing_for_every_variant() {
+    for (name, reg) in heads() {
+        for spec in variants() {
+            let binding = bind(reg, &spec);
+            assert_eq!(binding.vertex_count(), reg.vertex_count());
+            let out = deform_with(reg, &binding, reg.mask_rest());
+            let worst = out
+                .iter()
+                .zip(&reg.head.positions)
+                .map(|(a, b)| a.distance(*b))
+                .fold(0.0f32, f32::max);
+            assert!(worst <= 1e-5 * head_size(reg), "{name} {spec}: moved {worst}");
+        }
+    }
+}
+
+#[test]
+fn no_nan_on_the_shipped_streams() {
+    let mask = Mask::candide3();
+    let syllables: Vec<Frame> = open_stream(&data("streams/syllables.jsonl"), &mask)
+        .unwrap()
+        .map(Result::unwrap)
+        .collect();
+    let joy: Vec<Frame> = open_stream(&data("candide3/xface_joy.fap"), &mask)
+        .unwrap()
+        .map(Result::unwrap)
+        .collect();
+    for (name, reg) in heads() {
+        let frames: Vec<Vec<Vec3>> = syllables
+            .iter()
+            .chain(&joy)
+            .map(|frame| {
+                let mut weights = vec![0.0; 65];
+                frame.animation_weights(&reg.fitted.mask, &reg.fitted.fapu, &mut weights);
+                posed(reg, &weights)
+            })
+            .collect();
+        for spec in variants() {
+            let binding = bind(reg, &spec);
+            let mut scratch = binding.scratch(113, 184);
+            let mut out = vec![Vec3::ZERO; reg.vertex_count()];
+            for (f, mask_now) in frames.iter().enumerate() {
+                binding.deform(
+                    &reg.head.positions,
+                    reg.mask_rest(),
+                    mask_now,
+                    reg.mask_triangles(),
+                    &mut scratch,
+                    &mut out,
+                );
+                assert!(
+                    out.iter().all(|p| p.is_finite()),
+                    "{name} {spec}: NaN at frame {f}"
+                );
+            }
+        }
+    }
+}
+
+/// Variants whose weights sum to one everywhere (translation moves everything).
+fn is_normalized(spec: &AlgoSpec) -> bool {
+    !matches!(
+        spec,
+        AlgoSpec::Bary1 { .. } | AlgoSpec::Renato1 | AlgoSpec::Renato2 { .. }
+    ) && !matches!(spec, AlgoSpec::Rbf(p) if !p.polynomial)
+}
+
+#[test]
+fn translating_the_mask_translates_the_head_for_normalized_variants() {
+    let t = Vec3::new(0.03, -0.02, 0.05);
+    for (name, reg) in heads() {
+        let mask_now: Vec<Vec3> = reg.mask_rest().iter().map(|p| *p + t).collect();
+        for spec in variants().into_iter().filter(is_normalized) {
+            let out = deform_with(reg, &bind(reg, &spec), &mask_now);
+            let worst = out
+                .iter()
+                .zip(&reg.head.positions)
+                .map(|(a, b)| (*a - *b - t).length())
+                .fold(0.0f32, f32::max);
+            assert!(worst < 1e-4 * head_size(reg), "{name} {spec}: off by {worst}");
+        }
+    }
+}
+
+#[test]
+fn local_frame_variants_move_rigidly_with_a_rigid_mask() {
+    for (name, reg) in heads() {
+        let centre = reg.head.bounds().center();
+        let rotation = Mat3::from_euler(glam::EulerRot::ZYX, 0.2, -0.3, 0.15);
+        let shift = Vec3::new(0.1, 0.2, -0.05) * head_size(reg);
+        let rigid = |p: Vec3| rotation * (p - centre) + centre + shift;
+        let mask_now: Vec<Vec3> = reg.mask_rest().iter().map(|p| rigid(*p)).collect();
+        for spec in variants()
+            .into_iter()
+            .filter(|s| matches!(s, AlgoSpec::Bary2 { .. } | AlgoSpec::PlanarBones { .. }))
+        {
+            let out = deform_with(reg, &bind(reg, &spec), &mask_now);
+            let worst = out
+                .iter()
+                .zip(&reg.head.positions)
+                .map(|(a, b)| a.distance(rigid(*b)))
+                .fold(0.0f32, f32::max);
+            assert!(worst < 1e-4 * head_size(reg), "{name} {spec}: off by {worst}");
+        }
+        // bary1 is local-frame inside the mask only
+        let spec: AlgoSpec = "bary1".parse().unwrap();
+        let out = deform_with(reg, &bind(reg, &spec), &mask_now);
+        for (v, _) in reg.projections.iter().enumerate().filter(|(_, p)| p.inside) {
+            let off = out[v].distance(rigid(reg.head.positions[v]));
+            assert!(
+                off < 1e-4 * head_size(reg),
+                "{name} bary1 vertex {v}: off by {off}"
+            );
+        }
+    }
+}
+
+/// Upper-lip head vertices: those whose projection triangle has only upper-lip corners and
+/// lies within 10 mm of them along the surface (far vertices, such as the back of the
+/// head, can project into a lip triangle too).
+fn upper_lip_vertices(reg: &Registration) -> Vec<usize> {
+    let upper = [7u32, 33, 66, 79, 80, 81, 82, 87, 31, 64, 88, 89];
+    let upper_triangles: Vec<bool> = reg
+        .mask_triangles()
+        .iter()
+        .map(|t| t.iter().all(|j| upper.contains(j)))
+        .collect();
+    (0..reg.vertex_count())
+        .filter(|&v| {
+            let p = reg.projections[v];
+            upper_triangles[p.triangle as usize] && p.distance_mm < 10.0
+        })
+        .collect()
+}
+
+/// Mean upper-lip head motion over the mean lower-lip control motion, for a jaw drop.
+fn lip_leak(reg: &Registration, spec: &AlgoSpec) -> f32 {
+    let mut animation = vec![0.0; 65];
+    animation[1] = 0.5; // jaw_drop
+    let mask_now = posed(reg, &animation);
+    let lower: f32 = LOWER_LIP
+        .iter()
+        .map(|&j| mask_now[j].distance(reg.mask_rest()[j]))
+        .sum::<f32>()
+        / LOWER_LIP.len() as f32;
+    let out = deform_with(reg, &bind(reg, spec), &mask_now);
+    let upper = upper_lip_vertices(reg);
+    upper
+        .iter()
+        .map(|&v| out[v].distance(reg.head.positions[v]))
+        .sum::<f32>()
+        / upper.len() as f32
+        / lower
+}
+
+/// Variants whose influence radius reaches from the upper lip across the mouth corners to
+/// the lower-lip triangles (the corners belong to both lips): they leak by design. The
+/// measured leak on the scan is bounded here and reported in docs/ALGORITHMS.md.
+fn reaches_across_the_corners(spec: &AlgoSpec) -> Option<f32> {
+    match spec.to_string().as_str() {
+        "point_distance:k=all,local=2" => Some(0.12),
+        "planar_bones:weights=planar_bones,r_pct=100,n=1" => Some(0.13),
+        _ => None,
+    }
+}
+
+#[test]
+fn lips_stay_apart_when_the_jaw_drops() {
+    for (name, reg) in heads() {
+        assert!(upper_lip_vertices(reg).len() > 50, "{name}");
+        for spec in variants() {
+            let leak = lip_leak(reg, &spec);
+            let euclidean =
+                matches!(spec, AlgoSpec::Rbf(p) if p.metric == facewire::deform::Metric::Euclidean);
+            if euclidean {
+                assert!(
+                    leak > 0.1,
+                    "{name} {spec}: Euclidean RBF was expected to leak, leaked {leak}"
+                );
+            } else {
+                let bound = reaches_across_the_corners(&spec).unwrap_or(0.1);
+                assert!(
+                    leak < bound,
+                    "{name} {spec}: upper lip moved {leak} of the lower lip"
+                );
+            }
+        }
+    }
+}
+
+/// Worst relative error at the anchors of the controls that move, for controls with an
+/// anchor of their own (controls sharing an anchor cannot all be reproduced).
+fn anchor_error(reg: &Registration, spec: &AlgoSpec, mask_now: &[Vec3]) -> f32 {
+    let out = deform_with(reg, &bind(reg, spec), mask_now);
+    let mut worst = 0.0f32;
+    for &j in &reg.controls {
+        let anchor = reg.anchors.vertex[j as usize];
+        let shared = reg
+            .controls
+            .iter()
+            .filter(|&&k| reg.anchors.vertex[k as usize] == anchor)
+            .count()
+            > 1;
+        let wanted = mask_now[j as usize] - reg.mask_rest()[j as usize];
+        if shared || wanted.length() < 1e-6 {
+            continue;
+        }
+        let got = out[anchor as usize] - reg.head.positions[anchor as usize];
+        worst = worst.max((got - wanted).length() / wanted.length());
+    }
+    worst
+}
+
+#[test]
+fn interpolating_variants_reproduce_the_controls_at_the_anchors() {
+    for (name, reg) in heads() {
+        // Every control on its own path, about 2 mm long: only true interpolants follow.
+        let mm = reg.mm_per_unit();
+        let scattered: Vec<Vec3> = reg
+            .mask_rest()
+            .iter()
+            .enumerate()
+            .map(|(j, p)| {
+                let k = j as f32;
+                *p + Vec3::new((k * 0.7).sin(), (k * 1.3).cos(), (k * 0.4).sin()) * (2.0 / mm)
+            })
+            .collect();
+        for (spec, tolerance) in [("kshirsagar", 1e-4), ("rbf", 1e-4), ("F", 1e-4)] {
+            let error = anchor_error(reg, &spec.parse().unwrap(), &scattered);
+            assert!(
+                error < tolerance,
+                "{name} {spec}: relative error {error} at an anchor"
+            );
+        }
+        // point_distance only approximates (its weights stay finite at d = 0): on a real
+        // mouth motion G stays close, H, averaging every control, squashes it.
+        let mut animation = vec![0.0; 65];
+        animation[1] = 0.5; // jaw_drop
+        animation[2] = 0.4; // lip_stretcher
+        let speech = posed(reg, &animation);
+        let g = anchor_error(reg, &"G".parse().unwrap(), &speech);
+        let h = anchor_error(reg, &"H".parse().unwrap(), &speech);
+        eprintln!("{name}: point_distance worst relative error at anchors: G {g:.3}, H {h:.3}");
+        assert!(g < 0.2, "{name} G: {g}");
+        assert!(h > g, "{name}: H {h} should squash more than G {g}");
+    }
+}
+
+#[test]
+fn ground_truth_jaw_open_is_followed_better_than_standing_still() {
+    // The artist-made jaw-open head, sampled at the anchors, drives each variant; the
+    // result is compared with the true jaw-open head over the face.
+    let reg = makehuman();
+    let open = Head::load(&data("heads/makehuman_head_jawopen.obj")).unwrap();
+    let mask_now: Vec<Vec3> = reg
+        .mask_rest()
+        .iter()
+        .enumerate()
+        .map(|(j, p)| {
+            let anchor = reg.anchors.vertex[j] as usize;
+            *p + (open.positions[anchor] - reg.head.positions[anchor])
+        })
+        .collect();
+    // The face: vertices within 15 mm along the surface of some control's anchor.
+    let face: Vec<usize> = (0..reg.vertex_count())
+        .filter(|&v| {
+            reg.controls
+                .iter()
+                .any(|&j| reg.distance_to_control(j, v as u32) <= 15.0)
+        })
+        .collect();
+    let mm = reg.mm_per_unit();
+    let rms = |positions: &[Vec3]| {
+        let sum: f32 = face
+            .iter()
+            .map(|&v| positions[v].distance_squared(open.positions[v]))
+            .sum();
+        (sum / face.len() as f32).sqrt() * mm
+    };
+    let still = rms(&reg.head.positions);
+    let mut best = f32::INFINITY;
+    for spec in variants() {
+        let error = rms(&deform_with(reg, &bind(reg, &spec), &mask_now));
+        assert!(error.is_finite(), "{spec}");
+        best = best.min(error);
+    }
+    assert!(still > 1.0, "the target moves the face: {still} mm RMS");
+    assert!(best < 0.5 * still, "best {best} mm vs {still} mm for not moving");
+}
