@@ -13,4 +13,6 @@ pub mod head;
 pub mod mask;
 pub mod metrics;
 pub mod render;
+pub mod server;
 pub mod stream;
+pub mod web;

@@ -3,10 +3,14 @@
 mod algos;
 mod arkit_basis;
 mod deform;
+mod demo;
 mod fit;
 mod inspect;
+mod play;
 mod render;
+mod serve;
 mod syllables;
+mod watch;
 
 use std::path::{Path, PathBuf};
 
@@ -32,6 +36,14 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Run the demo: the service with both shipped heads and a looping syllable stream.
+    Demo(demo::Args),
+    /// Run the service.
+    Serve(serve::Args),
+    /// Push a stream file to a producer WebSocket in real time.
+    Play(play::Args),
+    /// Watch a stream headlessly: fps, latency per hop, bytes per frame.
+    Watch(watch::Args),
     /// Summarize a mask (.wfm), head (.obj), fit (.fit.toml), landmarks (.landmarks.toml)
     /// or parameter stream (.jsonl, .fap, .fau, .txt).
     Inspect(inspect::Args),
@@ -51,6 +63,10 @@ pub enum Command {
 
 pub fn run(cli: Cli) -> CliResult {
     match cli.command {
+        Command::Demo(args) => demo::run(args),
+        Command::Serve(args) => serve::run(args),
+        Command::Play(args) => play::run(args),
+        Command::Watch(args) => watch::run(args),
         Command::Inspect(args) => inspect::run(args),
         Command::Fit(args) => fit::run(args),
         Command::Render(args) => render::run(args),

@@ -100,6 +100,17 @@ fn syntax(at: &Location, field: &str, message: impl Into<String>) -> StreamError
     }
 }
 
+/// Parses one frame that arrives on its own (a WebSocket text message) rather than as a
+/// line of a file; `origin` names it in errors (`message 17`). Sequence and time order
+/// across messages are the caller's to check.
+pub fn parse_message(origin: &str, text: &str, mask: &Mask) -> Result<Frame, StreamError> {
+    let at = Location {
+        file: Some(origin.into()),
+        line: 1,
+    };
+    parse_frame(&at, text, mask)
+}
+
 fn parse_frame(at: &Location, text: &str, mask: &Mask) -> Result<Frame, StreamError> {
     let value: Value =
         serde_json::from_str(text).map_err(|e| syntax(at, "json", format!("invalid JSON: {e}")))?;

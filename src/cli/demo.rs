@@ -1,0 +1,56 @@
+//! `facewire demo`: the service with both shipped heads registered and a built-in
+//! producer looping the syllable stream, in memory, printing the URL to open. Everything
+//! it needs is embedded in the binary.
+
+use std::net::SocketAddr;
+
+use super::serve::{init_logging, runtime};
+use super::CliResult;
+use crate::server::demo::{loop_syllables, DEMO_HEADS};
+use crate::server::{serve, AppState, Config, HeadMeta, HeadRecord};
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Address to listen on (port 0 picks a free one).
+    #[arg(long, default_value = "127.0.0.1:8480")]
+    addr: SocketAddr,
+    /// Algorithm viewers get when they name none.
+    #[arg(long, default_value = "rbf")]
+    default_algorithm: String,
+}
+
+pub fn run(args: Args) -> CliResult {
+    init_logging(false);
+    let config = Config {
+        addr: args.addr,
+        data_dir: None,
+        default_algorithm: args.default_algorithm,
+        ..Config::default()
+    };
+    let state = AppState::new(config)?;
+    let rt = runtime()?;
+    rt.block_on(async {
+        for (id, obj, fit) in DEMO_HEADS {
+            state.registry.register(
+                HeadRecord {
+                    id: id.to_string(),
+                    obj: obj.to_vec(),
+                    fit_toml: fit.to_string(),
+                    meta: HeadMeta::default(),
+                },
+                false,
+            )?;
+        }
+        tokio::spawn(loop_syllables(
+            state.clone(),
+            DEMO_HEADS.iter().map(|h| h.0.to_string()).collect(),
+            "main".to_string(),
+        ));
+        serve(state, |addr| {
+            println!("facewire demo: open http://{addr}/ in a browser (Ctrl-C to stop)");
+            println!("heads: scan, makehuman; stream: main (the syllable stream, looping)");
+        })
+        .await?;
+        Ok::<(), Box<dyn std::error::Error + Send + Sync>>(())
+    })
+}

@@ -1,0 +1,67 @@
+//! `facewire serve`: run the service. Settings come from defaults, `--config FILE`,
+//! `FACEWIRE_*` environment variables and flags, in that order of precedence.
+
+use std::net::SocketAddr;
+
+use super::{CliResult, FilePath};
+use crate::server::{serve, AppState, Config};
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Address to listen on [default: 127.0.0.1:8480; env FACEWIRE_ADDR].
+    #[arg(long)]
+    addr: Option<SocketAddr>,
+    /// Data directory for registered heads [default: ./facewire-data; env FACEWIRE_DATA_DIR].
+    #[arg(long)]
+    data_dir: Option<FilePath>,
+    /// TOML configuration file (see deploy/facewire.example.toml).
+    #[arg(long)]
+    config: Option<FilePath>,
+    /// Algorithm viewers get when they name none [default: rbf].
+    #[arg(long)]
+    default_algorithm: Option<String>,
+    /// Log as JSON lines instead of text.
+    #[arg(long)]
+    log_json: bool,
+}
+
+/// Text or JSON logs on stderr, filtered by `RUST_LOG` (default `info`).
+pub(super) fn init_logging(json: bool) {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,tower_http=warn"));
+    let builder = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr);
+    if json {
+        builder.json().init();
+    } else {
+        builder.init();
+    }
+}
+
+pub(super) fn runtime() -> std::io::Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread().enable_all().build()
+}
+
+pub fn run(args: Args) -> CliResult {
+    let mut config = match &args.config {
+        Some(path) => Config::load(path)?,
+        None => Config::default(),
+    };
+    config.apply_env(|name| std::env::var(name).ok())?;
+    if let Some(addr) = args.addr {
+        config.addr = addr;
+    }
+    if let Some(dir) = args.data_dir {
+        config.data_dir = Some(dir);
+    }
+    if let Some(algo) = args.default_algorithm {
+        config.default_algorithm = algo;
+    }
+    init_logging(args.log_json);
+    let state = AppState::new(config)?;
+    runtime()?.block_on(serve(state, |addr| {
+        println!("facewire listening on http://{addr}/");
+    }))?;
+    Ok(())
+}

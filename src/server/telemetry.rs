@@ -1,0 +1,136 @@
+//! Service metrics in Prometheus text format (`GET /metrics`): frames in and out, skipped
+//! frames, deform and encode time, viewers, producers and per-hop latency. One registry per
+//! server instance, so tests can run several servers in one process.
+
+use prometheus_client::encoding::text::encode;
+use prometheus_client::encoding::EncodeLabelSet;
+use prometheus_client::metrics::counter::Counter;
+use prometheus_client::metrics::family::Family;
+use prometheus_client::metrics::gauge::Gauge;
+use prometheus_client::metrics::histogram::{exponential_buckets, Histogram};
+use prometheus_client::registry::Registry;
+
+#[derive(Debug, Clone, Hash, PartialEq, Eq, EncodeLabelSet)]
+pub struct CodeLabel {
+    pub code: String,
+}
+
+#[derive(Debug, Clone, Hash, PartialEq, Eq, EncodeLabelSet)]
+pub struct StageLabel {
+    pub stage: &'static str,
+}
+
+#[derive(Debug, Clone, Hash, PartialEq, Eq, EncodeLabelSet)]
+pub struct HopLabel {
+    pub hop: &'static str,
+}
+
+/// Every metric the service exports.
+pub struct Telemetry {
+    registry: Registry,
+    /// Producer frames accepted.
+    pub frames_in: Counter,
+    /// Producer messages refused, by error code.
+    pub frames_rejected: Family<CodeLabel, Counter>,
+    /// Frames sent to viewers (one per viewer per frame).
+    pub frames_out: Counter,
+    /// Bytes of frames sent to viewers.
+    pub bytes_out: Counter,
+    /// Frames skipped: `deform` (a pipeline was busy when newer parameters came) or
+    /// `viewer` (a viewer was slower than the stream).
+    pub frames_skipped: Family<StageLabel, Counter>,
+    pub deform_seconds: Histogram,
+    pub encode_seconds: Histogram,
+    /// Latency per hop: `receive_to_publish` (parameters in to encoded frame out) and
+    /// `publish_to_send` (encoded to written to a viewer socket).
+    pub latency_seconds: Family<HopLabel, Histogram>,
+    pub viewers: Gauge,
+    pub producers: Gauge,
+    pub heads: Gauge,
+}
+
+fn seconds_histogram() -> Histogram {
+    // 10 us .. ~5 s
+    Histogram::new(exponential_buckets(1e-5, 2.0, 20))
+}
+
+impl Default for Telemetry {
+    fn default() -> Self {
+        let mut registry = Registry::with_prefix("facewire");
+        let t = Telemetry {
+            frames_in: Counter::default(),
+            frames_rejected: Family::default(),
+            frames_out: Counter::default(),
+            bytes_out: Counter::default(),
+            frames_skipped: Family::default(),
+            deform_seconds: seconds_histogram(),
+            encode_seconds: seconds_histogram(),
+            latency_seconds: Family::new_with_constructor(seconds_histogram),
+            viewers: Gauge::default(),
+            producers: Gauge::default(),
+            heads: Gauge::default(),
+            registry: Registry::default(),
+        };
+        registry.register("frames_in", "Producer frames accepted", t.frames_in.clone());
+        registry.register(
+            "frames_rejected",
+            "Producer messages refused, by code",
+            t.frames_rejected.clone(),
+        );
+        registry.register("frames_out", "Frames sent to viewers", t.frames_out.clone());
+        registry.register(
+            "bytes_out",
+            "Bytes of frames sent to viewers",
+            t.bytes_out.clone(),
+        );
+        registry.register(
+            "frames_skipped",
+            "Frames skipped, by stage",
+            t.frames_skipped.clone(),
+        );
+        registry.register(
+            "deform_seconds",
+            "Deform time per frame and algorithm",
+            t.deform_seconds.clone(),
+        );
+        registry.register(
+            "encode_seconds",
+            "Roughness and encode time per frame",
+            t.encode_seconds.clone(),
+        );
+        registry.register("latency_seconds", "Latency per hop", t.latency_seconds.clone());
+        registry.register("viewers", "Connected viewers", t.viewers.clone());
+        registry.register("producers", "Connected producers", t.producers.clone());
+        registry.register("heads", "Registered heads", t.heads.clone());
+        Telemetry { registry, ..t }
+    }
+}
+
+impl Telemetry {
+    pub fn reject(&self, code: &str) {
+        self.frames_rejected
+            .get_or_create(&CodeLabel {
+                code: code.to_string(),
+            })
+            .inc();
+    }
+
+    pub fn skipped(&self, stage: &'static str, count: u64) {
+        self.frames_skipped
+            .get_or_create(&StageLabel { stage })
+            .inc_by(count);
+    }
+
+    pub fn latency(&self, hop: &'static str, seconds: f64) {
+        self.latency_seconds
+            .get_or_create(&HopLabel { hop })
+            .observe(seconds);
+    }
+
+    /// The exposition text.
+    pub fn render(&self) -> String {
+        let mut out = String::new();
+        encode(&mut out, &self.registry).expect("writing to a String cannot fail");
+        out
+    }
+}

@@ -1,0 +1,611 @@
+//! The service through real sockets on ephemeral ports: registration over HTTP, producers
+//! and viewers over WebSocket, malformed input, slow viewers, restarts and tokens.
+
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use facewire::deform::{bind, AlgoSpec, Registration};
+use facewire::fit::{FitFile, FittedMask};
+use facewire::head::Head;
+use facewire::mask::Mask;
+use facewire::server::{serve, AppState, Config};
+use facewire::stream::{open_stream, Frame, JsonlWriter};
+use facewire_proto::frame::{decode, ViewerFrame};
+use facewire_proto::messages::{HeadInfo, ServerMessage};
+use facewire_proto::params::ParamFrame;
+use futures_util::{SinkExt, StreamExt};
+use glam::Vec3;
+use tokio_tungstenite::tungstenite::Message;
+
+type Socket = tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+
+fn data(path: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path)
+}
+
+struct Server {
+    addr: SocketAddr,
+    state: AppState,
+    task: tokio::task::JoinHandle<std::io::Result<()>>,
+}
+
+impl Server {
+    async fn start(config: Config) -> Server {
+        let state = AppState::new(Config {
+            addr: "127.0.0.1:0".parse().unwrap(),
+            ..config
+        })
+        .unwrap();
+        let (tx, rx) = tokio::sync::oneshot::channel();
+        let task = tokio::spawn(serve(state.clone(), move |addr| {
+            let _ = tx.send(addr);
+        }));
+        let addr = rx.await.unwrap();
+        Server { addr, state, task }
+    }
+
+    fn http(&self, path: &str) -> String {
+        format!("http://{}{path}", self.addr)
+    }
+
+    fn ws(&self, path: &str) -> String {
+        format!("ws://{}{path}", self.addr)
+    }
+
+    async fn stop(self) {
+        self.state.shutdown.cancel();
+        tokio::time::timeout(Duration::from_secs(10), self.task)
+            .await
+            .unwrap()
+            .unwrap()
+            .unwrap();
+    }
+
+    /// Registers a shipped head under `id` and waits until it is ready.
+    async fn register(&self, id: &str, name: &str, query: &str) {
+        let body = serde_json::json!({
+            "id": id,
+            "obj": std::fs::read_to_string(data(&format!("heads/{name}.obj"))).unwrap(),
+            "fit": std::fs::read_to_string(data(&format!("heads/{name}.fit.toml"))).unwrap(),
+        });
+        let client = reqwest::Client::new();
+        let response = client
+            .post(self.http(&format!("/v1/heads{query}")))
+            .json(&body)
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(response.status(), 202, "{}", response.text().await.unwrap());
+        self.wait_ready(id).await;
+    }
+
+    async fn wait_ready(&self, id: &str) -> HeadInfo {
+        for _ in 0..600 {
+            let info: HeadInfo = reqwest::get(self.http(&format!("/v1/heads/{id}")))
+                .await
+                .unwrap()
+                .json()
+                .await
+                .unwrap();
+            match info.status.as_str() {
+                "ready" => return info,
+                "failed" => panic!("registration failed: {:?}", info.error),
+                _ => tokio::time::sleep(Duration::from_millis(50)).await,
+            }
+        }
+        panic!("head {id} did not become ready");
+    }
+}
+
+/// The tests of this file run one at a time: the slow-viewer test measures the process's
+/// memory, which other tests' heads would disturb.
+static SERIAL: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
+
+fn memory_config() -> Config {
+    Config {
+        data_dir: None,
+        ..Config::default()
+    }
+}
+
+async fn connect(url: &str) -> Socket {
+    tokio_tungstenite::connect_async(url).await.unwrap().0
+}
+
+/// Next JSON message, skipping binary frames.
+async fn next_json(socket: &mut Socket) -> ServerMessage {
+    loop {
+        let message = tokio::time::timeout(Duration::from_secs(10), socket.next())
+            .await
+            .expect("a message in time")
+            .expect("socket open")
+            .unwrap();
+        if let Message::Text(text) = message {
+            return serde_json::from_str(text.as_str()).unwrap();
+        }
+    }
+}
+
+/// Next binary frame, skipping JSON messages.
+async fn next_frame(socket: &mut Socket) -> ViewerFrame {
+    loop {
+        let message = tokio::time::timeout(Duration::from_secs(10), socket.next())
+            .await
+            .expect("a frame in time")
+            .expect("socket open")
+            .unwrap();
+        if let Message::Binary(bytes) = message {
+            return decode(&bytes).unwrap();
+        }
+    }
+}
+
+fn json_line(frame: &Frame, mask: &Mask) -> String {
+    let mut writer = JsonlWriter::new(Vec::new(), mask);
+    writer.write_frame(frame).unwrap();
+    String::from_utf8(writer.into_inner().unwrap())
+        .unwrap()
+        .trim_end()
+        .to_string()
+}
+
+fn syllables() -> Vec<Frame> {
+    open_stream(&data("streams/syllables.jsonl"), &Mask::candide3())
+        .unwrap()
+        .map(Result::unwrap)
+        .collect()
+}
+
+fn rest_positions(viewer: &ViewerFrame, reg: &Registration) -> Vec<f32> {
+    let rest: Vec<f32> = reg.head.positions.iter().flat_map(|p| p.to_array()).collect();
+    let mut out = Vec::new();
+    viewer.apply(&rest, &mut out);
+    out
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn viewers_see_what_facewire_deform_computes() {
+    let _serial = SERIAL.lock().await;
+    let server = Server::start(memory_config()).await;
+    server.register("scan", "lee_perry_smith_head", "").await;
+
+    // The same computation offline, as `facewire deform` does it.
+    let mask = Mask::candide3();
+    let head = Head::load(&data("heads/lee_perry_smith_head.obj")).unwrap();
+    let fit = FitFile::load(&data("heads/lee_perry_smith_head.fit.toml"))
+        .unwrap()
+        .resolve("fit", &mask)
+        .unwrap();
+    let reg = Registration::new(head, FittedMask::new(mask.clone(), fit));
+    let specs: Vec<AlgoSpec> = ["O", "C", "kshirsagar"]
+        .iter()
+        .map(|s| s.parse().unwrap())
+        .collect();
+
+    let mut viewers = Vec::new();
+    for spec in &specs {
+        let mut socket = connect(&server.ws(&format!("/v1/heads/scan/streams/main/view?algo={spec}"))).await;
+        match next_json(&mut socket).await {
+            ServerMessage::Snapshot(s) => {
+                assert_eq!(s.algorithm, spec.to_string());
+                assert_eq!(s.vertices, 8838);
+            }
+            other => panic!("expected a snapshot, got {other:?}"),
+        }
+        viewers.push(socket);
+    }
+    let frames: Vec<Frame> = syllables().into_iter().take(60).collect();
+    let last = frames.last().unwrap().seq;
+    let readers: Vec<_> = viewers
+        .into_iter()
+        .map(|mut socket| {
+            tokio::spawn(async move {
+                let mut received = Vec::new();
+                while received.last().is_none_or(|f: &ViewerFrame| f.header.seq != last) {
+                    received.push(next_frame(&mut socket).await);
+                }
+                received
+            })
+        })
+        .collect();
+    let mut producer = connect(&server.ws("/v1/heads/scan/streams/main/produce")).await;
+    for frame in &frames {
+        producer
+            .send(Message::Text(json_line(frame, &mask).into()))
+            .await
+            .unwrap();
+        match next_json(&mut producer).await {
+            ServerMessage::Ack { seq, .. } => assert_eq!(seq, frame.seq),
+            other => panic!("expected an ack, got {other:?}"),
+        }
+        tokio::time::sleep(Duration::from_millis(15)).await;
+    }
+
+    let step_slack = |frame: &ViewerFrame| 0.5 * frame.step * 1.001 + 1e-6;
+    for (spec, reader) in specs.iter().zip(readers) {
+        let received = reader.await.unwrap();
+        let binding = bind(&reg, spec);
+        let mut scratch = binding.scratch(113, reg.mask_triangles().len());
+        let (mut weights, mut mask_now) = (vec![0.0; 65], vec![Vec3::ZERO; 113]);
+        let mut expected = vec![Vec3::ZERO; reg.vertex_count()];
+        let mut compared = 0;
+        for viewer in &received {
+            let frame = &frames[viewer.header.seq as usize];
+            frame.animation_weights(&reg.fitted.mask, &reg.fitted.fapu, &mut weights);
+            reg.fitted.pose_into(&weights, &mut mask_now);
+            binding.deform(
+                &reg.head.positions,
+                reg.mask_rest(),
+                &mask_now,
+                reg.mask_triangles(),
+                &mut scratch,
+                &mut expected,
+            );
+            let got = rest_positions(viewer, &reg);
+            let worst = expected
+                .iter()
+                .enumerate()
+                .map(|(v, e)| {
+                    (Vec3::from_slice(&got[v * 3..v * 3 + 3]) - *e)
+                        .abs()
+                        .max_element()
+                })
+                .fold(0.0f32, f32::max);
+            assert!(
+                worst <= step_slack(viewer),
+                "{spec} frame {}: off by {worst} (step {})",
+                viewer.header.seq,
+                viewer.step
+            );
+            assert_eq!(viewer.label, frame.label, "{spec}");
+            assert_eq!(viewer.lip.per_vertex.len(), 18);
+            assert!(viewer.lip.mean.is_finite() && viewer.lip.mean >= 0.0);
+            compared += 1;
+        }
+        assert!(
+            compared >= 30,
+            "{spec}: only {compared} of {} frames arrived",
+            frames.len()
+        );
+    }
+    server.stop().await;
+}
+
+fn resident_kib() -> u64 {
+    let statm = std::fs::read_to_string("/proc/self/statm").unwrap_or_default();
+    statm
+        .split_whitespace()
+        .nth(1)
+        .and_then(|p| p.parse::<u64>().ok())
+        .unwrap_or(0)
+        * 4
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_slow_viewer_skips_frames_and_holds_nobody_up() {
+    let _serial = SERIAL.lock().await;
+    let server = Server::start(memory_config()).await;
+    server.register("mh", "makehuman_head", "").await;
+    let url = server.ws("/v1/heads/mh/streams/s/view?algo=O");
+    let mut fast: Vec<Socket> = Vec::new();
+    for _ in 0..3 {
+        let mut socket = connect(&url).await;
+        assert!(matches!(next_json(&mut socket).await, ServerMessage::Snapshot(_)));
+        fast.push(socket);
+    }
+    // The slow viewer's socket buffers little, as a phone on a bad network would.
+    let slow_socket = tokio::net::TcpSocket::new_v4().unwrap();
+    slow_socket.set_recv_buffer_size(8 << 10).unwrap();
+    let stream = slow_socket.connect(server.addr).await.unwrap();
+    let mut slow =
+        tokio_tungstenite::client_async(url.as_str(), tokio_tungstenite::MaybeTlsStream::Plain(stream))
+            .await
+            .unwrap()
+            .0;
+    assert!(matches!(next_json(&mut slow).await, ServerMessage::Snapshot(_)));
+
+    let mask = Mask::candide3();
+    let frames = syllables();
+    let mut producer = connect(&server.ws("/v1/heads/mh/streams/s/produce")).await;
+    let memory_before = resident_kib();
+    let count = 240;
+    let readers: Vec<_> = fast
+        .into_iter()
+        .map(|mut socket| {
+            tokio::spawn(async move {
+                let mut seqs = Vec::new();
+                while seqs.last() != Some(&(count as u64 - 1)) {
+                    seqs.push(next_frame(&mut socket).await.header.seq);
+                }
+                seqs
+            })
+        })
+        .collect();
+    for frame in frames.iter().cycle().take(count).enumerate().map(|(i, f)| {
+        let mut f = f.clone();
+        f.seq = i as u64;
+        f.time_s = i as f64 / 60.0;
+        f
+    }) {
+        producer
+            .send(Message::Text(json_line(&frame, &mask).into()))
+            .await
+            .unwrap();
+        assert!(matches!(
+            next_json(&mut producer).await,
+            ServerMessage::Ack { .. }
+        ));
+        tokio::time::sleep(Duration::from_millis(12)).await;
+    }
+    let memory_after = resident_kib();
+    for reader in readers {
+        let seqs = tokio::time::timeout(Duration::from_secs(20), reader)
+            .await
+            .unwrap()
+            .unwrap();
+        // Fast viewers keep up: they miss at most a few frames to coalescing.
+        assert!(
+            seqs.len() >= count * 9 / 10,
+            "a fast viewer got {} of {count}",
+            seqs.len()
+        );
+    }
+    // The slow viewer (which read nothing meanwhile) catches up with the newest frames.
+    let mut slow_seqs = Vec::new();
+    while slow_seqs.last() != Some(&(count as u64 - 1)) {
+        slow_seqs.push(next_frame(&mut slow).await.header.seq);
+    }
+    assert!(
+        slow_seqs.len() < count,
+        "the slow viewer got every frame ({})",
+        slow_seqs.len()
+    );
+    assert!(
+        slow_seqs.windows(2).any(|w| w[1] > w[0] + 1),
+        "the slow viewer skipped nothing: {slow_seqs:?}"
+    );
+    assert!(
+        memory_after < memory_before + 64 * 1024,
+        "memory grew from {memory_before} KiB to {memory_after} KiB"
+    );
+    let metrics = reqwest::get(server.http("/metrics"))
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap();
+    assert!(
+        metrics.contains("facewire_frames_skipped_total{stage=\"viewer\"}"),
+        "{metrics}"
+    );
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn malformed_input_is_refused_and_the_stream_keeps_running() {
+    let _serial = SERIAL.lock().await;
+    let server = Server::start(Config {
+        limits: facewire::server::config::Limits {
+            max_message_bytes: 4096,
+            ..Default::default()
+        },
+        ..memory_config()
+    })
+    .await;
+    server.register("mh", "makehuman_head", "").await;
+    let mut viewer = connect(&server.ws("/v1/heads/mh/streams/s/view?algo=P")).await;
+    assert!(matches!(next_json(&mut viewer).await, ServerMessage::Snapshot(_)));
+    let mut producer = connect(&server.ws("/v1/heads/mh/streams/s/produce")).await;
+
+    let expect_error = |code: &'static str| {
+        let code = code.to_string();
+        move |message: ServerMessage| match message {
+            ServerMessage::Error {
+                code: got, message, ..
+            } => {
+                assert_eq!(got, code, "{message}");
+                message
+            }
+            other => panic!("expected error {code}, got {other:?}"),
+        }
+    };
+    let send = async |producer: &mut Socket, message: Message| {
+        producer.send(message).await.unwrap();
+        next_json(producer).await
+    };
+
+    let ok = |seq: u64| {
+        Message::Text(
+            format!(
+                r#"{{"seq":{seq},"t":{},"au":{{"jaw_drop":0.4}}}}"#,
+                seq as f64 * 0.1
+            )
+            .into(),
+        )
+    };
+    assert!(matches!(
+        send(&mut producer, ok(0)).await,
+        ServerMessage::Ack { seq: 0, .. }
+    ));
+
+    let message = expect_error("bad_frame")(send(&mut producer, Message::Text("{not json".into())).await);
+    assert!(message.contains("invalid JSON"), "{message}");
+    let message = expect_error("bad_frame")(
+        send(
+            &mut producer,
+            Message::Text(r#"{"seq":1,"t":0.1,"au":{"smile":1}}"#.into()),
+        )
+        .await,
+    );
+    assert!(message.contains("smile"), "{message}");
+    let good = ParamFrame {
+        seq: 1,
+        time_s: 0.1,
+        animation: vec![(1, 0.3)],
+        ..ParamFrame::default()
+    }
+    .encode();
+    let message = expect_error("bad_frame")(
+        send(
+            &mut producer,
+            Message::Binary(good[..good.len() - 2].to_vec().into()),
+        )
+        .await,
+    );
+    assert!(message.contains("message too short: arkit_count"), "{message}");
+    let nan = ParamFrame {
+        seq: 1,
+        time_s: 0.1,
+        animation: vec![(1, f32::NAN)],
+        ..ParamFrame::default()
+    }
+    .encode();
+    match send(&mut producer, Message::Binary(nan.into())).await {
+        ServerMessage::Error { code, field, .. } => {
+            assert_eq!(code, "bad_frame");
+            assert_eq!(field.as_deref(), Some("au"));
+        }
+        other => panic!("expected an error, got {other:?}"),
+    }
+    expect_error("message_too_large")(send(&mut producer, Message::Text("x".repeat(10_000).into())).await);
+    expect_error("out_of_order")(send(&mut producer, ok(0)).await);
+
+    // A second producer is refused and closed; the first keeps going.
+    let mut second = connect(&server.ws("/v1/heads/mh/streams/s/produce")).await;
+    expect_error("producer_busy")(next_json(&mut second).await);
+    assert!(matches!(
+        send(&mut producer, Message::Binary(good.into())).await,
+        ServerMessage::Ack { seq: 1, .. }
+    ));
+    assert!(matches!(
+        send(&mut producer, ok(2)).await,
+        ServerMessage::Ack { seq: 2, .. }
+    ));
+
+    // The viewer saw the good frames only.
+    let mut seqs = Vec::new();
+    while seqs.last() != Some(&2) {
+        seqs.push(next_frame(&mut viewer).await.header.seq);
+    }
+    assert!(seqs.iter().all(|s| [0, 1, 2].contains(s)), "{seqs:?}");
+
+    // Unknown heads: a viewer gets an error and a 4404 close; a producer is refused.
+    let mut lost = connect(&server.ws("/v1/heads/nosuch/streams/s/view")).await;
+    expect_error("unknown_head")(next_json(&mut lost).await);
+    match lost.next().await {
+        Some(Ok(Message::Close(Some(frame)))) => assert_eq!(u16::from(frame.code), 4404),
+        other => panic!("expected a close, got {other:?}"),
+    }
+    assert!(
+        tokio_tungstenite::connect_async(server.ws("/v1/heads/nosuch/streams/s/produce"))
+            .await
+            .is_err()
+    );
+    let response = reqwest::get(server.http("/v1/heads/nosuch")).await.unwrap();
+    assert_eq!(response.status(), 404);
+    let body: serde_json::Value = response.json().await.unwrap();
+    assert_eq!(body["error"], "unknown_head");
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn heads_survive_a_restart() {
+    let _serial = SERIAL.lock().await;
+    let dir = tempfile::tempdir().unwrap();
+    let config = Config {
+        data_dir: Some(dir.path().to_path_buf()),
+        ..Config::default()
+    };
+    let server = Server::start(config.clone()).await;
+    server.register("mh", "makehuman_head", "").await;
+    let mut viewer = connect(&server.ws("/v1/heads/mh/streams/s/view")).await;
+    assert!(matches!(next_json(&mut viewer).await, ServerMessage::Snapshot(_)));
+    server.stop().await;
+    // Viewers are told why they are closed.
+    match next_json(&mut viewer).await {
+        ServerMessage::End { reason } => assert_eq!(reason, "server shutting down"),
+        other => panic!("expected end, got {other:?}"),
+    }
+
+    let server = Server::start(config).await;
+    let info = server.wait_ready("mh").await;
+    assert_eq!(info.vertices, 4352);
+    let mesh = reqwest::get(server.http("/v1/heads/mh/mesh.bin"))
+        .await
+        .unwrap()
+        .bytes()
+        .await
+        .unwrap();
+    assert_eq!(&mesh[..4], b"FWM1");
+    assert_eq!(mesh.len(), 16 + 4352 * 12 + 8652 * 12);
+    // Deleting removes it for good.
+    let response = reqwest::Client::new()
+        .delete(server.http("/v1/heads/mh"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(response.status(), 204);
+    server.stop().await;
+    let server = Server::start(Config {
+        data_dir: Some(dir.path().to_path_buf()),
+        ..Config::default()
+    })
+    .await;
+    let heads: Vec<HeadInfo> = reqwest::get(server.http("/v1/heads"))
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    assert!(heads.is_empty());
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn tokens_are_required_when_configured() {
+    let _serial = SERIAL.lock().await;
+    let server = Server::start(Config {
+        auth: facewire::server::config::Auth {
+            producer_token: Some("prod".into()),
+            viewer_token: Some("view".into()),
+            admin_token: Some("admin".into()),
+        },
+        ..memory_config()
+    })
+    .await;
+    let body = serde_json::json!({"id": "x", "obj": "v 0 0 0", "fit": ""});
+    let refused = reqwest::Client::new()
+        .post(server.http("/v1/heads"))
+        .json(&body)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(refused.status(), 401);
+    server.register("mh", "makehuman_head", "?token=admin").await;
+    for (path, token) in [("produce", "prod"), ("view", "view")] {
+        let url = server.ws(&format!("/v1/heads/mh/streams/s/{path}"));
+        for bad in [url.clone(), format!("{url}?token=wrong")] {
+            match tokio_tungstenite::connect_async(bad.as_str()).await {
+                Err(tokio_tungstenite::tungstenite::Error::Http(response)) => {
+                    assert_eq!(response.status(), 401)
+                }
+                other => panic!("{bad}: expected 401, got {:?}", other.map(|_| ())),
+            }
+        }
+        let mut socket = connect(&format!("{url}?token={token}")).await;
+        if path == "view" {
+            assert!(matches!(next_json(&mut socket).await, ServerMessage::Snapshot(_)));
+        } else {
+            socket
+                .send(Message::Text(r#"{"seq":0,"t":0}"#.into()))
+                .await
+                .unwrap();
+            assert!(matches!(
+                next_json(&mut socket).await,
+                ServerMessage::Ack { seq: 0, .. }
+            ));
+        }
+    }
+    server.stop().await;
+}

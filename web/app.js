@@ -1,0 +1,1 @@
+// app.js: written with the web client

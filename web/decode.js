@@ -1,0 +1,1 @@
+// decode.js: written with the web client

@@ -1,0 +1,1 @@
+// render.js: written with the web client
