@@ -107,6 +107,18 @@ impl<'a> Reader<'a> {
         self.bytes.len() - self.at
     }
 
+    /// A label: u8 length, then that many UTF-8 bytes.
+    pub(crate) fn label(&mut self) -> Result<String, DecodeError> {
+        let len = self.u8("label length")? as usize;
+        let at = self.position();
+        let text = self.take(len, "label")?;
+        String::from_utf8(text.to_vec()).map_err(|_| DecodeError::Invalid {
+            field: "label",
+            at,
+            problem: "not UTF-8".into(),
+        })
+    }
+
     pub(crate) fn varint(&mut self, field: &'static str) -> Result<u64, DecodeError> {
         let at = self.at;
         let (value, used) = varint::decode(&self.bytes[self.at..]).ok_or(DecodeError::Invalid {

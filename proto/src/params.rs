@@ -63,12 +63,7 @@ impl ParamFrame {
             }
         }
         if let Some(label) = &self.label {
-            let mut end = label.len().min(255);
-            while !label.is_char_boundary(end) {
-                end -= 1;
-            }
-            out.push(end as u8);
-            out.extend_from_slice(&label.as_bytes()[..end]);
+            crate::frame::write_label(label, &mut out);
         }
         out
     }
@@ -108,16 +103,7 @@ impl ParamFrame {
             None
         };
         let label = if flags & FLAG_LABEL != 0 {
-            let len = r.u8("label length")? as usize;
-            let at = r.position();
-            let text = r.take(len, "label")?;
-            Some(
-                String::from_utf8(text.to_vec()).map_err(|_| DecodeError::Invalid {
-                    field: "label",
-                    at,
-                    problem: "not UTF-8".into(),
-                })?,
-            )
+            Some(r.label()?)
         } else {
             None
         };

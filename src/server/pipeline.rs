@@ -225,6 +225,7 @@ impl Worker {
                 lip: &self.lip_wire,
                 label: params.label.as_deref(),
                 face,
+                deflate: true,
             },
         ));
         let published = Instant::now();
