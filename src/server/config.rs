@@ -153,6 +153,15 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_example_config_is_valid() {
+        let config: Config = toml::from_str(include_str!("../../deploy/facewire.example.toml")).unwrap();
+        config.validate().unwrap();
+        assert_eq!(config.addr.port(), 8480);
+        assert_eq!(config.limits, Limits::default());
+        assert_eq!(config.auth, Auth::default());
+    }
+
+    #[test]
     fn file_then_environment() {
         let mut config: Config = toml::from_str(
             "addr = \"0.0.0.0:9000\"\n[limits]\nmax_fps = 60.0\n[auth]\nviewer_token = \"v\"\n",
