@@ -27,7 +27,10 @@ fn main() {
     let per_channel: usize = arg(1, "4").parse().expect("viewers per channel");
     let seconds: f64 = arg(2, "10").parse().expect("seconds");
     let algo = arg(3, "");
-    let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build().unwrap();
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .unwrap();
     runtime.block_on(run(channels, per_channel, seconds, algo));
 }
 
@@ -54,7 +57,12 @@ async fn run(channels: usize, per_channel: usize, seconds: f64, algo: String) {
         "fit": std::fs::read_to_string(root.join("heads/makehuman_head.fit.toml")).unwrap(),
     });
     let client = reqwest::Client::new();
-    client.post(format!("http://{addr}/v1/heads")).json(&body).send().await.unwrap();
+    client
+        .post(format!("http://{addr}/v1/heads"))
+        .json(&body)
+        .send()
+        .await
+        .unwrap();
     while state.registry.get("h").and_then(|h| h.ready()).is_none() {
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
@@ -78,15 +86,20 @@ async fn run(channels: usize, per_channel: usize, seconds: f64, algo: String) {
     let sent_at: Vec<Arc<Vec<AtomicU64>>> = (0..channels)
         .map(|_| Arc::new((0..SLOTS).map(|_| AtomicU64::new(0)).collect()))
         .collect();
-    let query = if algo.is_empty() { String::new() } else { format!("?algo={algo}") };
+    let query = if algo.is_empty() {
+        String::new()
+    } else {
+        format!("?algo={algo}")
+    };
     let mut viewers = Vec::new();
-    for c in 0..channels {
+    for (c, channel_sent) in sent_at.iter().enumerate() {
         for _ in 0..per_channel {
             let url = format!("ws://{addr}/v1/heads/h/streams/c{c}/view{query}");
             let (mut socket, _) = tokio_tungstenite::connect_async(url.as_str()).await.unwrap();
-            let sent = sent_at[c].clone();
+            let sent = channel_sent.clone();
             viewers.push(tokio::spawn(async move {
-                let (mut latencies, mut received, mut skipped, mut last) = (Vec::new(), 0u64, 0u64, None::<u64>);
+                let (mut latencies, mut received, mut skipped, mut last) =
+                    (Vec::new(), 0u64, 0u64, None::<u64>);
                 let deadline = tokio::time::Instant::now() + Duration::from_secs_f64(seconds + 2.0);
                 while let Ok(Some(Ok(message))) = tokio::time::timeout_at(deadline, socket.next()).await {
                     if let Message::Binary(bytes) = message {

@@ -1,28 +1,16 @@
 //! Every interpolation variant on both shipped heads: invariants, lips, ground truth.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::{data, deform_with, posed, register, upper_lip_vertices};
+
 use std::sync::OnceLock;
 
-use facewire::deform::{bind, AlgoSpec, Binding, Registration};
-use facewire::fit::{FitFile, FittedMask};
+use facewire::deform::{bind, AlgoSpec, Registration};
 use facewire::head::Head;
 use facewire::mask::{Mask, LOWER_LIP};
 use facewire::stream::{open_stream, Frame};
 use glam::{Mat3, Vec3};
-
-fn data(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path)
-}
-
-fn register(name: &str) -> Registration {
-    let head = Head::load(&data(&format!("heads/{name}.obj"))).unwrap();
-    let mask = Mask::candide3();
-    let fit = FitFile::load(&data(&format!("heads/{name}.fit.toml")))
-        .unwrap()
-        .resolve(name, &mask)
-        .unwrap();
-    Registration::new(head, FittedMask::new(mask, fit))
-}
 
 fn scan() -> &'static Registration {
     static REG: OnceLock<Registration> = OnceLock::new();
@@ -50,26 +38,6 @@ fn variants() -> Vec<AlgoSpec> {
         specs.push(extra.parse().unwrap());
     }
     specs
-}
-
-fn deform_with(reg: &Registration, binding: &Binding, mask_now: &[Vec3]) -> Vec<Vec3> {
-    let mut scratch = binding.scratch(mask_now.len(), reg.mask_triangles().len());
-    let mut out = vec![Vec3::ZERO; reg.vertex_count()];
-    binding.deform(
-        &reg.head.positions,
-        reg.mask_rest(),
-        mask_now,
-        reg.mask_triangles(),
-        &mut scratch,
-        &mut out,
-    );
-    out
-}
-
-fn posed(reg: &Registration, animation: &[f32]) -> Vec<Vec3> {
-    let mut mask_now = vec![Vec3::ZERO; reg.mask_rest().len()];
-    reg.fitted.pose_into(animation, &mut mask_now);
-    mask_now
 }
 
 fn head_size(reg: &Registration) -> f32 {
@@ -192,24 +160,6 @@ fn local_frame_variants_move_rigidly_with_a_rigid_mask() {
             );
         }
     }
-}
-
-/// Upper-lip head vertices: those whose projection triangle has only upper-lip corners and
-/// lies within 10 mm of them along the surface (far vertices, such as the back of the
-/// head, can project into a lip triangle too).
-fn upper_lip_vertices(reg: &Registration) -> Vec<usize> {
-    let upper = [7u32, 33, 66, 79, 80, 81, 82, 87, 31, 64, 88, 89];
-    let upper_triangles: Vec<bool> = reg
-        .mask_triangles()
-        .iter()
-        .map(|t| t.iter().all(|j| upper.contains(j)))
-        .collect();
-    (0..reg.vertex_count())
-        .filter(|&v| {
-            let p = reg.projections[v];
-            upper_triangles[p.triangle as usize] && p.distance_mm < 10.0
-        })
-        .collect()
 }
 
 /// Mean upper-lip head motion over the mean lower-lip control motion, for a jaw drop.

@@ -2,13 +2,16 @@
 //! through the public API. Hand-computed weights (eq. 2-5 on three feature points) are unit
 //! tests inside `src/deform/kshirsagar.rs`.
 
+mod common;
+
+use common::{deform_with, posed, register};
+
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use std::time::Instant;
 
 use facewire::deform::{bind, Binding, Registration};
-use facewire::fit::{Fit, FitFile, FittedMask};
+use facewire::fit::{Fit, FittedMask};
 use facewire::head::Head;
 use facewire::mask::{Mask, MaskPose, LOWER_LIP, UPPER_LIP};
 use glam::Vec3;
@@ -17,20 +20,6 @@ const HEADS: [&str; 2] = ["lee_perry_smith_head", "makehuman_head"];
 /// Mask vertices of the upper lip (with the mouth corners 31, 64 and 88, 89).
 const UPPER_LIP_TRIANGLE_CORNERS: [u32; 12] = [7, 33, 66, 79, 80, 81, 82, 87, 31, 64, 88, 89];
 
-fn data(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path)
-}
-
-fn registration(name: &str) -> Registration {
-    let head = Head::load(&data(&format!("heads/{name}.obj"))).unwrap();
-    let mask = Mask::candide3();
-    let fit = FitFile::load(&data(&format!("heads/{name}.fit.toml")))
-        .unwrap()
-        .resolve("fit", &mask)
-        .unwrap();
-    Registration::new(head, FittedMask::new(mask, fit))
-}
-
 /// Both heads, registered and bound once for the whole file.
 fn bound() -> &'static [(Registration, Binding)] {
     static BOUND: OnceLock<Vec<(Registration, Binding)>> = OnceLock::new();
@@ -38,7 +27,7 @@ fn bound() -> &'static [(Registration, Binding)] {
         HEADS
             .iter()
             .map(|name| {
-                let reg = registration(name);
+                let reg = register(name);
                 let start = Instant::now();
                 let binding = bind(&reg, &"kshirsagar".parse().unwrap());
                 let terms = binding.linear.items().len();
@@ -52,26 +41,6 @@ fn bound() -> &'static [(Registration, Binding)] {
             })
             .collect()
     })
-}
-
-fn deform(reg: &Registration, binding: &Binding, mask_now: &[Vec3]) -> Vec<Vec3> {
-    let mut out = vec![Vec3::ZERO; reg.vertex_count()];
-    let mut scratch = binding.scratch(mask_now.len(), reg.mask_triangles().len());
-    binding.deform(
-        &reg.head.positions,
-        reg.mask_rest(),
-        mask_now,
-        reg.mask_triangles(),
-        &mut scratch,
-        &mut out,
-    );
-    out
-}
-
-fn posed(reg: &Registration, animation: &[f32]) -> Vec<Vec3> {
-    let mut mask_now = vec![Vec3::ZERO; reg.mask_rest().len()];
-    reg.fitted.pose_into(animation, &mut mask_now);
-    mask_now
 }
 
 fn jaw_drop() -> Vec<f32> {
@@ -119,9 +88,9 @@ fn rows_are_normalized_positive_and_bind_is_deterministic() {
 #[test]
 fn zero_displacement_moves_nothing() {
     for (reg, binding) in bound() {
-        let out = deform(reg, binding, reg.mask_rest());
+        let out = deform_with(reg, binding, reg.mask_rest());
         assert_eq!(out, reg.head.positions, "{}", reg.head.name);
-        let out = deform(reg, binding, &posed(reg, &[0.0; 65]));
+        let out = deform_with(reg, binding, &posed(reg, &[0.0; 65]));
         let worst = out
             .iter()
             .zip(&reg.head.positions)
@@ -139,7 +108,7 @@ fn a_common_translation_moves_every_vertex_by_it() {
     for (reg, binding) in bound() {
         let t = Vec3::new(0.3, -0.2, 0.1) * reg.head.bounds().size().max_element();
         let mask_now: Vec<Vec3> = reg.mask_rest().iter().map(|&c| c + t).collect();
-        let out = deform(reg, binding, &mask_now);
+        let out = deform_with(reg, binding, &mask_now);
         let mut worst = 0.0f32;
         for (v, (o, p)) in out.iter().zip(&reg.head.positions).enumerate() {
             let error = (*o - *p - t).length();
@@ -163,7 +132,7 @@ fn anchors_reproduce_their_control_displacements() {
         animation[5] = -0.3;
         animation[9] = 0.6;
         let mask_now = posed(reg, &animation);
-        let out = deform(reg, binding, &mask_now);
+        let out = deform_with(reg, binding, &mask_now);
         let mut worst = 0.0f32;
         let mut shared = 0;
         for (&anchor, controls) in &feature_points(reg) {
@@ -211,7 +180,7 @@ fn anchors_reproduce_their_control_displacements() {
 fn jaw_drop_does_not_drag_the_upper_lip() {
     for (reg, binding) in bound() {
         let mask_now = posed(reg, &jaw_drop());
-        let out = deform(reg, binding, &mask_now);
+        let out = deform_with(reg, binding, &mask_now);
         let moved = |v: u32| out[v as usize].distance(reg.head.positions[v as usize]);
         let lower = LOWER_LIP
             .iter()
@@ -270,7 +239,7 @@ fn every_unit_at_once_gives_finite_positions() {
     for (reg, binding) in bound() {
         for amplitude in [0.5f32, -1.0, 3.0] {
             let animation: Vec<f32> = (0..65).map(|i| amplitude * ((i as f32) * 0.7).sin()).collect();
-            let out = deform(reg, binding, &posed(reg, &animation));
+            let out = deform_with(reg, binding, &posed(reg, &animation));
             assert!(
                 out.iter().all(|p| p.is_finite()),
                 "{}: NaN at amplitude {amplitude}",
@@ -345,12 +314,12 @@ fn shared_anchors_and_unreachable_vertices_do_not_break_it() {
     }
     let t = Vec3::new(0.5, -1.0, 0.25);
     let mask_now: Vec<Vec3> = reg.mask_rest().iter().map(|&c| c + t).collect();
-    let out = deform(&reg, &binding, &mask_now);
+    let out = deform_with(&reg, &binding, &mask_now);
     for (o, p) in out.iter().zip(&reg.head.positions) {
         assert!((*o - *p - t).length() < 1e-4, "{o} from {p}");
     }
     let mask_now = posed(&reg, &jaw_drop());
-    let out = deform(&reg, &binding, &mask_now);
+    let out = deform_with(&reg, &binding, &mask_now);
     assert!(out.iter().all(|p| p.is_finite()));
     for (&anchor, controls) in &points {
         let expected = controls

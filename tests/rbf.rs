@@ -10,38 +10,23 @@
 //! [`ANCHOR_TOLERANCE`] of the largest displacement. Away from the anchors the affine
 //! reproduction is checked to `1e-4 + L * f32::EPSILON * |position| / |displacement|`.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::{deform_with, posed, register, upper_lip_vertices};
+
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use facewire::deform::{bind, AlgoSpec, Binding, Kernel, Metric, Registration};
-use facewire::fit::{FitFile, FittedMask};
-use facewire::head::Head;
-use facewire::mask::{Mask, LOWER_LIP};
+use facewire::mask::LOWER_LIP;
 use glam::{Mat3, Vec3};
 
-/// Corners of the upper-lip mask triangles: the upper lip and the mouth corners.
-const UPPER_LIP_TRIANGLE_CORNERS: [u32; 12] = [7, 33, 66, 79, 80, 81, 82, 87, 31, 64, 88, 89];
 /// Animation unit 1: AUV11 jaw drop.
 const JAW_DROP: usize = 1;
 /// Interpolation error at the anchors, relative to the largest control displacement.
 const ANCHOR_TOLERANCE: f32 = 1e-4;
 /// Lip leak bound: mean upper-lip motion over mean lower-lip control motion.
 const LIP_LEAK: f32 = 0.1;
-
-fn data(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path)
-}
-
-fn register(name: &str) -> Registration {
-    let head = Head::load(&data(&format!("heads/{name}.obj"))).unwrap();
-    let mask = Mask::candide3();
-    let fit = FitFile::load(&data(&format!("heads/{name}.fit.toml")))
-        .unwrap()
-        .resolve("fit", &mask)
-        .unwrap();
-    Registration::new(head, FittedMask::new(mask, fit))
-}
 
 fn heads() -> [(&'static str, &'static Registration); 2] {
     static SCAN: OnceLock<Registration> = OnceLock::new();
@@ -73,26 +58,6 @@ fn variants(poly: &str) -> Vec<AlgoSpec> {
         }
     }
     specs
-}
-
-fn deform_with(reg: &Registration, binding: &Binding, mask_now: &[Vec3]) -> Vec<Vec3> {
-    let mut scratch = binding.scratch(mask_now.len(), reg.mask_triangles().len());
-    let mut out = vec![Vec3::ZERO; reg.vertex_count()];
-    binding.deform(
-        &reg.head.positions,
-        reg.mask_rest(),
-        mask_now,
-        reg.mask_triangles(),
-        &mut scratch,
-        &mut out,
-    );
-    out
-}
-
-fn posed(reg: &Registration, animation: &[f32]) -> Vec<Vec3> {
-    let mut mask_now = vec![Vec3::ZERO; reg.mask_rest().len()];
-    reg.fitted.pose_into(animation, &mut mask_now);
-    mask_now
 }
 
 /// The rest mask plus `displacement(j)` (head units) on every control.
@@ -277,21 +242,6 @@ fn the_linear_term_reproduces_translations_and_affine_motions() {
             );
         }
     }
-}
-
-/// Upper-lip head vertices: projecting onto a triangle whose corners are all upper-lip or
-/// mouth-corner vertices, within 10 mm of that triangle along the surface (vertices of the
-/// back of the head project into lip triangles too). The same rule as tests/deform.rs.
-fn upper_lip_vertices(reg: &Registration) -> Vec<usize> {
-    (0..reg.vertex_count())
-        .filter(|&v| {
-            let p = reg.projections[v];
-            p.distance_mm < 10.0
-                && reg.mask_triangles()[p.triangle as usize]
-                    .iter()
-                    .all(|c| UPPER_LIP_TRIANGLE_CORNERS.contains(c))
-        })
-        .collect()
 }
 
 /// For a jaw drop of 0.5: (mean upper-lip vertex motion, largest upper-lip vertex motion),

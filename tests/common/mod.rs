@@ -1,0 +1,66 @@
+//! Shared by the integration tests that deform the shipped heads: data paths, registering
+//! a shipped head with its fit, posing the mask, deforming with a binding.
+#![allow(dead_code)] // each test file uses its own subset
+
+use std::path::{Path, PathBuf};
+
+use facewire::deform::{Binding, Registration};
+use facewire::fit::{FitFile, FittedMask};
+use facewire::head::Head;
+use facewire::mask::Mask;
+use glam::Vec3;
+
+pub fn data(path: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path)
+}
+
+/// A shipped head (`lee_perry_smith_head`, `makehuman_head`) registered with its fit.
+pub fn register(name: &str) -> Registration {
+    let head = Head::load(&data(&format!("heads/{name}.obj"))).unwrap();
+    let mask = Mask::candide3();
+    let fit = FitFile::load(&data(&format!("heads/{name}.fit.toml")))
+        .unwrap()
+        .resolve(name, &mask)
+        .unwrap();
+    Registration::new(head, FittedMask::new(mask, fit))
+}
+
+/// The head deformed by `binding` for the moved mask `mask_now` (head units).
+pub fn deform_with(reg: &Registration, binding: &Binding, mask_now: &[Vec3]) -> Vec<Vec3> {
+    let mut scratch = binding.scratch(mask_now.len(), reg.mask_triangles().len());
+    let mut out = vec![Vec3::ZERO; reg.vertex_count()];
+    binding.deform(
+        &reg.head.positions,
+        reg.mask_rest(),
+        mask_now,
+        reg.mask_triangles(),
+        &mut scratch,
+        &mut out,
+    );
+    out
+}
+
+/// The fitted mask moved by animation weights, head units.
+pub fn posed(reg: &Registration, animation: &[f32]) -> Vec<Vec3> {
+    let mut mask_now = vec![Vec3::ZERO; reg.mask_rest().len()];
+    reg.fitted.pose_into(animation, &mut mask_now);
+    mask_now
+}
+
+/// Upper-lip head vertices: those whose projection triangle has only upper-lip corners and
+/// lies within 10 mm of them along the surface (far vertices, such as the back of the
+/// head, can project into a lip triangle too).
+pub fn upper_lip_vertices(reg: &Registration) -> Vec<usize> {
+    let upper = [7u32, 33, 66, 79, 80, 81, 82, 87, 31, 64, 88, 89];
+    let upper_triangles: Vec<bool> = reg
+        .mask_triangles()
+        .iter()
+        .map(|t| t.iter().all(|j| upper.contains(j)))
+        .collect();
+    (0..reg.vertex_count())
+        .filter(|&v| {
+            let p = reg.projections[v];
+            upper_triangles[p.triangle as usize] && p.distance_mm < 10.0
+        })
+        .collect()
+}
