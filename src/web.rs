@@ -6,29 +6,22 @@ use axum::response::IntoResponse;
 use axum::routing::get;
 use axum::Router;
 
-/// `(path, content type, body)` of every embedded file.
-const ASSETS: [(&str, &str, &str); 5] = [
-    (
-        "/app.js",
-        "text/javascript; charset=utf-8",
-        include_str!("../web/app.js"),
-    ),
-    (
-        "/decode.js",
-        "text/javascript; charset=utf-8",
-        include_str!("../web/decode.js"),
-    ),
-    (
-        "/render.js",
-        "text/javascript; charset=utf-8",
-        include_str!("../web/render.js"),
-    ),
-    (
-        "/style.css",
-        "text/css; charset=utf-8",
-        include_str!("../web/style.css"),
-    ),
-    ("/", "text/html; charset=utf-8", include_str!("../web/index.html")),
+const HTML: &str = "text/html; charset=utf-8";
+const CSS: &str = "text/css; charset=utf-8";
+const JS: &str = "text/javascript; charset=utf-8";
+
+/// `(path, content type, body)` of every embedded file. `web/decode.test.mjs` and
+/// `web/package.json` are for the decoder test (`tests/web_decode.rs`), not served.
+const ASSETS: [(&str, &str, &str); 9] = [
+    ("/", HTML, include_str!("../web/index.html")),
+    ("/style.css", CSS, include_str!("../web/style.css")),
+    ("/app.js", JS, include_str!("../web/app.js")),
+    ("/camera.js", JS, include_str!("../web/camera.js")),
+    ("/chart.js", JS, include_str!("../web/chart.js")),
+    ("/decode.js", JS, include_str!("../web/decode.js")),
+    ("/panel.js", JS, include_str!("../web/panel.js")),
+    ("/render.js", JS, include_str!("../web/render.js")),
+    ("/stream.js", JS, include_str!("../web/stream.js")),
 ];
 
 pub fn routes<S: Clone + Send + Sync + 'static>() -> Router<S> {

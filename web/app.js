@@ -1,1 +1,278 @@
-// app.js: written with the web client
+// app.js: the page. Reads ?head=&stream=&algo=&algo2=&heat=&heat2=&token=, fills the
+// pickers from /v1/heads and /v1/algorithms, runs one view or two side by side (one shared
+// camera), and the drawing loop: once per animation frame each view decodes only its newest
+// frame, and two views draw the same sequence number so they stay in step.
+
+import { attachPointerControls, handleCameraKey, OrbitCamera } from "./camera.js";
+import { LiveChart } from "./chart.js";
+import { parseMesh } from "./decode.js";
+import { Panel } from "./panel.js";
+
+/** A view whose last frame is older than this does not hold the other one back. */
+const STALE_MS = 300;
+
+const byId = (id) => document.getElementById(id);
+const controls = {
+  head: byId("head"),
+  stream: byId("stream"),
+  compare: byId("compare"),
+  zoomIn: byId("zoom-in"),
+  zoomOut: byId("zoom-out"),
+  resetView: byId("reset-view"),
+  views: byId("views"),
+  message: byId("page-message"),
+};
+
+const params = new URLSearchParams(location.search);
+const page = {
+  heads: [],
+  algorithms: [],
+  head: params.get("head") || "scan",
+  stream: params.get("stream") || "main",
+  token: params.get("token") || "",
+  panels: [],
+};
+const camera = new OrbitCamera();
+const chart = new LiveChart(byId("chart"));
+const meshes = new Map();
+let framedMesh = null;
+
+async function fetchJson(path) {
+  const response = await fetch(path);
+  if (!response.ok) {
+    throw new Error(`${path}: HTTP ${response.status}`);
+  }
+  return response.json();
+}
+
+/** Rest meshes by URL, fetched once and shared by both views. */
+function loadMesh(url) {
+  if (!meshes.has(url)) {
+    const promise = fetch(url).then((response) => {
+      if (!response.ok) {
+        throw new Error(`HTTP ${response.status}`);
+      }
+      return response.arrayBuffer().then(parseMesh);
+    });
+    promise.catch(() => meshes.delete(url));
+    meshes.set(url, promise);
+  }
+  return meshes.get(url);
+}
+
+function showPageMessage(text) {
+  controls.message.hidden = !text;
+  controls.message.textContent = text ?? "";
+}
+
+/** A letter (`T`) or spec from the URL as the spec the picker holds; empty: the default. */
+function resolveAlgorithm(text) {
+  const fallback = page.algorithms.find((a) => a.default)?.spec ?? "";
+  if (!text) {
+    return fallback;
+  }
+  const found = page.algorithms.find((a) => a.letter.toLowerCase() === text.toLowerCase() || a.spec === text);
+  return found ? found.spec : text;
+}
+
+/** The spec as the URL shows it: its letter when it is a preset. */
+function shortAlgorithm(spec) {
+  return page.algorithms.find((a) => a.spec === spec)?.letter ?? spec;
+}
+
+function streamsOf(head) {
+  return page.heads.find((h) => h.id === head)?.streams ?? [];
+}
+
+function fillHeadPicker() {
+  const { head } = controls;
+  head.replaceChildren();
+  for (const info of page.heads) {
+    const note = info.status === "ready" ? "" : ` (${info.status})`;
+    head.add(new Option(`${info.id}${note}`, info.id));
+  }
+  if (!page.heads.some((h) => h.id === page.head)) {
+    head.add(new Option(`${page.head} (not registered)`, page.head));
+  }
+  head.value = page.head;
+}
+
+function fillStreamPicker() {
+  const { stream } = controls;
+  const known = streamsOf(page.head);
+  stream.replaceChildren();
+  for (const name of known) {
+    stream.add(new Option(name, name));
+  }
+  if (!known.includes(page.stream)) {
+    stream.add(new Option(`${page.stream} (no frames yet)`, page.stream));
+  }
+  stream.value = page.stream;
+}
+
+function writeUrl() {
+  const query = new URLSearchParams({ head: page.head, stream: page.stream });
+  page.panels.forEach((panel, i) => {
+    const suffix = i === 0 ? "" : "2";
+    query.set(`algo${suffix}`, shortAlgorithm(panel.settings.algorithm));
+    if (panel.settings.heat) {
+      query.set(`heat${suffix}`, "1");
+    }
+  });
+  if (page.token) {
+    query.set("token", page.token);
+  }
+  history.replaceState(null, "", `?${query}`);
+}
+
+/** What a view connects with: the page's head and stream, the view's own choices. */
+function connectSettings({ algorithm, heat }) {
+  return {
+    head: page.head,
+    stream: page.stream,
+    algorithm,
+    heat,
+    token: page.token,
+    knownStreams: streamsOf(page.head),
+  };
+}
+
+function addPanel(algorithm, heat) {
+  const index = page.panels.length;
+  const panel = new Panel({
+    index,
+    container: controls.views,
+    algorithms: page.algorithms,
+    chart,
+    loadMesh,
+    onMesh: (url, mesh) => {
+      if (framedMesh !== url) {
+        framedMesh = url;
+        camera.frame(mesh.positions, mesh.mmPerUnit);
+      }
+    },
+    onSettings: writeUrl,
+  });
+  const canvas = panel.parts.canvas;
+  attachPointerControls(canvas, camera);
+  canvas.addEventListener("keydown", (event) => {
+    if (handleCameraKey(event, camera)) {
+      event.preventDefault();
+    }
+  });
+  page.panels.push(panel);
+  panel.connect(connectSettings({ algorithm, heat }));
+}
+
+function setCompare(on) {
+  controls.compare.setAttribute("aria-pressed", String(on));
+  controls.views.classList.toggle("two", on);
+  if (on && page.panels.length === 1) {
+    const first = page.panels[0].settings.algorithm;
+    const other = page.algorithms.find((a) => a.spec !== first)?.spec ?? first;
+    addPanel(params.has("algo2") ? resolveAlgorithm(params.get("algo2")) : other, params.get("heat2") === "1");
+  } else if (!on && page.panels.length === 2) {
+    page.panels.pop().destroy();
+  }
+  writeUrl();
+}
+
+function reconnectAll() {
+  for (const panel of page.panels) {
+    panel.connect(connectSettings(panel.settings));
+  }
+  writeUrl();
+}
+
+/** The sequence number both views draw: the newest that every live view has. */
+function commonSeq(now) {
+  const fresh = page.panels.filter((p) => p.state === "live" && now - p.lastArrival < STALE_MS);
+  return fresh.length > 0 ? Math.min(...fresh.map((p) => p.newestSeq())) : Infinity;
+}
+
+let decoding = false;
+let cameraMoved = true;
+let statsAt = performance.now();
+
+function animate(now) {
+  requestAnimationFrame(animate);
+  if (!decoding) {
+    const panels = [...page.panels];
+    const target = commonSeq(now);
+    const work = panels.map((panel) => panel.prepare(target));
+    if (work.some(Boolean)) {
+      decoding = true;
+      Promise.all(work)
+        .then((frames) =>
+          frames.forEach((frame, i) => {
+            if (frame) {
+              panels[i].show(frame);
+              panels[i].draw(camera, false);
+            }
+          }),
+        )
+        .finally(() => {
+          decoding = false;
+        });
+    }
+  }
+  for (const panel of page.panels) {
+    panel.draw(camera, cameraMoved);
+  }
+  cameraMoved = false;
+  chart.draw(now);
+  if (now - statsAt >= 1000) {
+    statsAt = now;
+    for (const panel of page.panels) {
+      panel.updateStats(now);
+    }
+  }
+}
+
+async function start() {
+  camera.onChange(() => {
+    cameraMoved = true;
+  });
+  controls.zoomIn.addEventListener("click", () => camera.zoomIn());
+  controls.zoomOut.addEventListener("click", () => camera.zoomOut());
+  controls.resetView.addEventListener("click", () => camera.reset());
+  controls.compare.addEventListener("click", () =>
+    setCompare(controls.compare.getAttribute("aria-pressed") !== "true"),
+  );
+  controls.head.addEventListener("change", () => {
+    page.head = controls.head.value;
+    const known = streamsOf(page.head);
+    if (!known.includes(page.stream) && known.length > 0) {
+      page.stream = known.includes("main") ? "main" : known[0];
+    }
+    fillStreamPicker();
+    reconnectAll();
+  });
+  controls.stream.addEventListener("change", () => {
+    page.stream = controls.stream.value;
+    reconnectAll();
+  });
+
+  const [heads, algorithms] = await Promise.allSettled([fetchJson("/v1/heads"), fetchJson("/v1/algorithms")]);
+  const failed = [heads, algorithms].filter((r) => r.status === "rejected").map((r) => r.reason.message);
+  if (failed.length > 0) {
+    showPageMessage(`Cannot read the server's lists (${failed.join("; ")}); the views connect anyway.`);
+  }
+  page.heads = heads.value ?? [];
+  page.algorithms = algorithms.value ?? [];
+  if (!params.has("head") && page.heads.length > 0 && !page.heads.some((h) => h.id === page.head)) {
+    page.head = page.heads[0].id;
+  }
+  fillHeadPicker();
+  fillStreamPicker();
+  try {
+    addPanel(resolveAlgorithm(params.get("algo")), params.get("heat") === "1");
+  } catch (error) {
+    showPageMessage(`The 3D view cannot start: ${error.message}`);
+    return;
+  }
+  setCompare(params.has("algo2"));
+  requestAnimationFrame(animate);
+}
+
+start();

@@ -1,1 +1,227 @@
-// render.js: written with the web client
+// render.js: draws one head with plain WebGL2: smooth vertex normals recomputed from the
+// deformed positions every frame, a key, fill and rim light that move with the camera (the
+// face is always lit), and an optional roughness heat-map in place of the skin colour.
+
+const VERTEX_SHADER = `#version 300 es
+uniform mat4 u_view;
+uniform mat4 u_projection;
+in vec3 a_position;
+in vec3 a_normal;
+in float a_heat;
+out vec3 v_position;
+out vec3 v_normal;
+out float v_heat;
+
+void main() {
+  vec4 p = u_view * vec4(a_position, 1.0);
+  v_position = p.xyz;
+  v_normal = mat3(u_view) * a_normal;
+  v_heat = a_heat;
+  gl_Position = u_projection * p;
+}`;
+
+// Lighting in linear RGB, output in sRGB. The heat-map ramp is viridis (readable with
+// colour-blindness, dark to light), the same stops as the legend in style.css.
+const FRAGMENT_SHADER = `#version 300 es
+precision highp float;
+uniform float u_heat_scale; // roughness at the top of the ramp; 0 shows skin
+in vec3 v_position;
+in vec3 v_normal;
+in float v_heat;
+out vec4 out_colour;
+
+vec3 viridis(float t) {
+  const vec3 c0 = vec3(0.267, 0.005, 0.329);
+  const vec3 c1 = vec3(0.229, 0.322, 0.546);
+  const vec3 c2 = vec3(0.128, 0.567, 0.551);
+  const vec3 c3 = vec3(0.369, 0.789, 0.383);
+  const vec3 c4 = vec3(0.993, 0.906, 0.144);
+  t = clamp(t, 0.0, 1.0) * 4.0;
+  if (t < 1.0) return mix(c0, c1, t);
+  if (t < 2.0) return mix(c1, c2, t - 1.0);
+  if (t < 3.0) return mix(c2, c3, t - 2.0);
+  return mix(c3, c4, t - 3.0);
+}
+
+vec3 light(vec3 n, vec3 to_eye, vec3 direction, vec3 colour, float shininess) {
+  vec3 l = normalize(direction);
+  float diffuse = max(dot(n, l), 0.0);
+  float specular = diffuse > 0.0 ? pow(max(dot(n, normalize(l + to_eye)), 0.0), shininess) : 0.0;
+  return colour * diffuse + colour * specular * 0.12;
+}
+
+void main() {
+  float length_n = length(v_normal);
+  vec3 n = length_n > 0.0 ? v_normal / length_n : vec3(0.0, 0.0, 1.0);
+  if (!gl_FrontFacing) n = -n;
+  vec3 to_eye = normalize(-v_position);
+  vec3 base = u_heat_scale > 0.0 ? viridis(v_heat / u_heat_scale) : vec3(0.86, 0.71, 0.62);
+  vec3 albedo = pow(base, vec3(2.2));
+  vec3 ambient = mix(vec3(0.10, 0.09, 0.08), vec3(0.22, 0.24, 0.28), n.y * 0.5 + 0.5);
+  vec3 lit = albedo * ambient
+    + albedo * light(n, to_eye, vec3(-0.5, 0.6, 0.8), vec3(1.0, 0.96, 0.9) * 0.95, 40.0)
+    + albedo * light(n, to_eye, vec3(0.7, 0.1, 0.5), vec3(0.75, 0.85, 1.0) * 0.35, 20.0)
+    + light(n, to_eye, vec3(0.2, 0.5, -1.0), vec3(1.0) * 0.25, 8.0);
+  out_colour = vec4(pow(lit, vec3(1.0 / 2.2)), 1.0);
+}`;
+
+/** Area-weighted vertex normals of a triangle mesh (not normalized: the shader does it). */
+export function vertexNormals(positions, indices, out) {
+  out.fill(0);
+  for (let t = 0; t < indices.length; t += 3) {
+    const a = indices[t] * 3;
+    const b = indices[t + 1] * 3;
+    const c = indices[t + 2] * 3;
+    const ux = positions[b] - positions[a];
+    const uy = positions[b + 1] - positions[a + 1];
+    const uz = positions[b + 2] - positions[a + 2];
+    const vx = positions[c] - positions[a];
+    const vy = positions[c + 1] - positions[a + 1];
+    const vz = positions[c + 2] - positions[a + 2];
+    const nx = uy * vz - uz * vy;
+    const ny = uz * vx - ux * vz;
+    const nz = ux * vy - uy * vx;
+    out[a] += nx;
+    out[a + 1] += ny;
+    out[a + 2] += nz;
+    out[b] += nx;
+    out[b + 1] += ny;
+    out[b + 2] += nz;
+    out[c] += nx;
+    out[c + 1] += ny;
+    out[c + 2] += nz;
+  }
+  return out;
+}
+
+function compile(gl, type, source) {
+  const shader = gl.createShader(type);
+  gl.shaderSource(shader, source);
+  gl.compileShader(shader);
+  if (!gl.getShaderParameter(shader, gl.COMPILE_STATUS)) {
+    throw new Error(`shader: ${gl.getShaderInfoLog(shader)}`);
+  }
+  return shader;
+}
+
+export class HeadRenderer {
+  constructor(canvas) {
+    this.canvas = canvas;
+    const gl = canvas.getContext("webgl2", { antialias: true });
+    if (!gl) {
+      throw new Error("this browser has no WebGL2, which the 3D view needs");
+    }
+    this.gl = gl;
+    const program = gl.createProgram();
+    gl.attachShader(program, compile(gl, gl.VERTEX_SHADER, VERTEX_SHADER));
+    gl.attachShader(program, compile(gl, gl.FRAGMENT_SHADER, FRAGMENT_SHADER));
+    gl.linkProgram(program);
+    if (!gl.getProgramParameter(program, gl.LINK_STATUS)) {
+      throw new Error(`shader program: ${gl.getProgramInfoLog(program)}`);
+    }
+    this.program = program;
+    this.uniforms = {
+      view: gl.getUniformLocation(program, "u_view"),
+      projection: gl.getUniformLocation(program, "u_projection"),
+      heatScale: gl.getUniformLocation(program, "u_heat_scale"),
+    };
+    this.vao = gl.createVertexArray();
+    this.buffers = {
+      position: this.attribute("a_position", 3),
+      normal: this.attribute("a_normal", 3),
+      heat: this.attribute("a_heat", 1),
+      index: gl.createBuffer(),
+    };
+    this.indexCount = 0;
+    this.heatScale = 0;
+    gl.enable(gl.DEPTH_TEST);
+  }
+
+  attribute(name, size) {
+    const gl = this.gl;
+    const buffer = gl.createBuffer();
+    const location = gl.getAttribLocation(this.program, name);
+    gl.bindVertexArray(this.vao);
+    gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
+    gl.enableVertexAttribArray(location);
+    gl.vertexAttribPointer(location, size, gl.FLOAT, false, 0, 0);
+    gl.bindVertexArray(null);
+    return buffer;
+  }
+
+  /** A new rest mesh (from decode.js parseMesh): buffers sized for it, shown at rest. */
+  setMesh(mesh) {
+    const gl = this.gl;
+    this.indices = mesh.indices;
+    this.normals = new Float32Array(mesh.positions.length);
+    gl.bindVertexArray(this.vao);
+    gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, this.buffers.index);
+    gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, mesh.indices, gl.STATIC_DRAW);
+    gl.bindVertexArray(null);
+    gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.position);
+    gl.bufferData(gl.ARRAY_BUFFER, mesh.positions.byteLength, gl.DYNAMIC_DRAW);
+    gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.normal);
+    gl.bufferData(gl.ARRAY_BUFFER, mesh.positions.byteLength, gl.DYNAMIC_DRAW);
+    gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.heat);
+    gl.bufferData(gl.ARRAY_BUFFER, mesh.vertexCount * 4, gl.DYNAMIC_DRAW);
+    this.indexCount = mesh.indices.length;
+    this.setPositions(mesh.positions);
+  }
+
+  /** Deformed positions (flat xyz, same vertex count as the mesh). */
+  setPositions(positions) {
+    const gl = this.gl;
+    vertexNormals(positions, this.indices, this.normals);
+    gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.position);
+    gl.bufferSubData(gl.ARRAY_BUFFER, 0, positions);
+    gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.normal);
+    gl.bufferSubData(gl.ARRAY_BUFFER, 0, this.normals);
+  }
+
+  /** Per-vertex roughness coloured on a ramp from 0 to `scale`; null shows skin. */
+  setHeat(values, scale) {
+    this.heatScale = values ? scale : 0;
+    if (values) {
+      const gl = this.gl;
+      gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.heat);
+      gl.bufferSubData(gl.ARRAY_BUFFER, 0, values);
+    }
+  }
+
+  /** Matches the drawing buffer to the canvas's CSS size; true when it changed. */
+  fitCanvas() {
+    const ratio = window.devicePixelRatio || 1;
+    const width = Math.max(1, Math.round(this.canvas.clientWidth * ratio));
+    const height = Math.max(1, Math.round(this.canvas.clientHeight * ratio));
+    if (this.canvas.width === width && this.canvas.height === height) {
+      return false;
+    }
+    this.canvas.width = width;
+    this.canvas.height = height;
+    return true;
+  }
+
+  /** Gives the GPU context back now rather than at garbage collection. */
+  dispose() {
+    this.gl.getExtension("WEBGL_lose_context")?.loseContext();
+  }
+
+  draw(camera) {
+    const gl = this.gl;
+    this.fitCanvas();
+    gl.viewport(0, 0, this.canvas.width, this.canvas.height);
+    gl.clearColor(0.125, 0.14, 0.165, 1);
+    gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+    if (this.indexCount === 0) {
+      return;
+    }
+    const { view, projection } = camera.matrices(this.canvas.width / this.canvas.height);
+    gl.useProgram(this.program);
+    gl.uniformMatrix4fv(this.uniforms.view, false, view);
+    gl.uniformMatrix4fv(this.uniforms.projection, false, projection);
+    gl.uniform1f(this.uniforms.heatScale, this.heatScale);
+    gl.bindVertexArray(this.vao);
+    gl.drawElements(gl.TRIANGLES, this.indexCount, gl.UNSIGNED_INT, 0);
+    gl.bindVertexArray(null);
+  }
+}

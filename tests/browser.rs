@@ -1,0 +1,314 @@
+//! The web page in a real browser: Debian's Chromium, headless (WebGL2 through SwiftShader),
+//! driven over WebDriver by chromedriver, against `facewire demo` started as a process.
+//! Checks that the page goes live, that the head moves, that switching the algorithm
+//! reconnects with it, that a second view runs beside the first, and that an unknown head
+//! shows the error state. WebDriver is plain HTTP and JSON, spoken here with reqwest.
+
+use std::io::{BufRead, BufReader};
+use std::panic::AssertUnwindSafe;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use futures_util::FutureExt;
+use serde_json::{json, Value};
+
+/// Kills a child process when the test ends, passed or not.
+struct Process(Child);
+
+impl Drop for Process {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn on_path(program: &str) -> bool {
+    std::env::var_os("PATH")
+        .is_some_and(|path| std::env::split_paths(&path).any(|dir| dir.join(program).is_file()))
+}
+
+fn require(program: &str) {
+    assert!(
+        on_path(program),
+        "the browser test needs `{program}` on PATH: install Chromium and its WebDriver \
+         (Debian: `apt-get install chromium chromium-driver`), or run without --include-ignored"
+    );
+}
+
+/// `facewire demo` on a free port; returns the process and the page URL it printed.
+fn start_demo() -> (Process, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_facewire"))
+        .args(["demo", "--addr", "127.0.0.1:0"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start facewire demo");
+    let mut stdout = BufReader::new(child.stdout.take().expect("piped stdout"));
+    let mut line = String::new();
+    stdout.read_line(&mut line).expect("read the demo's first line");
+    std::thread::spawn(move || std::io::copy(&mut stdout, &mut std::io::sink()));
+    let url = line
+        .split_whitespace()
+        .find(|word| word.starts_with("http://"))
+        .unwrap_or_else(|| panic!("no URL in the demo's first line: {line:?}"))
+        .to_string();
+    (Process(child), url)
+}
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// A WebDriver session.
+struct Browser {
+    http: reqwest::Client,
+    session: String,
+    _driver: Process,
+    _profile: tempfile::TempDir,
+}
+
+impl Browser {
+    async fn start() -> Browser {
+        require("chromium");
+        require("chromedriver");
+        let port = free_port();
+        let driver = Process(
+            Command::new("chromedriver")
+                .arg(format!("--port={port}"))
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .expect("start chromedriver"),
+        );
+        let http = reqwest::Client::new();
+        let base = format!("http://127.0.0.1:{port}");
+        let started = Instant::now();
+        while http.get(format!("{base}/status")).send().await.is_err() {
+            assert!(
+                started.elapsed() < Duration::from_secs(20),
+                "chromedriver did not start in 20 s"
+            );
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+        let profile = tempfile::tempdir().unwrap();
+        let args = [
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--use-angle=swiftshader",
+            "--enable-unsafe-swiftshader",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--window-size=1280,1000",
+            &format!("--user-data-dir={}", profile.path().display()),
+        ];
+        let capabilities = json!({ "capabilities": { "alwaysMatch": {
+            "browserName": "chrome",
+            "goog:chromeOptions": { "args": args },
+        }}});
+        let reply: Value = http
+            .post(format!("{base}/session"))
+            .json(&capabilities)
+            .send()
+            .await
+            .expect("chromedriver answers")
+            .json()
+            .await
+            .unwrap();
+        let session = reply["value"]["sessionId"]
+            .as_str()
+            .unwrap_or_else(|| panic!("chromedriver could not start Chromium: {reply}"))
+            .to_string();
+        Browser {
+            http,
+            session: format!("{base}/session/{session}"),
+            _driver: driver,
+            _profile: profile,
+        }
+    }
+
+    /// A WebDriver command: POST with a JSON body, or GET when `body` is None.
+    async fn command(&self, path: &str, body: Option<Value>) -> Value {
+        let url = format!("{}{path}", self.session);
+        let request = match body {
+            Some(body) => self.http.post(url).json(&body),
+            None => self.http.get(url),
+        };
+        let reply: Value = request.send().await.unwrap().json().await.unwrap();
+        assert!(reply["value"].get("error").is_none(), "WebDriver {path}: {reply}");
+        reply["value"].clone()
+    }
+
+    async fn open(&self, url: &str) {
+        self.command("/url", Some(json!({ "url": url }))).await;
+    }
+
+    /// Runs `script` (a function body) in the page and returns its result.
+    async fn js(&self, script: &str) -> Value {
+        self.command("/execute/sync", Some(json!({ "script": script, "args": [] })))
+            .await
+    }
+
+    /// Waits until `script` returns something truthy; panics with what the page shows.
+    async fn wait_for(&self, what: &str, script: &str, timeout: Duration) -> Value {
+        let started = Instant::now();
+        loop {
+            let value = self.js(script).await;
+            if !matches!(value, Value::Null | Value::Bool(false)) && value != "" {
+                return value;
+            }
+            if started.elapsed() > timeout {
+                let page = self.js("return document.body.innerText").await;
+                panic!(
+                    "waited {timeout:?} for {what}; the page shows:\n{}",
+                    page.as_str().unwrap_or("")
+                );
+            }
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+    }
+
+    /// A PNG of one element, base64, as the compositor shows it.
+    async fn screenshot(&self, css: &str) -> String {
+        let found = self
+            .command("/element", Some(json!({ "using": "css selector", "value": css })))
+            .await;
+        let id = found
+            .as_object()
+            .and_then(|o| o.values().next())
+            .and_then(Value::as_str)
+            .unwrap()
+            .to_string();
+        let shot = self.command(&format!("/element/{id}/screenshot"), None).await;
+        shot.as_str().unwrap().to_string()
+    }
+
+    async fn quit(self) {
+        let _ = self.http.delete(&self.session).send().await;
+    }
+}
+
+fn text_of(id: &str) -> String {
+    format!("return document.getElementById('{id}').textContent")
+}
+
+fn state_is(id: &str, state: &str) -> String {
+    format!("return document.getElementById('{id}').dataset.state === '{state}'")
+}
+
+#[tokio::test]
+#[ignore = "browser: needs chromium"]
+async fn the_page_shows_the_head_talking_live() {
+    let browser = Browser::start().await;
+    // Killing chromedriver would leave Chromium running: end the session even on failure.
+    let outcome = AssertUnwindSafe(check_the_page(&browser)).catch_unwind().await;
+    browser.quit().await;
+    if let Err(panic) = outcome {
+        std::panic::resume_unwind(panic);
+    }
+}
+
+async fn check_the_page(browser: &Browser) {
+    let (_demo, url) = start_demo();
+    let long = Duration::from_secs(120);
+
+    browser.open(&url).await;
+    browser
+        .wait_for("view 1 to go live", &state_is("status-0", "live"), long)
+        .await;
+    browser
+        .wait_for(
+            "a syllable",
+            "return document.getElementById('syllable-0').textContent !== '–'",
+            long,
+        )
+        .await;
+    let default_algorithm = browser.js(&text_of("algorithm-0")).await;
+    let listed: Value = reqwest::get(format!("{url}v1/algorithms"))
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    let default_spec = listed
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|a| a["default"] == true)
+        .unwrap()["spec"]
+        .clone();
+    assert_eq!(
+        default_algorithm, default_spec,
+        "view 1 starts with the server's default algorithm"
+    );
+
+    // The syllable stream moves the lips: two pictures a few hundred ms apart differ.
+    let first = browser.screenshot("#canvas-0").await;
+    let mut moved = false;
+    for _ in 0..10 {
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        if browser.screenshot("#canvas-0").await != first {
+            moved = true;
+            break;
+        }
+    }
+    assert!(moved, "the head did not move in 3 s");
+
+    // Another algorithm in the picker: the view reconnects and the snapshot names it.
+    let rigid = "geometric:weights=none";
+    browser
+        .js(&format!(
+            "const s = document.getElementById('algo-0'); s.value = '{rigid}'; \
+             s.dispatchEvent(new Event('change')); return s.value"
+        ))
+        .await;
+    browser
+        .wait_for(
+            "the new algorithm's snapshot",
+            &format!("{}=== '{rigid}'", text_of("algorithm-0")),
+            long,
+        )
+        .await;
+    browser
+        .wait_for("view 1 live again", &state_is("status-0", "live"), long)
+        .await;
+    let address = browser.js("return location.search").await;
+    assert!(
+        address.as_str().unwrap().contains("algo=E"),
+        "the URL keeps the choice: {address}"
+    );
+
+    // Side by side: a second socket with its own algorithm.
+    browser.js("document.getElementById('compare').click()").await;
+    browser
+        .wait_for("view 2 to go live", &state_is("status-1", "live"), long)
+        .await;
+    let second = browser.js(&text_of("algorithm-1")).await;
+    assert_ne!(second, rigid, "view 2 starts with another algorithm");
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    let fps = browser
+        .js("return document.getElementById('fps-0').textContent")
+        .await;
+    let bytes = browser
+        .js("return document.getElementById('bytes-0').textContent")
+        .await;
+    println!("headless Chromium, two views: frames {fps}, bytes per frame {bytes}");
+
+    // An unknown head: the server's error and close 4404 end in the error state.
+    browser.open(&format!("{url}?head=nosuch")).await;
+    browser
+        .wait_for("the error state", &state_is("status-0", "error"), long)
+        .await;
+    let message = browser.js(&text_of("message-0")).await;
+    assert!(
+        message.as_str().unwrap().contains("nosuch"),
+        "the message names the head: {message}"
+    );
+}

@@ -1,0 +1,297 @@
+//! The browser's decoder (`web/decode.js`) against the server's own encoder: frames encoded
+//! by `facewire_proto::frame::FrameEncoder` (with and without label, face roughness and
+//! deflate; negative and large deltas; malformed ones) and a `mesh.bin`, written with the
+//! values the Rust decoder reads from them to a JSON file that `node web/decode.test.mjs`
+//! checks.
+
+use std::path::Path;
+use std::process::Command;
+
+use facewire_proto::frame::{decode, FrameContent, FrameEncoder, FrameHeader, LipRoughness};
+use facewire_proto::DecodeError;
+use serde_json::{json, Value};
+
+/// f32 values travel as their exact f64, so the script compares with `===`.
+fn exact(values: &[f32]) -> Vec<f64> {
+    values.iter().map(|&x| f64::from(x)).collect()
+}
+
+struct Case<'a> {
+    name: &'a str,
+    header: FrameHeader,
+    step: f32,
+    deltas: Vec<[f32; 3]>,
+    lip: LipRoughness,
+    label: Option<&'a str>,
+    face: Option<Vec<f32>>,
+}
+
+fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8>, Value) {
+    let bytes = encoder
+        .encode(
+            &case.header,
+            &FrameContent {
+                step: case.step,
+                deltas: &case.deltas,
+                lip: &case.lip,
+                label: case.label,
+                face: case.face.as_deref(),
+                deflate,
+            },
+        )
+        .to_vec();
+    let frame = decode(&bytes).expect("the Rust decoder reads its own frames");
+    let rest: Vec<f32> = (0..case.deltas.len() * 3)
+        .map(|i| i as f32 * 0.37 - 5.0)
+        .collect();
+    let mut positions = Vec::new();
+    frame.apply(&rest, &mut positions);
+    let h = frame.header;
+    let value = json!({
+        "name": format!("{}{}", case.name, if deflate { ", deflated" } else { "" }),
+        "bytes": bytes,
+        "header": {
+            "seq": h.seq,
+            "producerTimeS": h.producer_time_s,
+            "serverReceiveUs": h.server_receive_us,
+            "serverSendUs": h.server_send_us,
+            "step": f64::from(frame.step),
+            "vertexCount": frame.vertex_count,
+            "moved": frame.moved.len(),
+            "lip": {
+                "min": f64::from(frame.lip.min),
+                "max": f64::from(frame.lip.max),
+                "mean": f64::from(frame.lip.mean),
+            },
+        },
+        "lipPerVertex": exact(&frame.lip.per_vertex),
+        "label": frame.label,
+        "movedIndices": frame.moved.iter().map(|m| m.0).collect::<Vec<_>>(),
+        "movedCounts": frame.moved.iter().flat_map(|m| m.1).collect::<Vec<_>>(),
+        "face": frame.face.as_deref().map(exact),
+        "rest": exact(&rest),
+        "positions": exact(&positions),
+    });
+    (bytes, value)
+}
+
+/// The field the Rust decoder names, as decode.js names it (`end` for trailing bytes).
+fn failing_field(error: DecodeError) -> &'static str {
+    match error {
+        DecodeError::Truncated { field, .. } | DecodeError::Invalid { field, .. } => field,
+        DecodeError::Magic { .. } => "magic",
+        DecodeError::Trailing { .. } => "end",
+    }
+}
+
+fn malformed(name: &str, bytes: Vec<u8>) -> Value {
+    let error = decode(&bytes).expect_err("malformed on purpose");
+    json!({ "name": name, "bytes": bytes, "field": failing_field(error) })
+}
+
+/// A `mesh.bin` as the registry writes it (PROTOCOL.md): two triangles.
+fn mesh_bin(positions: &[[f32; 3]], triangles: &[[u32; 3]], mm_per_unit: f32) -> Vec<u8> {
+    let mut out = b"FWM1".to_vec();
+    out.extend_from_slice(&(positions.len() as u32).to_le_bytes());
+    out.extend_from_slice(&(triangles.len() as u32).to_le_bytes());
+    out.extend_from_slice(&mm_per_unit.to_le_bytes());
+    for x in positions.iter().flatten() {
+        out.extend_from_slice(&x.to_le_bytes());
+    }
+    for v in triangles.iter().flatten() {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    out
+}
+
+fn cases() -> Value {
+    let header = |seq: u64| FrameHeader {
+        seq,
+        producer_time_s: seq as f64 / 30.0 + 0.1,
+        server_receive_us: 1_750_000_000_123_456 + seq * 33_333,
+        server_send_us: 1_750_000_000_125_001 + seq * 33_333,
+    };
+    let lip = LipRoughness {
+        min: 0.01,
+        max: 0.63,
+        mean: 0.057,
+        per_vertex: (0..18).map(|i| 0.02 + i as f32 * 0.003).collect(),
+    };
+    let mut deltas = vec![[0.0f32; 3]; 300];
+    deltas[0] = [0.001, -0.002, 0.0];
+    deltas[2] = [-0.25, 0.125, -0.0005];
+    deltas[3] = [0.0003, 0.0, 0.0]; // under half a step: not sent
+    deltas[130] = [1.5, -2.75, 0.01]; // a gap over 127: a two-byte index varint
+    deltas[299] = [-0.02, 0.0, 0.02];
+    let face: Vec<f32> = (0..300).map(|v| (v % 17) as f32 * 0.011).collect();
+    let cases = [
+        Case {
+            name: "plain",
+            header: header(1),
+            step: 0.001,
+            deltas: deltas.clone(),
+            lip: lip.clone(),
+            label: None,
+            face: None,
+        },
+        Case {
+            name: "label and face roughness",
+            header: header(2),
+            step: 0.001,
+            deltas: deltas.clone(),
+            lip: lip.clone(),
+            label: Some("pa"),
+            face: Some(face),
+        },
+        Case {
+            name: "large deltas, a multi-byte label, flat face",
+            header: FrameHeader {
+                seq: 1 << 40,
+                ..header(3)
+            },
+            step: 0.5,
+            deltas: vec![
+                [1.0e9, -1.07e9, 3.0],
+                [0.0; 3],
+                [-64.0, 64.0, -0.5],
+                [1.0e6, 0.0, -1.0e6],
+            ],
+            lip: LipRoughness::default(),
+            label: Some("ʃa"),
+            face: Some(vec![0.0; 4]),
+        },
+        Case {
+            name: "nothing moved",
+            header: header(4),
+            step: 0.002,
+            deltas: vec![[0.0; 3]; 50],
+            lip: lip.clone(),
+            label: Some("rest"),
+            face: None,
+        },
+        Case {
+            name: "every vertex moved",
+            header: header(5),
+            step: 0.001,
+            deltas: (0..300)
+                .map(|v| [v as f32 * 0.001, (v as f32 * 0.1).sin() * 0.05, -0.002])
+                .collect(),
+            lip: lip.clone(),
+            label: None,
+            face: None,
+        },
+    ];
+    let mut encoder = FrameEncoder::default();
+    let mut frames = Vec::new();
+    let mut encoded = Vec::new();
+    for case in &cases {
+        for deflate in [false, true] {
+            let (bytes, value) = frame_case(&mut encoder, case, deflate);
+            frames.push(value);
+            encoded.push(bytes);
+        }
+    }
+    let (plain, deflated) = (&encoded[0], &encoded[1]);
+    let (good, good_deflated) = (&encoded[2], &encoded[3]);
+    let mut bad_magic = good.clone();
+    bad_magic[0] = b'X';
+    let mut trailing = good.clone();
+    trailing.push(0);
+    let mut huge_moved = good.clone();
+    huge_moved[48..52].copy_from_slice(&u32::MAX.to_le_bytes());
+    let mut bad_label = good.clone();
+    let label_at = 65 + 18 * 4 + 1;
+    bad_label[label_at] = 0xff;
+    // The first two cases have no label or face: the delta block ends the frame.
+    let block_length_at = 65 + 18 * 4;
+    let with_block = |frame: &[u8], block: &[u8], extra_flags: u8| {
+        let mut out = frame[..block_length_at].to_vec();
+        out[4] |= extra_flags;
+        out.extend_from_slice(&(block.len() as u32).to_le_bytes());
+        out.extend_from_slice(block);
+        out
+    };
+    let deflated_block = &deflated[block_length_at + 4..];
+    let plain_block = &plain[block_length_at + 4..];
+    let mut corrupt_block = deflated_block.to_vec();
+    corrupt_block[0] ^= 0xc0; // a reserved block type
+    let mut extra_entry = plain_block.to_vec();
+    extra_entry.extend_from_slice(&[0, 0, 0, 0]);
+    // Claims one entry (40 bytes at most) but inflates to 300 entries.
+    let mut bomb = encoded[encoded.len() - 1].clone();
+    bomb[48..52].copy_from_slice(&1u32.to_le_bytes());
+    let malformed_frames = vec![
+        malformed("truncated header", good[..10].to_vec()),
+        malformed("truncated deltas", good[..good.len() - 310].to_vec()),
+        malformed("truncated face roughness", good[..good.len() - 1].to_vec()),
+        malformed("bad magic", bad_magic),
+        malformed("trailing byte", trailing),
+        malformed("moved count larger than the message", huge_moved),
+        malformed("label not UTF-8", bad_label),
+        malformed(
+            "truncated deflated face roughness",
+            good_deflated[..good_deflated.len() - 1].to_vec(),
+        ),
+        malformed(
+            "truncated deflate stream",
+            with_block(deflated, &deflated_block[..deflated_block.len() - 3], 0),
+        ),
+        malformed("corrupt deflate stream", with_block(deflated, &corrupt_block, 0)),
+        malformed("inflates past its entry count", bomb),
+        malformed(
+            "bytes left in the delta block",
+            with_block(plain, &extra_entry, 0),
+        ),
+    ];
+
+    let positions = [
+        [0.0, 0.0, 0.0],
+        [1.5, -2.0, 0.25],
+        [0.0, 1.0, -3.0],
+        [7.0, 8.0, 9.0],
+    ];
+    let triangles = [[0, 1, 2], [2, 1, 3]];
+    let mesh = mesh_bin(&positions, &triangles, 50.3);
+    let out_of_range = mesh_bin(&positions, &[[0, 1, 4]], 50.3);
+    let short = mesh[..mesh.len() - 4].to_vec();
+    json!({
+        "frames": frames,
+        "malformedFrames": malformed_frames,
+        "mesh": {
+            "bytes": mesh,
+            "expected": {
+                "vertexCount": 4,
+                "triangleCount": 2,
+                "mmPerUnit": f64::from(50.3f32),
+                "positions": exact(&positions.concat()),
+                "indices": triangles.concat(),
+            },
+        },
+        "malformedMeshes": [
+            { "name": "short", "bytes": short, "field": "length" },
+            { "name": "vertex out of range", "bytes": out_of_range, "field": "triangles" },
+            { "name": "frame, not mesh", "bytes": good, "field": "magic" },
+        ],
+    })
+}
+
+#[test]
+fn decode_js_agrees_with_the_rust_encoder() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases_path = dir.path().join("cases.json");
+    std::fs::write(&cases_path, serde_json::to_vec(&cases()).unwrap()).unwrap();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("web/decode.test.mjs");
+    let output = match Command::new("node").arg(&script).arg(&cases_path).output() {
+        Ok(output) => output,
+        Err(e) => panic!("cannot run `node` ({e}): the web decoder test needs Node.js 20 or newer on PATH"),
+    };
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        output.status.success(),
+        "node {} failed ({}):\n{stdout}{stderr}",
+        script.display(),
+        output.status
+    );
+    println!("{stdout}");
+}

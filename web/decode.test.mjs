@@ -1,0 +1,76 @@
+// decode.test.mjs: checks decode.js against the server's own encoder. tests/web_decode.rs
+// encodes frames and a mesh in Rust, writes them with the values Rust decodes from them
+// to a JSON file, and runs `node web/decode.test.mjs CASES.json`; the exit status is the
+// verdict. Not served: the page never loads this file.
+
+import { readFileSync } from "node:fs";
+import { applyFrame, decodeFrame, DecodeError, parseMesh, readFrameHeader } from "./decode.js";
+
+const cases = JSON.parse(readFileSync(process.argv[2], "utf8"));
+const failures = [];
+
+function bufferOf(bytes) {
+  return new Uint8Array(bytes).buffer;
+}
+
+/** Exact comparison: numbers must be identical (f32 values travel as their exact f64). */
+function same(actual, expected, path) {
+  if (ArrayBuffer.isView(actual)) {
+    actual = Array.from(actual);
+  }
+  if (Array.isArray(expected)) {
+    if (!Array.isArray(actual) || actual.length !== expected.length) {
+      failures.push(`${path}: length ${actual?.length} != ${expected.length}`);
+      return;
+    }
+    expected.forEach((e, i) => same(actual[i], e, `${path}[${i}]`));
+  } else if (expected !== null && typeof expected === "object") {
+    for (const key of Object.keys(expected)) {
+      same(actual?.[key], expected[key], `${path}.${key}`);
+    }
+  } else if (!Object.is(actual, expected)) {
+    failures.push(`${path}: ${JSON.stringify(actual)} != ${JSON.stringify(expected)}`);
+  }
+}
+
+async function throwsOn(decode, bytes, field, path) {
+  try {
+    await decode(bufferOf(bytes));
+    failures.push(`${path}: decoded without error, expected one in ${field}`);
+  } catch (e) {
+    if (!(e instanceof DecodeError)) {
+      failures.push(`${path}: threw ${e}, not a DecodeError`);
+    } else if (e.field !== field) {
+      failures.push(`${path}: error in ${e.field} (${e.message}), expected ${field}`);
+    }
+  }
+}
+
+for (const [i, c] of cases.frames.entries()) {
+  const path = `frame ${i} (${c.name})`;
+  const buffer = bufferOf(c.bytes);
+  same(readFrameHeader(buffer), c.header, `${path} header`);
+  const frame = await decodeFrame(buffer);
+  same(frame, c.header, path);
+  same(frame.lip.perVertex, c.lipPerVertex, `${path} lip.perVertex`);
+  same(frame.label, c.label, `${path} label`);
+  same(frame.movedIndices, c.movedIndices, `${path} movedIndices`);
+  same(frame.movedCounts, c.movedCounts, `${path} movedCounts`);
+  same(frame.face, c.face, `${path} face`);
+  const positions = applyFrame(new Float32Array(c.rest), frame, new Float32Array(c.rest.length));
+  same(positions, c.positions, `${path} positions`);
+}
+for (const [i, c] of cases.malformedFrames.entries()) {
+  await throwsOn(decodeFrame, c.bytes, c.field, `malformed frame ${i} (${c.name})`);
+}
+
+same(parseMesh(bufferOf(cases.mesh.bytes)), cases.mesh.expected, "mesh");
+for (const [i, c] of cases.malformedMeshes.entries()) {
+  await throwsOn(parseMesh, c.bytes, c.field, `malformed mesh ${i} (${c.name})`);
+}
+
+if (failures.length > 0) {
+  console.error(`${failures.length} mismatch(es):\n${failures.slice(0, 40).join("\n")}`);
+  process.exit(1);
+}
+console.log(`decode.js agrees with the Rust encoder on ${cases.frames.length} frames and a mesh`);

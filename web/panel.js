@@ -1,0 +1,300 @@
+// panel.js: one view of the page: its algorithm picker and heat-map switch, a viewer
+// socket, the 3D head and the numbers under it (connection state, syllable, fps, latency
+// per hop, bytes per frame). Frames are kept raw as they arrive (only their fixed header
+// is read, for the numbers and the chart); the page decodes just the one it draws, so a
+// slow machine skips frames instead of falling behind.
+
+import { applyFrame, decodeFrame, readFrameHeader } from "./decode.js";
+import { HeadRenderer } from "./render.js";
+import { ViewerSocket } from "./stream.js";
+
+/** Raw frames kept while waiting to be drawn; older ones are dropped. */
+const KEEP_FRAMES = 8;
+/** Face roughness (mean 1 - n·n around a vertex) at the top of the heat-map ramp. */
+const HEAT_SCALE = 0.1;
+
+const STATE_TEXT = {
+  connecting: "Connecting",
+  waiting: "Waiting for frames",
+  live: "Live",
+  ended: "Ended",
+  reconnecting: "Reconnecting",
+  error: "Error",
+};
+
+export class Panel {
+  /**
+   * `index`: 0 or 1; `algorithms`: the /v1/algorithms list; `loadMesh(url)`: a promise of
+   * a parsed mesh; `onMesh(url, mesh)`: a mesh is shown; `onSettings()`: the user changed
+   * this view's algorithm or heat-map.
+   */
+  constructor({ index, container, algorithms, chart, loadMesh, onMesh, onSettings }) {
+    this.index = index;
+    this.chart = chart;
+    this.loadMesh = loadMesh;
+    this.onMesh = onMesh;
+    const fragment = document.getElementById("view-template").content.cloneNode(true);
+    this.parts = {};
+    for (const element of fragment.querySelectorAll("[data-part]")) {
+      element.id = `${element.dataset.part}-${index}`;
+      this.parts[element.dataset.part] = element;
+    }
+    for (const label of fragment.querySelectorAll("label[data-for]")) {
+      label.htmlFor = `${label.dataset.for}-${index}`;
+    }
+    const { view: root, title, algo, heat, canvas } = this.parts;
+    root.classList.add(`view-${index}`);
+    root.setAttribute("aria-labelledby", title.id);
+    title.textContent = `View ${index + 1}`;
+    this.parts.heatmax.textContent = `${HEAT_SCALE} or more`;
+    for (const a of algorithms) {
+      algo.add(new Option(`${a.letter}: ${a.description}`, a.spec));
+    }
+    algo.addEventListener("change", () => {
+      this.settings.algorithm = algo.value;
+      this.reconnect();
+      onSettings();
+    });
+    heat.addEventListener("change", () => {
+      this.settings.heat = heat.checked;
+      this.parts.legend.hidden = !heat.checked;
+      this.reconnect();
+      onSettings();
+    });
+    container.append(fragment);
+    this.root = root;
+    chart.setSeries(index, getComputedStyle(root).getPropertyValue("--accent").trim());
+
+    this.renderer = new HeadRenderer(canvas);
+    this.socket = new ViewerSocket({
+      onSnapshot: (snapshot) => this.snapshotArrived(snapshot),
+      onFrame: (buffer, arrivalUs) => this.frameArrived(buffer, arrivalUs),
+      onState: (state, detail) => this.stateChanged(state, detail),
+    });
+    this.mesh = null;
+    this.meshUrl = null;
+    this.pending = [];
+    this.lastSeq = null;
+    this.lastArrival = -Infinity;
+    this.generation = 0;
+    this.needsDraw = true;
+    this.resetStats();
+  }
+
+  /** Connects with `settings`: { head, stream, algorithm, heat, token, knownStreams }. */
+  connect(settings) {
+    this.settings = { ...settings };
+    const { algo, heat, legend } = this.parts;
+    if (![...algo.options].some((o) => o.value === settings.algorithm)) {
+      algo.add(new Option(`${settings.algorithm} (as given)`, settings.algorithm));
+    }
+    algo.value = settings.algorithm;
+    heat.checked = settings.heat;
+    legend.hidden = !settings.heat;
+    this.reconnect();
+  }
+
+  reconnect() {
+    const { head, stream, algorithm, heat, token } = this.settings;
+    const query = new URLSearchParams({ algo: algorithm });
+    if (heat) {
+      query.set("face", "1");
+    }
+    if (token) {
+      query.set("token", token);
+    }
+    const scheme = location.protocol === "https:" ? "wss" : "ws";
+    const path = `/v1/heads/${encodeURIComponent(head)}/streams/${encodeURIComponent(stream)}/view`;
+    this.generation += 1;
+    this.pending = [];
+    this.socket.open(`${scheme}://${location.host}${path}?${query}`);
+  }
+
+  destroy() {
+    this.generation += 1;
+    this.socket.close();
+    this.renderer.dispose();
+    this.chart.removeSeries(this.index);
+    this.root.remove();
+  }
+
+  get state() {
+    return this.socket.state;
+  }
+
+  snapshotArrived(snapshot) {
+    this.generation += 1;
+    this.pending = [];
+    this.chart.breakLine(this.index, performance.now());
+    this.lastSeq = null;
+    this.parts.algorithm.textContent = snapshot.algorithm;
+    if (snapshot.rest_mesh === this.meshUrl) {
+      return;
+    }
+    this.mesh = null;
+    this.meshUrl = snapshot.rest_mesh;
+    this.loadMesh(snapshot.rest_mesh).then(
+      (mesh) => {
+        if (snapshot.rest_mesh !== this.meshUrl) {
+          return; // another head was picked meanwhile
+        }
+        if (mesh.vertexCount !== snapshot.vertices) {
+          this.showMessage(`The rest mesh has ${mesh.vertexCount} vertices, the snapshot says ${snapshot.vertices}.`);
+          return;
+        }
+        this.mesh = mesh;
+        this.positions = new Float32Array(mesh.positions);
+        this.renderer.setMesh(mesh);
+        this.onMesh(snapshot.rest_mesh, mesh);
+        this.needsDraw = true;
+      },
+      (error) => {
+        this.meshUrl = null;
+        this.showMessage(`Cannot load the rest mesh ${snapshot.rest_mesh}: ${error.message}`);
+      },
+    );
+  }
+
+  frameArrived(buffer, arrivalUs) {
+    let header;
+    try {
+      header = readFrameHeader(buffer);
+    } catch (error) {
+      this.showMessage(`Unreadable frame: ${error.message}`);
+      return;
+    }
+    const stats = this.stats;
+    stats.received += 1;
+    stats.bytes += buffer.byteLength;
+    stats.serverUs += header.serverSendUs - header.serverReceiveUs;
+    stats.deliveryUs += arrivalUs - header.serverSendUs;
+    if (this.lastSeq !== null && header.seq > this.lastSeq + 1) {
+      stats.skipped += header.seq - this.lastSeq - 1;
+    }
+    if (this.lastSeq !== null && header.seq <= this.lastSeq) {
+      this.pending = []; // a new producer started the stream over
+    }
+    this.lastSeq = header.seq;
+    this.lastArrival = performance.now();
+    this.lip = header.lip;
+    this.chart.push(this.index, this.lastArrival, header.lip.mean);
+    this.pending.push({ seq: header.seq, buffer });
+    if (this.pending.length > KEEP_FRAMES) {
+      this.pending.shift();
+      stats.skipped += 1;
+    }
+  }
+
+  /** The newest sequence number received, for keeping two views on the same frame. */
+  newestSeq() {
+    return this.lastSeq ?? -1;
+  }
+
+  /**
+   * Decodes the newest waiting frame no newer than `targetSeq` (older ones are dropped and
+   * counted as skipped): a promise of the frame, or null when there is nothing to draw.
+   */
+  prepare(targetSeq) {
+    if (!this.mesh || this.pending.length === 0) {
+      return null;
+    }
+    let i = this.pending.findLastIndex((p) => p.seq <= targetSeq);
+    if (i < 0) {
+      if (this.pending.length < KEEP_FRAMES) {
+        return null; // the other view has not caught up yet
+      }
+      i = 0;
+    }
+    const { buffer } = this.pending[i];
+    this.stats.skipped += i;
+    this.pending.splice(0, i + 1);
+    const generation = this.generation;
+    return decodeFrame(buffer).then(
+      (frame) => (generation === this.generation ? frame : null),
+      (error) => {
+        this.showMessage(`Unreadable frame: ${error.message}`);
+        return null;
+      },
+    );
+  }
+
+  /** Shows a decoded frame: positions, heat-map, syllable. */
+  show(frame) {
+    if (frame.vertexCount !== this.mesh.vertexCount) {
+      this.showMessage(`A frame for ${frame.vertexCount} vertices arrived for a mesh of ${this.mesh.vertexCount}.`);
+      return;
+    }
+    applyFrame(this.mesh.positions, frame, this.positions);
+    this.renderer.setPositions(this.positions);
+    this.renderer.setHeat(frame.face, HEAT_SCALE);
+    this.parts.syllable.textContent = frame.label ?? "–";
+    this.parts.label.textContent = frame.label ?? "";
+    this.stats.drawn += 1;
+    this.needsDraw = true;
+  }
+
+  draw(camera, force) {
+    if (this.needsDraw || force || this.renderer.fitCanvas()) {
+      this.renderer.draw(camera);
+      this.needsDraw = false;
+    }
+  }
+
+  stateChanged(state, detail) {
+    const { status } = this.parts;
+    status.dataset.state = state;
+    let text = STATE_TEXT[state];
+    if (state === "reconnecting") {
+      text += ` in ${(detail.retryMs / 1000).toFixed(1)} s`;
+    }
+    status.textContent = text;
+    if (state === "error") {
+      const what = detail.code === 4404 ? "Not found" : "Refused";
+      this.showMessage(`${what}: ${detail.message}.${detail.code === 4404 ? " Pick a registered head above." : ""}`);
+    } else if (state === "reconnecting") {
+      this.showMessage(`Connection lost (${detail.message}); trying again.`);
+    } else if (state === "ended") {
+      this.showMessage(`The stream ended: ${detail.message}. Waiting for it to start again.`);
+    } else if (state === "waiting" && !this.settings.knownStreams.includes(this.settings.stream)) {
+      const { head, stream, knownStreams } = this.settings;
+      const known = knownStreams.join(", ") || "none";
+      this.showMessage(
+        `No stream "${stream}" on head "${head}" yet (streams with frames: ${known}). Waiting for a producer.`,
+      );
+    } else {
+      this.showMessage(null);
+    }
+  }
+
+  showMessage(text) {
+    const { message } = this.parts;
+    message.hidden = !text;
+    message.textContent = text ?? "";
+  }
+
+  resetStats() {
+    this.stats = { since: performance.now(), received: 0, drawn: 0, skipped: 0, bytes: 0, serverUs: 0, deliveryUs: 0 };
+  }
+
+  /** Writes the last second's numbers under the view and starts a new second. */
+  updateStats(now) {
+    const s = this.stats;
+    const seconds = (now - s.since) / 1000;
+    const { fps, latency, bytes, lip } = this.parts;
+    if (s.received === 0) {
+      fps.textContent = "none in the last second";
+      latency.textContent = bytes.textContent = "–";
+    } else {
+      const n = s.received;
+      fps.textContent = `${(n / seconds).toFixed(1)} in, ${(s.drawn / seconds).toFixed(1)} drawn, ${s.skipped} skipped`;
+      const ms = (us) => (us / n / 1000).toFixed(1);
+      latency.textContent = `server ${ms(s.serverUs)} ms, delivery ${ms(s.deliveryUs)} ms`;
+      bytes.textContent = `${Math.round(s.bytes / n).toLocaleString("en")} B`;
+    }
+    if (this.lip) {
+      const { mean, min, max } = this.lip;
+      lip.textContent = `mean ${mean.toFixed(4)} (min ${min.toFixed(4)}, max ${max.toFixed(4)})`;
+    }
+    this.resetStats();
+  }
+}

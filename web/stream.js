@@ -1,0 +1,96 @@
+// stream.js: one viewer WebSocket and its life. States: connecting; waiting (snapshot in,
+// no frame yet); live; ended (the server sent `end`); reconnecting (exponential backoff
+// after a lost connection: the server sends the newest frame right after its snapshot, so
+// a reconnect resumes where the stream is now, with no replay); and error, for refusals
+// that retrying cannot fix (close 4404 unknown head, 4400 bad algorithm, 4409 failed
+// registration), which keep the server's `error` message.
+
+const FINAL_CLOSE_CODES = new Set([4400, 4404, 4409]);
+const FIRST_RETRY_MS = 500;
+const MAX_RETRY_MS = 15_000;
+
+export class ViewerSocket {
+  /**
+   * `handlers`: onSnapshot(snapshot), onFrame(ArrayBuffer, arrivalUs), and
+   * onState(state, detail) where detail is { message, code, retryMs } as far as known.
+   */
+  constructor(handlers) {
+    this.handlers = handlers;
+    this.socket = null;
+    this.timer = 0;
+    this.state = "closed";
+  }
+
+  open(url) {
+    this.close();
+    this.url = url;
+    this.attempt = 0;
+    this.connect();
+  }
+
+  close() {
+    clearTimeout(this.timer);
+    if (this.socket) {
+      const socket = this.socket;
+      this.socket = null;
+      socket.close(1000, "viewer closed");
+    }
+    this.state = "closed";
+  }
+
+  setState(state, detail = {}) {
+    this.state = state;
+    this.handlers.onState(state, detail);
+  }
+
+  connect() {
+    this.setState("connecting");
+    const socket = new WebSocket(this.url);
+    socket.binaryType = "arraybuffer";
+    this.socket = socket;
+    let refusal = null;
+    socket.onmessage = (event) => {
+      if (socket !== this.socket) {
+        return;
+      }
+      if (typeof event.data !== "string") {
+        const arrivalUs = Date.now() * 1000;
+        if (this.state !== "live") {
+          this.attempt = 0;
+          this.setState("live");
+        }
+        this.handlers.onFrame(event.data, arrivalUs);
+        return;
+      }
+      let message;
+      try {
+        message = JSON.parse(event.data);
+      } catch {
+        return this.setState("error", { message: `unreadable message from the server: ${event.data.slice(0, 80)}` });
+      }
+      if (message.type === "snapshot") {
+        this.handlers.onSnapshot(message);
+        this.setState("waiting");
+      } else if (message.type === "end") {
+        this.setState("ended", { message: message.reason });
+      } else if (message.type === "error") {
+        refusal = message;
+      }
+    };
+    socket.onclose = (event) => {
+      if (socket !== this.socket) {
+        return;
+      }
+      this.socket = null;
+      const message = refusal ? `${refusal.message} (${refusal.code})` : event.reason || "connection lost";
+      if (FINAL_CLOSE_CODES.has(event.code)) {
+        this.setState("error", { message, code: event.code });
+        return;
+      }
+      const retryMs = Math.min(MAX_RETRY_MS, FIRST_RETRY_MS * 2 ** this.attempt) * (0.8 + 0.4 * Math.random());
+      this.attempt += 1;
+      this.setState("reconnecting", { message, code: event.code, retryMs });
+      this.timer = setTimeout(() => this.connect(), retryMs);
+    };
+  }
+}
