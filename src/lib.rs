@@ -13,6 +13,7 @@ pub mod head;
 pub mod mask;
 pub mod metrics;
 pub mod render;
+pub mod report;
 pub mod server;
 pub mod stream;
 pub mod web;

@@ -115,3 +115,90 @@ fn render_writes_a_png() {
     // IHDR: width and height, big-endian, at bytes 16..24
     assert_eq!(&bytes[16..24], &[0, 0, 0, 64, 0, 0, 0, 64]);
 }
+
+/// `facewire deform` over a stream file; returns the output directory.
+fn deform(stream: &Path, frames: &str, dir: &Path) -> Output {
+    let head = data("heads/makehuman_head.obj");
+    let fit = data("heads/makehuman_head.fit.toml");
+    facewire(&[
+        "deform",
+        "--head",
+        head.to_str().unwrap(),
+        "--fit",
+        fit.to_str().unwrap(),
+        "--algo",
+        "G",
+        "--stream",
+        stream.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+        "--frames",
+        frames,
+    ])
+}
+
+fn obj_positions(path: &Path) -> Vec<[f32; 3]> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .map(|l| {
+            let v: Vec<f32> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
+            [v[0], v[1], v[2]]
+        })
+        .collect()
+}
+
+#[test]
+fn every_stream_format_drives_deform() {
+    let rest = obj_positions(&data("heads/makehuman_head.obj"));
+    let scratch = tempfile::tempdir().unwrap();
+    let arkit = scratch.path().join("arkit.jsonl");
+    std::fs::write(&arkit, "{\"seq\":0,\"t\":0,\"arkit\":{\"jawOpen\":1.0}}\n").unwrap();
+    let au_text = scratch.path().join("jaw.fau");
+    std::fs::write(&au_text, "# columns: jaw_drop\n0.6\n").unwrap();
+    for (stream, frames) in [
+        (data("streams/syllables.jsonl"), "10..12"),
+        (data("candide3/xface_joy.fap"), "40..41"),
+        (arkit, "0..1"),
+        (au_text, "0..1"),
+    ] {
+        let out = scratch
+            .path()
+            .join(format!("out-{}", stream.file_name().unwrap().to_string_lossy()));
+        let run = deform(&stream, frames, &out);
+        assert!(
+            run.status.success(),
+            "{}: {}",
+            stream.display(),
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let first: usize = frames.split("..").next().unwrap().parse().unwrap();
+        let moved = obj_positions(&out.join(format!("frame_{first:05}.obj")));
+        assert_eq!(moved.len(), rest.len());
+        let largest = moved
+            .iter()
+            .zip(&rest)
+            .map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).abs()).fold(0.0f32, f32::max))
+            .fold(0.0f32, f32::max);
+        assert!(
+            largest > 0.01,
+            "{}: the head did not move ({largest})",
+            stream.display()
+        );
+        let control = std::fs::read_to_string(out.join("control.tsv")).unwrap();
+        let expected_frames = frames
+            .split("..")
+            .map(|x| x.parse::<usize>().unwrap())
+            .collect::<Vec<_>>();
+        assert_eq!(
+            control.lines().count(),
+            1 + 113 * (expected_frames[1] - expected_frames[0])
+        );
+        let metrics = std::fs::read_to_string(out.join("metrics.tsv")).unwrap();
+        assert_eq!(
+            metrics.lines().count(),
+            1 + 19 * (expected_frames[1] - expected_frames[0])
+        );
+    }
+}

@@ -1,5 +1,6 @@
 //! `facewire deform`: bind an algorithm to a head and write the deformed head of every
-//! frame of a stream as OBJ, with the control displacements as TSV, for offline study and
+//! frame of a stream as OBJ, with the control displacements and the lip roughness table
+//! (the thesis's `dataMetrics.txt`, docs/METRICS.md section 3) as TSV, for offline study and
 //! for checking the live service against.
 
 use std::io::{BufWriter, Write};
@@ -12,7 +13,8 @@ use super::{load_fit, load_head, load_mask, CliResult, FilePath};
 use crate::deform::{bind, AlgoSpec, Registration};
 use crate::fit::FittedMask;
 use crate::head::obj;
-use crate::stream::open_stream;
+use crate::metrics::{LipRegion, LipRoughness, RoughnessTsvWriter};
+use crate::stream::{open_stream, ArkitBasis};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -23,12 +25,12 @@ pub struct Args {
     #[arg(long)]
     fit: FilePath,
     /// Algorithm spec or thesis letter (see `facewire algos`).
-    #[arg(long, default_value = "rbf")]
+    #[arg(long, default_value = crate::server::config::DEFAULT_ALGORITHM)]
     algo: String,
     /// Parameter stream (.jsonl, .fap, .fau).
     #[arg(long)]
     stream: FilePath,
-    /// Output directory (created if missing).
+    /// Output directory (created if missing): frame_NNNNN.obj, control.tsv, metrics.tsv.
     #[arg(long)]
     out: FilePath,
     /// Only frames A..B (0-based, B excluded; either end may be left out: `10..`, `..50`).
@@ -87,10 +89,22 @@ pub fn run(args: Args) -> CliResult {
     let control_path = args.out.join("control.tsv");
     let mut control = BufWriter::new(create(&control_path)?);
     writeln!(control, "frame\tmask_vertex\tanchor\tx\ty\tz\tdx\tdy\tdz")?;
+    let region = LipRegion::new(
+        &registration.head,
+        &registration.anchors,
+        registration.mm_per_unit(),
+    )
+    .map_err(|e| format!("the lip region of {}: {e}", args.head.display()))?;
+    let mut lips = LipRoughness::new(&registration.head, &region)?;
+    let metrics_path = args.out.join("metrics.tsv");
+    let in_metrics = |e| format!("{}: {e}", metrics_path.display());
+    let mut metrics = RoughnessTsvWriter::new(BufWriter::new(create(&metrics_path)?)).map_err(in_metrics)?;
 
     let fitted = &registration.fitted;
     let mut weights = vec![0.0f32; mask.animation_units.len()];
     let mut mask_now = vec![Vec3::ZERO; mask.vertices.len()];
+    let mut offsets = vec![Vec3::ZERO; mask.vertices.len()];
+    let arkit = ArkitBasis::shipped();
     let mut scratch = binding.scratch(mask.vertices.len(), mask.triangles.len());
     let mut deformed = vec![Vec3::ZERO; registration.vertex_count()];
     let header = vec![
@@ -110,7 +124,8 @@ pub fn run(args: Args) -> CliResult {
             continue;
         }
         frame.animation_weights(&mask, &fitted.fapu, &mut weights);
-        fitted.pose_into(&weights, &mut mask_now);
+        frame.mask_offsets(&arkit, &mut offsets);
+        fitted.pose_with_offsets_into(&weights, &offsets, &mut mask_now);
         binding.deform(
             &registration.head.positions,
             registration.mask_rest(),
@@ -123,6 +138,8 @@ pub fn run(args: Args) -> CliResult {
         let mut file = BufWriter::new(create(&path)?);
         obj::write(&mut file, &header, &deformed, &registration.head.triangles)?;
         file.flush()?;
+        let rows = lips.rows(&deformed, index as u64, frame.time_s)?;
+        metrics.write_rows(&rows).map_err(in_metrics)?;
         for (j, (now, rest)) in mask_now.iter().zip(registration.mask_rest()).enumerate() {
             let d = *now - *rest;
             writeln!(
@@ -137,6 +154,7 @@ pub fn run(args: Args) -> CliResult {
         }
     }
     control.flush()?;
+    metrics.finish().map_err(in_metrics)?;
     eprintln!("\rwrote {written} frames to {}", args.out.display());
     Ok(())
 }

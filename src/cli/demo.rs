@@ -15,7 +15,7 @@ pub struct Args {
     #[arg(long, default_value = "127.0.0.1:8480")]
     addr: SocketAddr,
     /// Algorithm viewers get when they name none.
-    #[arg(long, default_value = "rbf")]
+    #[arg(long, default_value = crate::server::config::DEFAULT_ALGORITHM)]
     default_algorithm: String,
 }
 

@@ -2,6 +2,7 @@
 
 mod algos;
 mod arkit_basis;
+mod compare;
 mod deform;
 mod demo;
 mod fit;
@@ -59,6 +60,9 @@ pub enum Command {
     Algos(algos::Args),
     /// Deform a head with one algorithm over a stream, writing OBJ frames and control.tsv.
     Deform(deform::Args),
+    /// Compare algorithms on a head over a stream: roughness, fidelity and speed, written as
+    /// TSV tables, SVG charts and a Markdown report.
+    Compare(compare::Args),
 }
 
 pub fn run(cli: Cli) -> CliResult {
@@ -74,6 +78,7 @@ pub fn run(cli: Cli) -> CliResult {
         Command::ArkitBasis(args) => arkit_basis::run(args),
         Command::Algos(args) => algos::run(args),
         Command::Deform(args) => deform::run(args),
+        Command::Compare(args) => compare::run(args),
     }
 }
 

@@ -7,6 +7,11 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
+/// The algorithm facewire recommends (thesis G): smooth lips, the fewest new creases,
+/// faithful to the controls, 27 µs per frame on the scan. See the README's "Which
+/// algorithm" and docs/reports/.
+pub const DEFAULT_ALGORITHM: &str = "point_distance:k=3";
+
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Config {
@@ -14,7 +19,7 @@ pub struct Config {
     pub addr: SocketAddr,
     /// Where registered heads are stored; `None` keeps them in memory only (the demo).
     pub data_dir: Option<PathBuf>,
-    /// Algorithm viewers get when they name none.
+    /// Algorithm viewers get when they name none ([`DEFAULT_ALGORITHM`]).
     pub default_algorithm: String,
     pub limits: Limits,
     pub auth: Auth,
@@ -56,7 +61,7 @@ impl Default for Config {
         Config {
             addr: SocketAddr::from(([127, 0, 0, 1], 8480)),
             data_dir: Some(PathBuf::from("facewire-data")),
-            default_algorithm: "rbf".into(),
+            default_algorithm: DEFAULT_ALGORITHM.into(),
             limits: Limits::default(),
             auth: Auth::default(),
         }

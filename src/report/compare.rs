@@ -1,0 +1,569 @@
+//! Runs the comparison: every algorithm bound once to the registered head and driven through
+//! every frame of a stream, measuring lip roughness and fidelity per frame (docs/METRICS.md)
+//! and timing the deform alone; then, where the head has artist-made expression targets,
+//! driving each algorithm by each target sampled at the anchors and measuring the error
+//! against the target itself.
+
+use std::path::Path;
+use std::time::Instant;
+
+use glam::Vec3;
+use serde::Serialize;
+
+use super::{Candidate, CompareError};
+use crate::deform::{bind, Registration};
+use crate::fit::FittedMask;
+use crate::head::Head;
+use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
+use crate::metrics::{
+    control_error, ground_truth_error, mouth_opening, ExpressionTarget, FaceVertices, LipRegion,
+    LipRoughness, Roughness, RoughnessError, SyllableScores, LIP_ROWS,
+};
+use crate::stream::{open_stream, ArkitBasis, Frame};
+
+/// Syllable label of frames that carry none.
+pub const UNLABELLED: &str = "-";
+
+/// What to compare.
+#[derive(Debug, Clone, Copy)]
+pub struct CompareInput<'a> {
+    /// The head with its fitted mask, registered once for every algorithm.
+    pub registration: &'a Registration,
+    /// The parameter stream (`.jsonl`, `.fap`, `.fau`); read once to check and count it,
+    /// then once per algorithm, so it is never held in memory whole.
+    pub stream: &'a Path,
+    /// Retargets the frames' ARKit weights onto the mask.
+    pub basis: &'a ArkitBasis,
+    pub algorithms: &'a [Candidate],
+    /// Expression targets of this head for the ground-truth error; empty for none.
+    pub targets: &'a [ExpressionTarget],
+}
+
+/// Where a running comparison is, for a progress display.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Progress<'a> {
+    /// 0-based index of the algorithm being run, of `algorithms`.
+    pub algorithm: usize,
+    pub algorithms: usize,
+    /// Its label (letter).
+    pub label: &'a str,
+    pub stage: Stage,
+}
+
+/// What the current algorithm is doing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    Binding,
+    /// `done` of `total` stream frames deformed and measured.
+    Frames {
+        done: usize,
+        total: usize,
+    },
+    /// `done` of `total` expression targets deformed and measured.
+    Targets {
+        done: usize,
+        total: usize,
+    },
+    Finished,
+}
+
+/// One row of the algorithms table (`algorithms.tsv`, `--json`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AlgorithmSummary {
+    /// The thesis letter, or `X1`, `X2`, ... for a spec that is not a preset.
+    pub letter: String,
+    /// The canonical spec.
+    pub spec: String,
+    /// Mean over syllables of each syllable's mean lip roughness (dimensionless).
+    pub roughness_mean: f64,
+    /// Population variance of the syllable means.
+    pub roughness_var: f64,
+    /// Control error at the anchors, mm: the mean over the frames that move a control of
+    /// each frame's mean over its moving controls.
+    pub control_err_mm: f64,
+    /// Head mouth opening over mask mouth opening, mean over the frames whose mask opening
+    /// is at least 1 mm; `None` when no frame opens the mask that far.
+    pub mouth_opening_ratio: Option<f64>,
+    /// Median wall time of one deform call, microseconds (varies by machine).
+    pub deform_us: f64,
+    /// Mean over the expression targets of the RMS error over the face vertices, mm;
+    /// `None` without targets.
+    pub ground_truth_rms_mm: Option<f64>,
+    /// Mean over frames of the mean `rho(T)` over the face triangles (dimensionless).
+    pub face_roughness_mean: f64,
+    /// Median over frames of the largest rise of a face triangle's `rho(T)` over its rest
+    /// value: the sharpest new crease of a typical frame (dimensionless).
+    pub crease: f64,
+}
+
+/// One syllable's roughness under one algorithm.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SyllableRow {
+    pub syllable: String,
+    pub frames: u64,
+    pub roughness_mean: f64,
+}
+
+/// One expression target reproduced by one algorithm (or not moved at all).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TargetRow {
+    pub target: String,
+    pub rms_mm: f64,
+    pub max_mm: f64,
+}
+
+/// Everything measured about one algorithm.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AlgorithmResult {
+    pub summary: AlgorithmSummary,
+    /// In order of each syllable's first frame.
+    pub syllables: Vec<SyllableRow>,
+    /// In target order; empty without targets.
+    pub ground_truth: Vec<TargetRow>,
+}
+
+/// The outcome of a comparison.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Comparison {
+    pub head_vertices: usize,
+    pub mm_per_unit: f32,
+    pub frames: usize,
+    /// Distinct syllable labels of the stream.
+    pub syllables: usize,
+    /// Frames in which some control moves (those the control error averages over).
+    pub moving_frames: usize,
+    /// Frames whose mask opening is at least 1 mm (those the opening ratio averages over).
+    pub open_frames: usize,
+    /// The opening ratio of a head whose anchors move exactly with their controls: what a
+    /// faithful algorithm scores. Not 1 where the head's lips are apart at rest while the
+    /// mask's touch. `None` when no frame opens the mask 1 mm.
+    pub exact_mouth_opening_ratio: Option<f64>,
+    /// Head triangles of the lip region (the union).
+    pub lip_triangles: usize,
+    /// Summary-row mean lip roughness of the head at rest: what an algorithm that moves
+    /// nothing would score.
+    pub rest_roughness: f64,
+    /// Head vertices within 30 mm of a used anchor: the ground-truth error and the face
+    /// roughness are measured over them (and the triangles they make).
+    pub face_vertices: usize,
+    pub face_triangles: usize,
+    /// Mean `rho(T)` of the face triangles at rest.
+    pub rest_face_roughness: f64,
+    /// Each target against the head at rest (not moving), in target order.
+    pub rest_ground_truth: Vec<TargetRow>,
+    /// In the order asked for.
+    pub algorithms: Vec<AlgorithmResult>,
+}
+
+/// Runs every algorithm of `input` over the stream (and the targets), reporting progress.
+pub fn compare(
+    input: &CompareInput<'_>,
+    progress: &mut dyn FnMut(Progress<'_>),
+) -> Result<Comparison, CompareError> {
+    let reg = input.registration;
+    let mask = &reg.fitted.mask;
+    let mm = reg.mm_per_unit();
+    let rest = &reg.head.positions;
+
+    let region = LipRegion::new(&reg.head, &reg.anchors, mm).map_err(CompareError::LipRegion)?;
+    let mut lips = LipRoughness::new(&reg.head, &region).map_err(CompareError::LipEvaluator)?;
+    let rest_roughness = lips
+        .rows(rest, 0, 0.0)
+        .map_err(|source| CompareError::Roughness {
+            algorithm: "rest".into(),
+            frame: 0,
+            source,
+        })?[LIP_ROWS - 1]
+        .mean;
+    let face = FaceVertices::new(&reg.head, mask, &reg.anchors, mm).map_err(CompareError::FaceRegion)?;
+    let face_smoothness = FaceSmoothness::new(&reg.head, &face).map_err(CompareError::FaceEvaluator)?;
+    let survey = survey(input)?;
+
+    let mut target_positions = vec![Vec3::ZERO; rest.len()];
+    let mut rest_ground_truth = Vec::with_capacity(input.targets.len());
+    for target in input.targets {
+        target.apply_into(rest, 1.0, &mut target_positions)?;
+        let error = ground_truth_error(rest, &target_positions, &face, mm).map_err(|source| {
+            CompareError::Fidelity {
+                algorithm: "rest".into(),
+                source,
+            }
+        })?;
+        rest_ground_truth.push(TargetRow {
+            target: target.name.clone(),
+            rms_mm: error.rms_mm,
+            max_mm: error.max_mm,
+        });
+    }
+
+    let mut run = Run {
+        input,
+        survey,
+        lips,
+        face,
+        face_smoothness,
+        poser: Poser::new(&reg.fitted, input.basis),
+        deformed: vec![Vec3::ZERO; rest.len()],
+        target_positions,
+        controls: vec![Vec3::ZERO; mask.vertices.len()],
+        target_mask: vec![Vec3::ZERO; mask.vertices.len()],
+        stream: StreamTotals::default(),
+    };
+    let mut algorithms = Vec::with_capacity(input.algorithms.len());
+    for (index, candidate) in input.algorithms.iter().enumerate() {
+        let mut report = |stage| {
+            progress(Progress {
+                algorithm: index,
+                algorithms: input.algorithms.len(),
+                label: &candidate.label,
+                stage,
+            })
+        };
+        algorithms.push(run.algorithm(candidate, &mut report)?);
+        report(Stage::Finished);
+    }
+
+    Ok(Comparison {
+        head_vertices: rest.len(),
+        mm_per_unit: mm,
+        frames: survey.frames,
+        syllables: survey.syllables,
+        moving_frames: run.stream.moving_frames,
+        open_frames: run.stream.open_frames,
+        exact_mouth_opening_ratio: run.stream.exact_ratio(),
+        lip_triangles: region.union().len(),
+        rest_roughness,
+        face_vertices: run.face.vertices().len(),
+        face_triangles: run.face_smoothness.triangles(),
+        rest_face_roughness: run.face_smoothness.rest_mean,
+        rest_ground_truth,
+        algorithms,
+    })
+}
+
+/// What the stream asks of every algorithm alike (it depends on the mask only), counted
+/// again by each algorithm's pass.
+#[derive(Debug, Clone, Copy, Default)]
+struct StreamTotals {
+    /// Frames in which some control moves.
+    moving_frames: usize,
+    /// Frames whose mask opening is at least [`crate::metrics::MIN_MASK_OPENING_MM`].
+    open_frames: usize,
+    /// Sum over the open frames of the opening ratio of a head whose anchors move exactly
+    /// with their controls.
+    exact_ratio_sum: f64,
+}
+
+impl StreamTotals {
+    fn exact_ratio(&self) -> Option<f64> {
+        (self.open_frames > 0).then(|| self.exact_ratio_sum / self.open_frames as f64)
+    }
+}
+
+/// The state shared by every algorithm's pass: evaluators and buffers, built once.
+struct Run<'i, 'a> {
+    input: &'i CompareInput<'a>,
+    survey: Survey,
+    lips: LipRoughness,
+    face: FaceVertices,
+    face_smoothness: FaceSmoothness,
+    poser: Poser<'a>,
+    deformed: Vec<Vec3>,
+    target_positions: Vec<Vec3>,
+    controls: Vec<Vec3>,
+    target_mask: Vec<Vec3>,
+    stream: StreamTotals,
+}
+
+impl Run<'_, '_> {
+    /// Binds one algorithm and measures it over the stream, then over the targets.
+    fn algorithm(
+        &mut self,
+        candidate: &Candidate,
+        report: &mut dyn FnMut(Stage),
+    ) -> Result<AlgorithmResult, CompareError> {
+        let reg = self.input.registration;
+        let mask = &reg.fitted.mask;
+        let mm = reg.mm_per_unit();
+        let rest = &reg.head.positions;
+        let spec = candidate.spec.to_string();
+        let fidelity = |source| CompareError::Fidelity {
+            algorithm: spec.clone(),
+            source,
+        };
+        report(Stage::Binding);
+        let binding = bind(reg, &candidate.spec);
+        let mut scratch = binding.scratch(mask.vertices.len(), mask.triangles.len());
+
+        let frames = self.survey.frames;
+        let mut syllables = SyllableScores::new();
+        let mut durations = Vec::with_capacity(frames);
+        let mut creases = Vec::with_capacity(frames);
+        let (mut control_sum, mut ratio_sum, mut face_sum) = (0.0f64, 0.0f64, 0.0f64);
+        self.stream = StreamTotals::default();
+        let upper = reg.anchors.vertex[INNER_LIP_MID_UPPER] as usize;
+        let lower = reg.anchors.vertex[INNER_LIP_MID_LOWER] as usize;
+        for (f, frame) in open_stream(self.input.stream, mask)?.enumerate() {
+            let frame = frame?;
+            let mask_now = self.poser.pose(&frame);
+            let started = Instant::now();
+            binding.deform(
+                rest,
+                reg.mask_rest(),
+                mask_now,
+                reg.mask_triangles(),
+                &mut scratch,
+                &mut self.deformed,
+            );
+            durations.push(started.elapsed().as_secs_f64() * 1e6);
+
+            let rows = self
+                .lips
+                .rows(&self.deformed, f as u64, frame.time_s)
+                .map_err(|source| CompareError::Roughness {
+                    algorithm: spec.clone(),
+                    frame: f,
+                    source,
+                })?;
+            syllables.add(frame.label.as_deref().unwrap_or(UNLABELLED), &rows);
+            let (face_mean, crease) =
+                self.face_smoothness
+                    .measure(&self.deformed)
+                    .map_err(|source| CompareError::Roughness {
+                        algorithm: spec.clone(),
+                        frame: f,
+                        source,
+                    })?;
+            face_sum += face_mean;
+            creases.push(crease);
+
+            control_displacements(reg, mask_now, &mut self.controls);
+            let control =
+                control_error(&self.deformed, rest, &reg.anchors, &self.controls, mm).map_err(fidelity)?;
+            if control.moving > 0 {
+                self.stream.moving_frames += 1;
+                control_sum += control.mean_mm;
+            }
+            let opening = mouth_opening(&self.deformed, &reg.anchors, mask_now, mm).map_err(fidelity)?;
+            if let Some(ratio) = opening.ratio {
+                self.stream.open_frames += 1;
+                ratio_sum += ratio;
+                let exact = (rest[upper] + self.controls[INNER_LIP_MID_UPPER])
+                    .as_dvec3()
+                    .distance((rest[lower] + self.controls[INNER_LIP_MID_LOWER]).as_dvec3())
+                    * f64::from(mm);
+                self.stream.exact_ratio_sum += exact / opening.mask_mm;
+            }
+            report(Stage::Frames {
+                done: f + 1,
+                total: frames,
+            });
+        }
+        // The stream was read once already; a file emptied since shows here.
+        let (Some(score), false) = (syllables.algorithm_score(), durations.is_empty()) else {
+            return Err(CompareError::EmptyStream {
+                path: self.input.stream.display().to_string(),
+            });
+        };
+
+        let targets = self.input.targets;
+        let mut ground_truth = Vec::with_capacity(targets.len());
+        for (t, target) in targets.iter().enumerate() {
+            target.controls_into(&reg.anchors, 1.0, &mut self.controls)?;
+            for ((m, &c), &r) in self
+                .target_mask
+                .iter_mut()
+                .zip(&self.controls)
+                .zip(reg.mask_rest())
+            {
+                *m = r + c;
+            }
+            binding.deform(
+                rest,
+                reg.mask_rest(),
+                &self.target_mask,
+                reg.mask_triangles(),
+                &mut scratch,
+                &mut self.deformed,
+            );
+            target.apply_into(rest, 1.0, &mut self.target_positions)?;
+            let error = ground_truth_error(&self.deformed, &self.target_positions, &self.face, mm)
+                .map_err(fidelity)?;
+            ground_truth.push(TargetRow {
+                target: target.name.clone(),
+                rms_mm: error.rms_mm,
+                max_mm: error.max_mm,
+            });
+            report(Stage::Targets {
+                done: t + 1,
+                total: targets.len(),
+            });
+        }
+
+        let counted = durations.len();
+        let ground_truth_rms_mm = (!ground_truth.is_empty())
+            .then(|| ground_truth.iter().map(|r| r.rms_mm).sum::<f64>() / ground_truth.len() as f64);
+        let moving = self.stream.moving_frames;
+        Ok(AlgorithmResult {
+            summary: AlgorithmSummary {
+                letter: candidate.label.clone(),
+                spec,
+                roughness_mean: score.mean,
+                roughness_var: score.variance,
+                control_err_mm: if moving > 0 {
+                    control_sum / moving as f64
+                } else {
+                    0.0
+                },
+                mouth_opening_ratio: (self.stream.open_frames > 0)
+                    .then(|| ratio_sum / self.stream.open_frames as f64),
+                deform_us: median(&mut durations),
+                ground_truth_rms_mm,
+                face_roughness_mean: face_sum / counted as f64,
+                crease: median(&mut creases),
+            },
+            syllables: syllables
+                .scores()
+                .map(|s| SyllableRow {
+                    syllable: s.label.to_string(),
+                    frames: s.frames,
+                    roughness_mean: s.mean,
+                })
+                .collect(),
+            ground_truth,
+        })
+    }
+}
+
+/// Roughness over the whole face region, which the lip roughness does not see: its mean,
+/// and the largest rise of one triangle's `rho(T)` over its rest value (a new crease).
+struct FaceSmoothness {
+    roughness: Roughness,
+    /// `rho(T)` of each face triangle at rest, in the evaluator's order.
+    rest: Vec<f64>,
+    rest_mean: f64,
+}
+
+impl FaceSmoothness {
+    /// Over the head triangles whose three corners are face vertices.
+    fn new(head: &Head, face: &FaceVertices) -> Result<FaceSmoothness, RoughnessError> {
+        let mut in_face = vec![false; head.positions.len()];
+        for &v in face.vertices() {
+            in_face[v as usize] = true;
+        }
+        let triangles: Vec<u32> = (0..head.triangles.len() as u32)
+            .filter(|&t| head.triangles[t as usize].iter().all(|&v| in_face[v as usize]))
+            .collect();
+        let mut roughness = Roughness::new(head, &triangles)?;
+        roughness.evaluate(&head.positions)?;
+        let rest = roughness.triangle_roughness().to_vec();
+        let rest_mean = mean(&rest);
+        Ok(FaceSmoothness {
+            roughness,
+            rest,
+            rest_mean,
+        })
+    }
+
+    fn triangles(&self) -> usize {
+        self.rest.len()
+    }
+
+    /// Mean `rho(T)` of the face triangles, and the largest rise over rest, for a pose.
+    fn measure(&mut self, positions: &[Vec3]) -> Result<(f64, f64), RoughnessError> {
+        self.roughness.evaluate(positions)?;
+        let rho = self.roughness.triangle_roughness();
+        let crease = rho
+            .iter()
+            .zip(&self.rest)
+            .map(|(now, was)| now - was)
+            .fold(f64::NEG_INFINITY, f64::max);
+        Ok((mean(rho), crease))
+    }
+}
+
+/// Mean of values; NaN for none.
+fn mean(values: &[f64]) -> f64 {
+    values.iter().sum::<f64>() / values.len() as f64
+}
+
+/// The stream's frame and syllable counts.
+#[derive(Debug, Clone, Copy)]
+struct Survey {
+    frames: usize,
+    syllables: usize,
+}
+
+/// Reads the whole stream once: checks it and counts its frames and syllables, before any
+/// time goes into binding.
+fn survey(input: &CompareInput<'_>) -> Result<Survey, CompareError> {
+    let mut frames = 0;
+    let mut labels: Vec<String> = Vec::new();
+    for frame in open_stream(input.stream, &input.registration.fitted.mask)? {
+        let frame = frame?;
+        let label = frame.label.as_deref().unwrap_or(UNLABELLED);
+        if !labels.iter().any(|l| l == label) {
+            labels.push(label.to_string());
+        }
+        frames += 1;
+    }
+    if frames == 0 {
+        return Err(CompareError::EmptyStream {
+            path: input.stream.display().to_string(),
+        });
+    }
+    Ok(Survey {
+        frames,
+        syllables: labels.len(),
+    })
+}
+
+/// Moves the fitted mask frame by frame, with its buffers.
+struct Poser<'a> {
+    fitted: &'a FittedMask,
+    basis: &'a ArkitBasis,
+    weights: Vec<f32>,
+    offsets: Vec<Vec3>,
+    posed: Vec<Vec3>,
+}
+
+impl<'a> Poser<'a> {
+    fn new(fitted: &'a FittedMask, basis: &'a ArkitBasis) -> Poser<'a> {
+        Poser {
+            fitted,
+            basis,
+            weights: vec![0.0; fitted.mask.animation_units.len()],
+            offsets: vec![Vec3::ZERO; fitted.mask.vertices.len()],
+            posed: vec![Vec3::ZERO; fitted.mask.vertices.len()],
+        }
+    }
+
+    /// The fitted mask moved by a frame (head units): animation weights plus per-vertex
+    /// offsets (raw controls, ARKit weights through the basis).
+    fn pose(&mut self, frame: &Frame) -> &[Vec3] {
+        frame.animation_weights(&self.fitted.mask, &self.fitted.fapu, &mut self.weights);
+        frame.mask_offsets(self.basis, &mut self.offsets);
+        self.fitted
+            .pose_with_offsets_into(&self.weights, &self.offsets, &mut self.posed);
+        &self.posed
+    }
+}
+
+/// `delta_j = c'_j - c_j` for the controls (mask vertices a triangle uses), zero for the
+/// loose vertices, which no algorithm follows.
+fn control_displacements(reg: &Registration, posed: &[Vec3], out: &mut [Vec3]) {
+    for (j, ((o, &now), &was)) in out.iter_mut().zip(posed).zip(reg.mask_rest()).enumerate() {
+        *o = if reg.is_control[j] { now - was } else { Vec3::ZERO };
+    }
+}
+
+/// Median of non-empty `values` (the mean of the middle two for an even count).
+fn median(values: &mut [f64]) -> f64 {
+    values.sort_unstable_by(f64::total_cmp);
+    let mid = values.len() / 2;
+    if values.len() % 2 == 0 {
+        (values[mid - 1] + values[mid]) / 2.0
+    } else {
+        values[mid]
+    }
+}

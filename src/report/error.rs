@@ -1,0 +1,53 @@
+//! Why a comparison or its report failed, with the file, algorithm or target at fault.
+
+use crate::deform::SpecError;
+use crate::metrics::{FidelityError, RegionError, RoughnessError, TargetError};
+use crate::stream::StreamError;
+
+/// A failed comparison or report.
+#[derive(Debug, thiserror::Error)]
+pub enum CompareError {
+    #[error("--algos item {item:?}: {source}")]
+    Algorithm { item: String, source: SpecError },
+    #[error("--algos: parameter {item:?} follows {previous:?}, which has no `name:` part; write {previous}:{item}")]
+    DanglingParameter { item: String, previous: String },
+    #[error("--algos: {spec} is listed twice ({first} and {second})")]
+    Repeated {
+        spec: String,
+        first: String,
+        second: String,
+    },
+    #[error("--algos: the list is empty; give specs or letters A-T separated by commas")]
+    NoAlgorithms,
+    #[error(transparent)]
+    Stream(#[from] StreamError),
+    #[error("{path}: the stream has no frames")]
+    EmptyStream { path: String },
+    #[error("the lip region of the head: {0}")]
+    LipRegion(#[source] RegionError),
+    #[error("the face vertices of the head: {0}")]
+    FaceRegion(#[source] RegionError),
+    #[error("the lip roughness evaluator of the head: {0}")]
+    LipEvaluator(#[source] RoughnessError),
+    #[error("the face roughness evaluator of the head: {0}")]
+    FaceEvaluator(#[source] RoughnessError),
+    #[error("roughness with {algorithm}, frame {frame}: {source}")]
+    Roughness {
+        algorithm: String,
+        frame: usize,
+        source: RoughnessError,
+    },
+    #[error("fidelity with {algorithm}: {source}")]
+    Fidelity {
+        algorithm: String,
+        source: FidelityError,
+    },
+    #[error("expression targets: {0}")]
+    Target(#[from] TargetError),
+    #[error("cannot create {path}: {source}")]
+    CreateDir { path: String, source: std::io::Error },
+    #[error("cannot write {path}: {source}")]
+    Write { path: String, source: std::io::Error },
+    #[error("cannot draw {path}: {message}")]
+    Chart { path: String, message: String },
+}
