@@ -316,3 +316,61 @@ fn ground_truth_jaw_open_is_followed_better_than_standing_still() {
     assert!(still > 1.0, "the target moves the face: {still} mm RMS");
     assert!(best < 0.5 * still, "best {best} mm vs {still} mm for not moving");
 }
+
+#[test]
+fn renato_rules_follow_the_projection_by_hand() {
+    let reg = makehuman();
+    let inside = (0..reg.vertex_count())
+        .find(|&v| reg.projections[v].inside)
+        .unwrap();
+    let outside = (0..reg.vertex_count())
+        .find(|&v| !reg.projections[v].inside)
+        .unwrap();
+    let terms = |spec: &str, v: usize| -> Vec<(u16, f32)> {
+        let binding = bind(reg, &spec.parse().unwrap());
+        binding
+            .linear
+            .row(v)
+            .iter()
+            .map(|t| (t.control, t.weight))
+            .collect()
+    };
+    let corners = |v: usize| reg.mask_triangles()[reg.projections[v].triangle as usize];
+    let mu = |v: usize| reg.projections[v].bary;
+    let close = |got: Vec<(u16, f32)>, want: Vec<(u16, f32)>| {
+        assert_eq!(got.len(), want.len(), "{got:?} vs {want:?}");
+        for ((gc, gw), (wc, ww)) in got.iter().zip(&want) {
+            assert_eq!(gc, wc);
+            assert!((gw - ww).abs() < 1e-6, "{got:?} vs {want:?}");
+        }
+    };
+    for v in [inside, outside] {
+        let expected: Vec<(u16, f32)> = corners(v)
+            .iter()
+            .zip(mu(v))
+            .map(|(&c, m)| (c as u16, m))
+            .collect();
+        // renato3 and, inside the mask, renato1 and renato2: d = sum mu_k delta_k
+        close(terms("renato3", v), expected.clone());
+        if v == inside {
+            close(terms("renato1", v), expected.clone());
+            close(terms("renato2", v), expected);
+        }
+    }
+    // outside: renato1 takes |mu|, renato2 exp(-|P - C| / alpha^2) in mask units
+    let abs: Vec<(u16, f32)> = corners(outside)
+        .iter()
+        .zip(mu(outside))
+        .map(|(&c, m)| (c as u16, m.abs()))
+        .collect();
+    close(terms("renato1", outside), abs);
+    let p = reg.head.positions[outside];
+    let falloff: Vec<(u16, f32)> = corners(outside)
+        .iter()
+        .map(|&c| {
+            let d = p.distance(reg.mask_rest()[c as usize]) / reg.fitted.fit.pose.scale.x;
+            (c as u16, (-d / (0.4 * 0.4)).exp())
+        })
+        .collect();
+    close(terms("renato2", outside), falloff);
+}

@@ -198,7 +198,7 @@ impl Binding {
         }
         let has_bones = !self.bones.is_empty();
         if has_bones {
-            scratch.bones.update(mask_rest, mask_now, triangles);
+            scratch.bones.update(mask_now, triangles);
         }
         for (v, (o, p)) in out.iter_mut().zip(rest).enumerate() {
             let p = Vec3A::from(*p);

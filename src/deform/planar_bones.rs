@@ -38,6 +38,8 @@ pub enum Region {
 pub struct BoneTerm {
     pub triangle: u16,
     pub region: Region,
+    /// Index of the region frame in [`BoneFrames`]: `triangle * 7 + region.slot()`.
+    pub frame: u32,
     /// Inside: (a, b, c) in the affine frame. Edge: (t, s, h) with
     /// `P - V_i = t e_i + s u_i + h n`. Corner: (x, y, h) with the in-plane offset
     /// `x u_i + y u_i-1` and height h.
@@ -135,58 +137,92 @@ impl Bone {
     }
 
     /// The bound point in this pose.
+    /// The seven region frames of this bone, in [`Region::slot`] order: origin and three
+    /// axes each. Inside: (A, B - A, C - A, n); edge i: (V_i, e_i, u_i, n); corner i:
+    /// (V_i, u_i, u_i-1, n).
+    pub fn frames(&self) -> [RegionFrame; 7] {
+        let frame = self.frame();
+        let edge = |i: usize| [self.corners[i], self.edges[i], self.outward[i], self.normal];
+        let corner = |i: usize| {
+            [
+                self.corners[i],
+                self.outward[i],
+                self.outward[(i + 2) % 3],
+                self.normal,
+            ]
+        };
+        [
+            [frame.origin, frame.e1, frame.e2, frame.normal],
+            edge(0),
+            edge(1),
+            edge(2),
+            corner(0),
+            corner(1),
+            corner(2),
+        ]
+    }
+
+    /// The bound point in this pose.
     pub fn point(&self, region: Region, coords: Vec3, offset_length: f32) -> Vec3A {
-        match region {
-            Region::Inside => self.frame().point(coords),
-            Region::Edge(i) => {
-                let i = i as usize;
-                self.corners[i]
-                    + coords.x * self.edges[i]
-                    + coords.y * self.outward[i]
-                    + coords.z * self.normal
-            }
-            Region::Corner(i) => {
-                let i = i as usize;
-                let offset = coords.x * self.outward[i] + coords.y * self.outward[(i + 2) % 3];
-                let length = offset.length();
-                let scaled = if length > 0.0 {
-                    offset * (offset_length / length)
-                } else {
-                    offset
-                };
-                self.corners[i] + scaled + coords.z * self.normal
-            }
+        evaluate(&self.frames()[region.slot()], coords, offset_length)
+    }
+}
+
+/// Origin and three axes of one region frame.
+pub type RegionFrame = [Vec3A; 4];
+
+impl Region {
+    /// Index of this region's frame among a bone's seven.
+    pub fn slot(self) -> usize {
+        match self {
+            Region::Inside => 0,
+            Region::Edge(i) => 1 + i as usize,
+            Region::Corner(i) => 4 + i as usize,
         }
     }
 }
 
-/// Every bone in the current pose; rebuilt once per frame.
+/// `origin + s (x a1 + y a2) + z a3`, where `s` rescales a corner region's in-plane offset
+/// to its rest length (`offset_length > 0`) and is 1 otherwise. Branch-free: terms of all
+/// regions mix within a vertex, and a mispredicted branch per term costs more than the
+/// arithmetic.
+#[inline]
+fn evaluate(frame: &RegionFrame, coords: Vec3, offset_length: f32) -> Vec3A {
+    let in_plane = coords.x * frame[1] + coords.y * frame[2];
+    let length = in_plane.length();
+    let keep = f32::from(u8::from(offset_length <= 0.0 || length <= 0.0));
+    let scale = (offset_length * (1.0 - keep) + length * keep) / length.max(f32::MIN_POSITIVE);
+    frame[0] + in_plane * scale + coords.z * frame[3]
+}
+
+/// Every bone's region frames in the current pose; rebuilt once per frame.
 #[derive(Debug, Clone, Default)]
 pub struct BoneFrames {
-    bones: Vec<Bone>,
+    frames: Vec<RegionFrame>,
 }
 
 impl BoneFrames {
     pub fn with_capacity(triangles: usize) -> BoneFrames {
         BoneFrames {
-            bones: Vec::with_capacity(triangles),
+            frames: Vec::with_capacity(triangles * 7),
         }
     }
 
-    /// Rebuilds the bones from the moved mask. Allocates nothing once sized.
-    pub fn update(&mut self, _mask_rest: &[Vec3], mask_now: &[Vec3], triangles: &[[u32; 3]]) {
-        self.bones.clear();
-        self.bones.extend(triangles.iter().map(|t| {
-            Bone::of(
+    /// Rebuilds the frames from the moved mask. Allocates nothing once sized.
+    pub fn update(&mut self, mask_now: &[Vec3], triangles: &[[u32; 3]]) {
+        self.frames.clear();
+        for t in triangles {
+            let bone = Bone::of(
                 mask_now[t[0] as usize],
                 mask_now[t[1] as usize],
                 mask_now[t[2] as usize],
-            )
-        }));
+            );
+            self.frames.extend(bone.frames());
+        }
     }
 
     pub fn point(&self, term: &BoneTerm) -> Vec3A {
-        self.bones[term.triangle as usize].point(term.region, term.coords, term.offset_length)
+        evaluate(&self.frames[term.frame as usize], term.coords, term.offset_length)
     }
 }
 
@@ -208,6 +244,7 @@ pub fn bind(reg: &Registration, spec: AlgoSpec, weights: &Weights) -> Binding {
                     let (region, coords, offset_length) = bones[t as usize].bind(p)?;
                     Some(BoneTerm {
                         triangle: t,
+                        frame: u32::from(t) * 7 + region.slot() as u32,
                         region,
                         coords,
                         offset_length,
