@@ -469,7 +469,14 @@ async fn malformed_input_is_refused_and_the_stream_keeps_running() {
         other => panic!("expected an error, got {other:?}"),
     }
     expect_error("message_too_large")(send(&mut producer, Message::Text("x".repeat(10_000).into())).await);
-    expect_error("out_of_order")(send(&mut producer, ok(0)).await);
+    match send(&mut producer, ok(0)).await {
+        ServerMessage::Error { code, seq, field, .. } => {
+            assert_eq!(code, "out_of_order");
+            assert_eq!(seq, Some(0));
+            assert_eq!(field.as_deref(), Some("seq"));
+        }
+        other => panic!("expected out_of_order, got {other:?}"),
+    }
 
     // A second producer is refused and closed; the first keeps going.
     let mut second = connect(&server.ws("/v1/heads/mh/streams/s/produce")).await;
@@ -607,5 +614,63 @@ async fn tokens_are_required_when_configured() {
             ));
         }
     }
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn fast_and_idle_producers_are_told_why() {
+    let _serial = SERIAL.lock().await;
+    let server = Server::start(Config {
+        limits: facewire::server::config::Limits {
+            max_fps: 8.0,
+            producer_idle_s: 0.5,
+            ..Default::default()
+        },
+        ..memory_config()
+    })
+    .await;
+    server.register("mh", "makehuman_head", "").await;
+    let mut producer = connect(&server.ws("/v1/heads/mh/streams/s/produce")).await;
+    let (mut acks, mut limited) = (0, 0);
+    for seq in 0..10u64 {
+        let line = format!(r#"{{"seq":{seq},"t":{}}}"#, seq as f64 / 30.0);
+        producer.send(Message::Text(line.into())).await.unwrap();
+        match next_json(&mut producer).await {
+            ServerMessage::Ack { .. } => acks += 1,
+            ServerMessage::Error {
+                code, seq: Some(_), ..
+            } if code == "rate_limited" => limited += 1,
+            other => panic!("unexpected {other:?}"),
+        }
+    }
+    // a burst of max_fps / 4 (at least 2) passes, the rest of an instant burst does not
+    assert!((2..=3).contains(&acks), "{acks} acked");
+    assert_eq!(acks + limited, 10);
+    match next_json(&mut producer).await {
+        ServerMessage::Error { code, .. } => assert_eq!(code, "idle"),
+        other => panic!("expected idle, got {other:?}"),
+    }
+    match producer.next().await {
+        Some(Ok(Message::Close(Some(frame)))) => assert_eq!(u16::from(frame.code), 4408),
+        other => panic!("expected a close, got {other:?}"),
+    }
+    // An upload over the limit is refused with 413.
+    let small = Server::start(Config {
+        limits: facewire::server::config::Limits {
+            max_upload_bytes: 1024,
+            ..Default::default()
+        },
+        ..memory_config()
+    })
+    .await;
+    let body = serde_json::json!({"id": "big", "obj": "v 0 0 0\n".repeat(1000), "fit": ""});
+    let response = reqwest::Client::new()
+        .post(small.http("/v1/heads"))
+        .json(&body)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(response.status(), 413);
+    small.stop().await;
     server.stop().await;
 }

@@ -36,6 +36,8 @@ struct Refusal {
     code: &'static str,
     field: Option<String>,
     message: String,
+    /// The refused frame's sequence number, once it was parsed far enough to have one.
+    seq: Option<u64>,
 }
 
 impl Refusal {
@@ -44,6 +46,7 @@ impl Refusal {
             code,
             field: field.map(str::to_string),
             message: message.into(),
+            seq: None,
         }
     }
 }
@@ -290,7 +293,13 @@ async fn producer_session(socket: WebSocket, state: AppState, head: Arc<ReadyHea
             Message::Binary(b) => frame_from_binary(&b, mask.animation_units.len()).map(Some),
         };
         let reply = match parsed.and_then(|f| match f {
-            Some(frame) => gate.admit(&frame).map(|_| Some(frame)),
+            Some(frame) => match gate.admit(&frame) {
+                Ok(()) => Ok(Some(frame)),
+                Err(refusal) => Err(Refusal {
+                    seq: Some(frame.seq),
+                    ..refusal
+                }),
+            },
             None => Ok(None),
         }) {
             Ok(Some(frame)) => {
@@ -304,7 +313,7 @@ async fn producer_session(socket: WebSocket, state: AppState, head: Arc<ReadyHea
                 ServerMessage::Error {
                     code: refusal.code.into(),
                     message: refusal.message,
-                    seq: None,
+                    seq: refusal.seq,
                     field: refusal.field,
                 }
             }

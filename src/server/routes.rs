@@ -62,7 +62,14 @@ pub async fn register_head(
         &headers,
         "admin",
     )?;
-    let Json(request) = body.map_err(|e| ApiError::bad_request("bad_request", e.body_text()))?;
+    let Json(request) = body.map_err(|e| {
+        let code = if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
+            "too_large"
+        } else {
+            "bad_request"
+        };
+        ApiError::new(e.status(), code, e.body_text())
+    })?;
     let fit_toml = match (request.fit, request.landmarks) {
         (Some(fit), None) => fit,
         (None, Some(landmarks)) => {
