@@ -51,6 +51,19 @@ impl Refusal {
     }
 }
 
+/// The head a producer addresses, once its token is checked and the head is ready.
+fn producer_head(
+    state: &AppState,
+    id: &str,
+    query: &TokenQuery,
+    headers: &HeaderMap,
+) -> Result<(Arc<HeadEntry>, Arc<ReadyHead>), ApiError> {
+    let head = state.registry.get(id).ok_or_else(|| ApiError::unknown_head(id))?;
+    producer_auth(state, &head, query, headers)?;
+    let ready = ready_head(state, id)?;
+    Ok((head, ready))
+}
+
 fn producer_auth(
     state: &AppState,
     head: &HeadEntry,
@@ -73,12 +86,7 @@ pub async fn produce(
     Query(query): Query<TokenQuery>,
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
-    let head = state
-        .registry
-        .get(&id)
-        .ok_or_else(|| ApiError::unknown_head(&id))?;
-    producer_auth(&state, &head, &query, &headers)?;
-    let ready = ready_head(&state, &id)?;
+    let (head, ready) = producer_head(&state, &id, &query, &headers)?;
     let channel = head.channel(&stream);
     Ok(ws
         .max_message_size(SOCKET_MESSAGE_CAP)
@@ -358,12 +366,7 @@ pub async fn batch(
     headers: HeaderMap,
     body: Bytes,
 ) -> Result<Response, ApiError> {
-    let head = state
-        .registry
-        .get(&id)
-        .ok_or_else(|| ApiError::unknown_head(&id))?;
-    producer_auth(&state, &head, &query, &headers)?;
-    let ready = ready_head(&state, &id)?;
+    let (head, ready) = producer_head(&state, &id, &query, &headers)?;
     let is_fap = headers
         .get(axum::http::header::CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())
