@@ -195,7 +195,8 @@ async fn viewers_see_what_facewire_deform_computes() {
         }
         viewers.push(socket);
     }
-    let frames: Vec<Frame> = syllables().into_iter().take(60).collect();
+    // The whole recorded syllable stream, at about 60 frames per second.
+    let frames: Vec<Frame> = syllables();
     let last = frames.last().unwrap().seq;
     let readers: Vec<_> = viewers
         .into_iter()
@@ -264,7 +265,7 @@ async fn viewers_see_what_facewire_deform_computes() {
             compared += 1;
         }
         assert!(
-            compared >= 30,
+            compared >= frames.len() / 2,
             "{spec}: only {compared} of {} frames arrived",
             frames.len()
         );
