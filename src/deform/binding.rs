@@ -11,7 +11,7 @@
 
 use glam::{Vec3, Vec3A};
 
-use super::planar_bones::{BoneFrames, BoneTerm};
+use super::planar_bones::{BoneFrames, BoneTerm, Region};
 use super::spec::AlgoSpec;
 
 /// Compressed rows: the items of row `v` are `items[offsets[v]..offsets[v + 1]]`.
@@ -118,7 +118,11 @@ pub struct Binding {
     pub spec: AlgoSpec,
     pub linear: Csr<LinearTerm>,
     pub frames: Csr<FrameTerm>,
+    /// Bone terms of inside and edge regions (affine in the moved bone's frame).
     pub bones: Csr<BoneTerm>,
+    /// Bone terms of corner regions, which also rescale their in-plane offset: kept apart
+    /// so that only they pay the square root.
+    pub corners: Csr<BoneTerm>,
 }
 
 /// Per-frame buffers, allocated once per binding user.
@@ -137,11 +141,26 @@ impl Binding {
         bones: Csr<BoneTerm>,
     ) -> Binding {
         debug_assert!(linear.rows() == frames.rows() && frames.rows() == bones.rows());
+        let split = |corner: bool| {
+            Csr::from_rows(
+                (0..bones.rows())
+                    .map(|v| {
+                        bones
+                            .row(v)
+                            .iter()
+                            .filter(|t| matches!(t.region, Region::Corner(_)) == corner)
+                            .copied()
+                            .collect()
+                    })
+                    .collect(),
+            )
+        };
         Binding {
             spec,
             linear,
             frames,
-            bones,
+            bones: split(false),
+            corners: split(true),
         }
     }
 
@@ -153,6 +172,7 @@ impl Binding {
             linear: Csr::from_rows(rows),
             frames: Csr::empty(n),
             bones: Csr::empty(n),
+            corners: Csr::empty(n),
         }
     }
 
@@ -196,7 +216,7 @@ impl Binding {
                 );
             }
         }
-        let has_bones = !self.bones.is_empty();
+        let has_bones = !self.bones.is_empty() || !self.corners.is_empty();
         if has_bones {
             scratch.bones.update(mask_now, triangles);
         }
@@ -213,6 +233,9 @@ impl Binding {
             }
             if has_bones {
                 for term in self.bones.row(v) {
+                    moved += term.weight * (scratch.bones.affine_point(term) - p);
+                }
+                for term in self.corners.row(v) {
                     moved += term.weight * (scratch.bones.point(term) - p);
                 }
             }

@@ -221,8 +221,16 @@ impl BoneFrames {
         }
     }
 
+    /// A bound point of any region.
     pub fn point(&self, term: &BoneTerm) -> Vec3A {
         evaluate(&self.frames[term.frame as usize], term.coords, term.offset_length)
+    }
+
+    /// A bound point of an inside or edge region: affine in its frame, no rescale.
+    #[inline]
+    pub fn affine_point(&self, term: &BoneTerm) -> Vec3A {
+        let f = &self.frames[term.frame as usize];
+        f[0] + term.coords.x * f[1] + term.coords.y * f[2] + term.coords.z * f[3]
     }
 }
 
