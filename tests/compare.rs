@@ -114,7 +114,7 @@ fn compare_writes_tables_charts_and_report() {
     assert_eq!(letters, ["G", "S", "T"]);
     assert_eq!(
         rows[2]["spec"],
-        "rbf:kernel=wendland,distance=surface,r_mm=40,poly=linear"
+        "rbf:kernel=wendland,distance=surface,r_mm=30,poly=linear"
     );
     for row in rows {
         for key in [

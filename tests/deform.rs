@@ -26,7 +26,7 @@ fn heads() -> [(&'static str, &'static Registration); 2] {
     [("scan", scan()), ("makehuman", makehuman())]
 }
 
-/// Every preset (A-T) plus a few non-preset variants.
+/// Every preset (A-U) plus a few non-preset variants.
 fn variants() -> Vec<AlgoSpec> {
     let mut specs: Vec<AlgoSpec> = AlgoSpec::presets().into_iter().map(|(_, s, _)| s).collect();
     for extra in [
@@ -34,6 +34,7 @@ fn variants() -> Vec<AlgoSpec> {
         "renato3:weights=planar_bones,r_pct=50",
         "rbf:kernel=wendland,distance=surface,r_mm=25,poly=none",
         "rbf:kernel=thin_plate,distance=euclidean,r_mm=50",
+        "point_distance:k=all",
     ] {
         specs.push(extra.parse().unwrap());
     }
@@ -162,16 +163,29 @@ fn local_frame_variants_move_rigidly_with_a_rigid_mask() {
     }
 }
 
-/// Mean upper-lip head motion over the mean lower-lip control motion, for a jaw drop.
+/// Mean upper-lip head motion over the mean lower-lip control motion, when only the
+/// lower-lip controls move, by their motion in a half jaw drop (the corners and the chin
+/// stay: the whole jaw-drop unit also moves the inner mouth corners, which belong to both
+/// lips, by 9 % of the lower lip, and the upper-lip vertices beside them rightly follow).
 fn lip_leak(reg: &Registration, spec: &AlgoSpec) -> f32 {
     let mut animation = vec![0.0; 65];
     animation[1] = 0.5; // jaw_drop
-    let mask_now = posed(reg, &animation);
+    let jaw = posed(reg, &animation);
+    let mask_now: Vec<Vec3> = (0..jaw.len())
+        .map(|j| {
+            if LOWER_LIP.contains(&j) {
+                jaw[j]
+            } else {
+                reg.mask_rest()[j]
+            }
+        })
+        .collect();
     let lower: f32 = LOWER_LIP
         .iter()
         .map(|&j| mask_now[j].distance(reg.mask_rest()[j]))
         .sum::<f32>()
         / LOWER_LIP.len() as f32;
+    assert!(lower > 0.5 / reg.mm_per_unit(), "the lower lip moves {lower}");
     let out = deform_with(reg, &bind(reg, spec), &mask_now);
     let upper = upper_lip_vertices(reg);
     upper
@@ -182,34 +196,23 @@ fn lip_leak(reg: &Registration, spec: &AlgoSpec) -> f32 {
         / lower
 }
 
-/// Variants whose influence radius reaches from the upper lip across the mouth corners to
-/// the lower-lip triangles (the corners belong to both lips): they leak by design. The
-/// measured leak on the scan is bounded here and reported in docs/ALGORITHMS.md.
-fn reaches_across_the_corners(spec: &AlgoSpec) -> Option<f32> {
-    match spec.to_string().as_str() {
-        "point_distance:k=all,local=2" => Some(0.12),
-        "planar_bones:weights=planar_bones,r_pct=100,n=1" => Some(0.13),
-        _ => None,
-    }
-}
-
 #[test]
-fn lips_stay_apart_when_the_jaw_drops() {
+fn lips_stay_apart_when_the_lower_lip_drops() {
     for (name, reg) in heads() {
         assert!(upper_lip_vertices(reg).len() > 50, "{name}");
         for spec in variants() {
             let leak = lip_leak(reg, &spec);
             let euclidean =
                 matches!(spec, AlgoSpec::Rbf(p) if p.metric == facewire::deform::Metric::Euclidean);
+            eprintln!("{name} {spec}: upper lip moves {leak:.4} of the lower lip");
             if euclidean {
                 assert!(
                     leak > 0.1,
                     "{name} {spec}: Euclidean RBF was expected to leak, leaked {leak}"
                 );
             } else {
-                let bound = reaches_across_the_corners(&spec).unwrap_or(0.1);
                 assert!(
-                    leak < bound,
+                    leak < 0.1,
                     "{name} {spec}: upper lip moved {leak} of the lower lip"
                 );
             }
@@ -254,15 +257,24 @@ fn interpolating_variants_reproduce_the_controls_at_the_anchors() {
                 *p + Vec3::new((k * 0.7).sin(), (k * 1.3).cos(), (k * 0.4).sin()) * (2.0 / mm)
             })
             .collect();
-        for (spec, tolerance) in [("kshirsagar", 1e-4), ("rbf", 1e-4), ("F", 1e-4)] {
+        for (spec, tolerance) in [
+            ("kshirsagar", 1e-4),
+            ("rbf", 1e-4),
+            ("F", 1e-4),
+            ("point_distance", 1e-4),
+            // Every control in every row: f32 rounding over ~110 terms, through sources up
+            // to 8 times a displacement, reaches 3e-4 of the smaller control motions.
+            ("point_distance:k=all", 1e-3),
+        ] {
             let error = anchor_error(reg, &spec.parse().unwrap(), &scattered);
             assert!(
                 error < tolerance,
                 "{name} {spec}: relative error {error} at an anchor"
             );
         }
-        // point_distance only approximates (its weights stay finite at d = 0): on a real
-        // mouth motion G stays close, H, averaging every control, squashes it.
+        // The thesis's point_distance (G, H: interpolate=false) only approximates, its
+        // weights staying finite at d = 0: on a real mouth motion G stays close, H,
+        // averaging every control, squashes it.
         let mut animation = vec![0.0; 65];
         animation[1] = 0.5; // jaw_drop
         animation[2] = 0.4; // lip_stretcher

@@ -1,4 +1,4 @@
-//! `facewire algos`: every interpolation variant with its thesis letter, canonical spec,
+//! `facewire algos`: every interpolation variant with its preset letter, canonical spec,
 //! one-line description and whether it is linear in the control displacements.
 
 use serde::Serialize;

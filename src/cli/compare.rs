@@ -33,8 +33,8 @@ pub struct Args {
     /// Output directory (created if missing).
     #[arg(long)]
     out: FilePath,
-    /// Comma-separated specs or thesis letters (`A,C,T`, `G,rbf:kernel=gaussian,r_mm=30`);
-    /// default: every preset A-T. Specs that are not presets are labelled X1, X2, ...
+    /// Comma-separated specs or preset letters (`A,C,T`, `G,rbf:kernel=gaussian,r_mm=30`);
+    /// default: every preset A-U. Specs that are not presets are labelled X1, X2, ...
     #[arg(long)]
     algos: Option<String>,
     /// Folder of the head's expression targets (*.target) for the ground-truth error;

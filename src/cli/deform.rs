@@ -24,7 +24,7 @@ pub struct Args {
     /// Its fit (.fit.toml).
     #[arg(long)]
     fit: FilePath,
-    /// Algorithm spec or thesis letter (see `facewire algos`).
+    /// Algorithm spec or preset letter (see `facewire algos`).
     #[arg(long, default_value = crate::server::config::DEFAULT_ALGORITHM)]
     algo: String,
     /// Parameter stream (.jsonl, .fap, .fau).

@@ -5,6 +5,7 @@
 //! geometry; may be slow and runs in parallel) and **deform** (every frame; one pass over
 //! the bound terms, no allocation). See docs/ALGORITHMS.md for each variant.
 
+mod anchor_system;
 mod bary1;
 mod bary2;
 mod binding;
@@ -21,7 +22,7 @@ mod renato3;
 pub mod spec;
 mod weights;
 
-pub use binding::{Binding, Csr, DeformScratch, FrameTerm, LinearTerm, TriangleFrame};
+pub use binding::{Binding, Csr, DeformScratch, FrameTerm, LinearTerm, SourceMap, TriangleFrame};
 pub use projection::Projection;
 pub use registration::Registration;
 pub use spec::{AlgoSpec, Kernel, Metric, RbfParams, SpecError, Weights};
@@ -33,7 +34,11 @@ pub fn bind(reg: &Registration, spec: &AlgoSpec) -> Binding {
         AlgoSpec::Bary1 { alpha } => bary1::bind(reg, *spec, alpha),
         AlgoSpec::Bary2 { weights } => bary2::bind(reg, *spec, &weights),
         AlgoSpec::Geometric { weights } => geometric::bind(reg, *spec, &weights),
-        AlgoSpec::PointDistance { k, local } => point_distance::bind(reg, *spec, k, local),
+        AlgoSpec::PointDistance {
+            k,
+            local,
+            interpolate,
+        } => point_distance::bind(reg, *spec, k, local, interpolate),
         AlgoSpec::PlanarBones { weights } => planar_bones::bind(reg, *spec, &weights),
         AlgoSpec::Renato1 => renato1::bind(reg, *spec),
         AlgoSpec::Renato2 { alpha } => renato2::bind(reg, *spec, alpha),

@@ -51,7 +51,10 @@
 //! (multiquadric, thin plate) included. A vertex that reaches no centre moves with the
 //! linear term alone (not at all with `poly=none`).
 //!
-//! Defaults (`rbf`, preset T): Wendland C2, surface distance, `r_mm = 40`, linear term.
+//! Defaults (`rbf`, preset T): Wendland C2, surface distance, `r_mm = 30`, linear term.
+//! 30 mm is about the surface distance from the middle of the upper lip round a mouth
+//! corner to the lower lip: a wider support reaches across (with the lower lip dropped
+//! alone, the upper lip of the scan moves 4.7 % of it at 30 mm and 10.4 % at 40 mm).
 //!
 //! # Shared anchors
 //!
@@ -62,17 +65,15 @@
 //!
 //! # Solving, and the singular-system fallback
 //!
-//! `M` is solved in f64 by LU with partial pivoting (it is not symmetric positive
-//! definite in general: the linear term makes it indefinite, and with surface distances
-//! `Phi` need not be positive definite even for the positive-definite kernels). The LU
-//! inverse is accepted when it exists, is finite and its 1-norm condition number
-//! `|M|_1 |M^-1|_1` is at most `MAX_CONDITION` (1e12). Otherwise (a singular or ill-conditioned
-//! system: fewer than four affinely independent centres with the linear term, a surface
-//! `Phi` that happens to be singular, a very wide gaussian or multiquadric: Euclidean at
-//! `r_mm = 60` on the MakeHuman head reaches 1e13) the **truncated SVD
-//! pseudo-inverse** is used, dropping singular values below `sigma_max / MAX_CONDITION`:
-//! in the dropped directions the anchors are matched in the least-squares sense instead
-//! of exactly, and the weights stay bounded. A system with non-finite entries, or whose
+//! `M` is inverted by `anchor_system::invert`: LU with partial pivoting in f64 (`M` is not
+//! symmetric positive definite in general: the linear term makes it indefinite, and with
+//! surface distances `Phi` need not be positive definite even for the positive-definite
+//! kernels), accepted up to a 1-norm condition number of 1e12. Otherwise (a singular or
+//! ill-conditioned system: fewer than four affinely independent centres with the linear
+//! term, a surface `Phi` that happens to be singular, a very wide gaussian or
+//! multiquadric: Euclidean at `r_mm = 60` on the MakeHuman head reaches 1e13) the
+//! **truncated SVD pseudo-inverse** is used: in the dropped directions the anchors are
+//! matched in the least-squares sense instead of exactly, and the weights stay bounded. A system with non-finite entries, or whose
 //! SVD does not converge, binds every vertex to nothing (the head stays at rest) rather
 //! than panicking.
 //!
@@ -104,7 +105,7 @@
 //!   The system stays solvable and well conditioned (1-norm condition 1e4-1e7), but as
 //!   `r_mm` varies an eigenvalue can pass close to zero and the interpolant then rings
 //!   between the anchors. The compact Wendland kernel is robust at the default radius
-//!   (upper lip moves 3-7 % of the lower lip); the global kernels (gaussian,
+//!   (upper lip moves 1-5 % of the lower lip); the global kernels (gaussian,
 //!   multiquadrics, thin plate) on surface distances leak 20-50 % there, erratically in
 //!   `r_mm`, and up to several times the lower lip's motion for some radii without the
 //!   linear term. That is why the default is Wendland on surface distances.
@@ -117,24 +118,17 @@
 //!   so f32 rounding of the displacements is amplified by as much.
 //! - Merged anchors get the mean of their members' displacements, not each one's.
 
-use std::collections::HashMap;
-
 use glam::DVec3;
-use nalgebra::{DMatrix, SVD};
+use nalgebra::DMatrix;
 use rayon::prelude::*;
 
+use super::anchor_system::{centres, invert, Centre};
 use super::binding::{Binding, LinearTerm};
 use super::spec::{AlgoSpec, Kernel, Metric, RbfParams};
 use super::Registration;
 
 /// Weights of smaller magnitude are dropped from the rows.
 const DROP_BELOW: f32 = 1e-7;
-/// Largest 1-norm condition number accepted from the LU inverse; also the truncation
-/// ratio of the pseudo-inverse fallback.
-const MAX_CONDITION: f64 = 1e12;
-/// Iteration cap of the fallback SVD (it converges in a few dozen sweeps on sane input).
-const SVD_MAX_ITERATIONS: usize = 10_000;
-
 /// Binds the RBF interpolant of the control displacements: one dense row of weights per
 /// head vertex (see the module docs).
 pub fn bind(reg: &Registration, spec: AlgoSpec, params: &RbfParams) -> Binding {
@@ -202,33 +196,6 @@ fn phi(kernel: Kernel, r: f64, r_mm: f64) -> f64 {
             }
         }
     }
-}
-
-/// One RBF centre: a head vertex anchoring one or more control mask vertices.
-#[derive(Debug)]
-struct Centre {
-    vertex: u32,
-    members: Vec<u32>,
-}
-
-/// The controls grouped by anchor, in control order.
-fn centres(reg: &Registration) -> Vec<Centre> {
-    let mut index: HashMap<u32, usize> = HashMap::new();
-    let mut centres: Vec<Centre> = Vec::new();
-    for &j in &reg.controls {
-        let vertex = reg.anchors.vertex[j as usize];
-        match index.get(&vertex) {
-            Some(&k) => centres[k].members.push(j),
-            None => {
-                index.insert(vertex, centres.len());
-                centres.push(Centre {
-                    vertex,
-                    members: vec![j],
-                });
-            }
-        }
-    }
-    centres
 }
 
 /// Evaluates `b(P)`: the kernel columns, then the polynomial columns.
@@ -316,37 +283,6 @@ impl<'a> Basis<'a> {
     }
 }
 
-/// `M^-1` by LU, or the truncated SVD pseudo-inverse when LU fails or is ill-conditioned;
-/// `None` when `M` is not finite or the SVD does not converge.
-fn invert(system: &DMatrix<f64>) -> Option<DMatrix<f64>> {
-    if !system.iter().all(|x| x.is_finite()) {
-        return None;
-    }
-    lu_inverse(system).or_else(|| pseudo_inverse(system))
-}
-
-/// The LU inverse when it exists, is finite and has condition number at most
-/// `MAX_CONDITION`.
-fn lu_inverse(system: &DMatrix<f64>) -> Option<DMatrix<f64>> {
-    let inverse = system.clone().lu().try_inverse()?;
-    let condition = norm1(system) * norm1(&inverse);
-    (condition.is_finite() && condition <= MAX_CONDITION).then_some(inverse)
-}
-
-fn pseudo_inverse(system: &DMatrix<f64>) -> Option<DMatrix<f64>> {
-    let svd = SVD::try_new(system.clone(), true, true, f64::EPSILON, SVD_MAX_ITERATIONS)?;
-    let largest = svd.singular_values.iter().copied().fold(0.0, f64::max);
-    svd.pseudo_inverse(largest / MAX_CONDITION).ok()
-}
-
-/// Largest absolute column sum.
-fn norm1(matrix: &DMatrix<f64>) -> f64 {
-    matrix
-        .column_iter()
-        .map(|c| c.iter().map(|x| x.abs()).sum::<f64>())
-        .fold(0.0, f64::max)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -398,26 +334,12 @@ mod tests {
         // to both) gives e^-1/4 (1 - g) / (1 - g^2) = e^-1/4 / (1 + g).
         let g = phi(Kernel::Gaussian, 10.0, 10.0);
         let system = DMatrix::from_row_slice(2, 2, &[1.0, g, g, 1.0]);
-        let inverse = lu_inverse(&system).unwrap();
+        let inverse = invert(&system).unwrap();
         let det = 1.0 - g * g;
         let expected = DMatrix::from_row_slice(2, 2, &[1.0 / det, -g / det, -g / det, 1.0 / det]);
         assert!((&inverse - &expected).amax() < 1e-12);
         let mid = phi(Kernel::Gaussian, 5.0, 10.0);
         let weights = DMatrix::from_row_slice(1, 2, &[mid, mid]) * inverse;
         assert!(close(weights[0], (-0.25f64).exp() / (1.0 + g)));
-    }
-
-    #[test]
-    fn singular_systems_fall_back_to_the_pseudo_inverse() {
-        let singular = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0]);
-        assert!(lu_inverse(&singular).is_none());
-        let inverse = invert(&singular).unwrap();
-        assert!((inverse - DMatrix::from_element(2, 2, 0.25)).amax() < 1e-12);
-        // Ill-conditioned but not singular: LU refuses, the pseudo-inverse drops the tiny
-        // direction and stays bounded.
-        let nearly = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0 + 1e-14]);
-        assert!(lu_inverse(&nearly).is_none());
-        assert!(invert(&nearly).unwrap().amax() < 1.0);
-        assert!(invert(&DMatrix::from_row_slice(1, 1, &[f64::NAN])).is_none());
     }
 }

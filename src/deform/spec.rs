@@ -1,5 +1,5 @@
 //! Algorithm spec strings: one string selects any variant and its parameters, in the CLI,
-//! config files and the wire protocol. `name[:key=value,...]` or a thesis letter:
+//! config files and the wire protocol. `name[:key=value,...]` or a preset letter:
 //!
 //! ```text
 //! renato2                      bary2:weights=distance,r_mm=10
@@ -56,21 +56,38 @@ pub struct RbfParams {
 /// One interpolation variant with all its parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum AlgoSpec {
-    Bary1 { alpha: f32 },
-    Bary2 { weights: Weights },
-    Geometric { weights: Weights },
-    PointDistance { k: Option<u32>, local: f32 },
-    PlanarBones { weights: Weights },
+    Bary1 {
+        alpha: f32,
+    },
+    Bary2 {
+        weights: Weights,
+    },
+    Geometric {
+        weights: Weights,
+    },
+    PointDistance {
+        k: Option<u32>,
+        local: f32,
+        /// Blend corrected values so the controls are reproduced at their anchors.
+        interpolate: bool,
+    },
+    PlanarBones {
+        weights: Weights,
+    },
     Renato1,
-    Renato2 { alpha: f32 },
-    Renato3 { weights: Weights },
+    Renato2 {
+        alpha: f32,
+    },
+    Renato3 {
+        weights: Weights,
+    },
     Kshirsagar,
     Rbf(RbfParams),
 }
 
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum SpecError {
-    #[error("unknown algorithm {name:?}; valid: {valid} or a thesis letter A-T")]
+    #[error("unknown algorithm {name:?}; valid: {valid} or a preset letter A-U")]
     UnknownAlgorithm { name: String, valid: String },
     #[error("{algorithm}: unknown parameter {key:?}; valid: {valid}")]
     UnknownParameter {
@@ -106,8 +123,9 @@ pub const ALGORITHM_NAMES: [&str; 10] = [
     "rbf",
 ];
 
-/// The thesis's table 4.5 presets plus `kshirsagar` (S) and `rbf` (T), with one line each.
-pub const PRESETS: [(char, &str, &str); 20] = [
+/// The thesis's table 4.5 presets plus `kshirsagar` (S), `rbf` (T) and the interpolating
+/// `point_distance` (U), with one line each.
+pub const PRESETS: [(char, &str, &str); 21] = [
     (
         'A',
         "bary1",
@@ -138,10 +156,14 @@ pub const PRESETS: [(char, &str, &str); 20] = [
         "geometric:weights=kshirsagar,r_mm=10",
         "feature points within 10 mm, Kshirsagar weights",
     ),
-    ('G', "point_distance:k=3", "3 nearest controls, 1/(1+d^2) weights"),
+    (
+        'G',
+        "point_distance:k=3,interpolate=false",
+        "3 nearest controls, 1/(1+d^2) weights",
+    ),
     (
         'H',
-        "point_distance:k=all",
+        "point_distance:k=all,interpolate=false",
         "every reachable control, 1/(1+d^2) weights",
     ),
     (
@@ -202,7 +224,12 @@ pub const PRESETS: [(char, &str, &str); 20] = [
     (
         'T',
         "rbf",
-        "radial basis functions with a linear term (Wendland C2, surface distance, 40 mm)",
+        "radial basis functions with a linear term (Wendland C2, surface distance, 30 mm)",
+    ),
+    (
+        'U',
+        "point_distance",
+        "G with exact anchors: its weights blend values solved to reproduce every control",
     ),
 ];
 
@@ -230,7 +257,7 @@ impl AlgoSpec {
         )
     }
 
-    /// The thesis letter of this exact variant, if it is a preset.
+    /// The preset letter of this exact variant, if it is a preset.
     pub fn letter(&self) -> Option<char> {
         PRESETS
             .iter()
@@ -258,6 +285,7 @@ impl AlgoSpec {
             "point_distance" => AlgoSpec::PointDistance {
                 k: Some(3),
                 local: 2.0,
+                interpolate: true,
             },
             "planar_bones" => AlgoSpec::PlanarBones {
                 weights: Weights::PlanarBones { r_pct: 10.0, n: 1.0 },
@@ -271,7 +299,7 @@ impl AlgoSpec {
             "rbf" => AlgoSpec::Rbf(RbfParams {
                 kernel: Kernel::Wendland,
                 metric: Metric::Surface,
-                r_mm: 40.0,
+                r_mm: 30.0,
                 polynomial: true,
             }),
             _ => return None,
@@ -286,7 +314,7 @@ impl AlgoSpec {
                 &["weights", "r_mm", "local", "r_pct", "n"]
             }
             AlgoSpec::Geometric { .. } => &["weights", "r_mm", "local"],
-            AlgoSpec::PointDistance { .. } => &["k", "local"],
+            AlgoSpec::PointDistance { .. } => &["k", "local", "interpolate"],
             AlgoSpec::Renato1 | AlgoSpec::Kshirsagar => &[],
             AlgoSpec::Rbf(_) => &["kernel", "distance", "r_mm", "poly"],
         }
@@ -372,7 +400,11 @@ fn apply(spec: &mut AlgoSpec, pairs: &[(String, String)]) -> Result<(), SpecErro
         AlgoSpec::Geometric { weights } => {
             *weights = parse_weights(algorithm, *weights, pairs, true)?;
         }
-        AlgoSpec::PointDistance { k, local } => {
+        AlgoSpec::PointDistance {
+            k,
+            local,
+            interpolate,
+        } => {
             if let Some(v) = get("k") {
                 *k = if v.eq_ignore_ascii_case("all") {
                     None
@@ -391,6 +423,20 @@ fn apply(spec: &mut AlgoSpec, pairs: &[(String, String)]) -> Result<(), SpecErro
             }
             if let Some(l) = num("local")? {
                 *local = l;
+            }
+            if let Some(v) = get("interpolate") {
+                *interpolate = match v.to_ascii_lowercase().as_str() {
+                    "true" => true,
+                    "false" => false,
+                    _ => {
+                        return Err(SpecError::BadValue {
+                            algorithm,
+                            key: "interpolate".into(),
+                            value: v.into(),
+                            problem: "valid: true, false".into(),
+                        })
+                    }
+                };
             }
         }
         AlgoSpec::Rbf(params) => {
@@ -542,9 +588,13 @@ impl fmt::Display for AlgoSpec {
             | AlgoSpec::PlanarBones { weights }
             | AlgoSpec::Renato3 { weights }
             | AlgoSpec::Geometric { weights } => write!(f, "{name}:{weights}"),
-            AlgoSpec::PointDistance { k, local } => match k {
-                Some(k) => write!(f, "{name}:k={k},local={local}"),
-                None => write!(f, "{name}:k=all,local={local}"),
+            AlgoSpec::PointDistance {
+                k,
+                local,
+                interpolate,
+            } => match k {
+                Some(k) => write!(f, "{name}:k={k},local={local},interpolate={interpolate}"),
+                None => write!(f, "{name}:k=all,local={local},interpolate={interpolate}"),
             },
             AlgoSpec::Renato1 | AlgoSpec::Kshirsagar => write!(f, "{name}"),
             AlgoSpec::Rbf(p) => {
@@ -595,7 +645,15 @@ mod tests {
         );
         assert_eq!(
             "point_distance:k=all".parse::<AlgoSpec>(),
-            Ok(AlgoSpec::PointDistance { k: None, local: 2.0 })
+            Ok(AlgoSpec::PointDistance {
+                k: None,
+                local: 2.0,
+                interpolate: true
+            })
+        );
+        assert_eq!(
+            "G".parse::<AlgoSpec>().unwrap().to_string(),
+            "point_distance:k=3,local=2,interpolate=false"
         );
         let rbf: AlgoSpec = "rbf:kernel=gaussian,distance=euclidean,r_mm=25".parse().unwrap();
         assert_eq!(
@@ -637,6 +695,11 @@ mod tests {
         assert!(err.to_string().contains("valid: none"), "{err}");
         let err = "bary2:weights=distance,r_pct=4".parse::<AlgoSpec>().unwrap_err();
         assert!(matches!(err, SpecError::Inconsistent { .. }), "{err}");
+        let err = "point_distance:interpolate=yes".parse::<AlgoSpec>().unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "point_distance: parameter interpolate=\"yes\": valid: true, false"
+        );
         let err = "rbf:kernel=cubic".parse::<AlgoSpec>().unwrap_err();
         assert!(err.to_string().contains("wendland"), "{err}");
         let err = "bary2:r_mm=-3".parse::<AlgoSpec>().unwrap_err();

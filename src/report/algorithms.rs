@@ -1,5 +1,5 @@
 //! Which algorithms a comparison runs: the `--algos` list, each entry with the short label
-//! that tables and charts use (the thesis letter of a preset, `X1`, `X2`, ... otherwise).
+//! that tables and charts use (the preset letter of a preset, `X1`, `X2`, ... otherwise).
 
 use crate::deform::AlgoSpec;
 
@@ -8,12 +8,13 @@ use super::CompareError;
 /// One algorithm to compare.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Candidate {
-    /// The thesis letter (`A`-`T`) of a preset, else `X1`, `X2`, ... in list order.
+    /// The letter (`A`-`U`) of a preset, else `X1`, `X2`, ... in list order.
     pub label: String,
     pub spec: AlgoSpec,
 }
 
-/// Every preset, A-R from the thesis plus S (`kshirsagar`) and T (`rbf`).
+/// Every preset, A-R from the thesis plus S (`kshirsagar`), T (`rbf`) and U (interpolating
+/// `point_distance`).
 pub fn every_preset() -> Vec<Candidate> {
     AlgoSpec::presets()
         .into_iter()
@@ -95,7 +96,7 @@ mod tests {
             labels("rbf:kernel=gaussian,r_mm=30,bary1:alpha=0.5"),
             ["X1", "X2"]
         );
-        assert_eq!(every_preset().len(), 20);
+        assert_eq!(every_preset().len(), 21);
     }
 
     #[test]

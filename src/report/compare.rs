@@ -70,7 +70,7 @@ pub enum Stage {
 /// One row of the algorithms table (`algorithms.tsv`, `--json`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct AlgorithmSummary {
-    /// The thesis letter, or `X1`, `X2`, ... for a spec that is not a preset.
+    /// The preset letter, or `X1`, `X2`, ... for a spec that is not a preset.
     pub letter: String,
     /// The canonical spec.
     pub spec: String,

@@ -17,7 +17,7 @@ pub enum CompareError {
         first: String,
         second: String,
     },
-    #[error("--algos: the list is empty; give specs or letters A-T separated by commas")]
+    #[error("--algos: the list is empty; give specs or letters A-U separated by commas")]
     NoAlgorithms,
     #[error(transparent)]
     Stream(#[from] StreamError),
