@@ -202,3 +202,73 @@ fn every_stream_format_drives_deform() {
         );
     }
 }
+
+/// The face lines of an OBJ, as written.
+fn obj_faces(path: &Path) -> Vec<String> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter(|l| l.starts_with("f "))
+        .map(str::to_string)
+        .collect()
+}
+
+#[test]
+fn every_preset_deforms_both_heads_from_both_shipped_streams() {
+    let scratch = tempfile::tempdir().unwrap();
+    let presets = json(&["algos", "--json"]);
+    let letters: Vec<&str> = presets
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| a["letter"].as_str().unwrap())
+        .collect();
+    assert_eq!(letters.len(), 21);
+    for head in ["makehuman_head", "lee_perry_smith_head"] {
+        let obj = data(&format!("heads/{head}.obj"));
+        let fit = data(&format!("heads/{head}.fit.toml"));
+        let rest = obj_positions(&obj);
+        let faces = obj_faces(&obj);
+        // Syllables 280-281 drop the jaw; the Xface stream's frame 40 smiles.
+        for (stream, frames) in [
+            (data("streams/syllables.jsonl"), "280..282"),
+            (data("candide3/xface_joy.fap"), "40..41"),
+        ] {
+            for letter in &letters {
+                let out = scratch.path().join(format!("{head}-{letter}"));
+                let run = facewire(&[
+                    "deform",
+                    "--head",
+                    obj.to_str().unwrap(),
+                    "--fit",
+                    fit.to_str().unwrap(),
+                    "--algo",
+                    letter,
+                    "--stream",
+                    stream.to_str().unwrap(),
+                    "--out",
+                    out.to_str().unwrap(),
+                    "--frames",
+                    frames,
+                ]);
+                let what = format!("{head} {letter} {}", stream.display());
+                assert!(
+                    run.status.success(),
+                    "{what}: {}",
+                    String::from_utf8_lossy(&run.stderr)
+                );
+                let first = frames.split("..").next().unwrap();
+                let written = out.join(format!("frame_{:05}.obj", first.parse::<usize>().unwrap()));
+                let moved = obj_positions(&written);
+                assert_eq!(moved.len(), rest.len(), "{what}");
+                assert!(
+                    moved.iter().flatten().all(|x| x.is_finite()),
+                    "{what}: not finite"
+                );
+                assert!(moved != rest, "{what}: nothing moved");
+                assert_eq!(obj_faces(&written), faces, "{what}: faces changed");
+                std::fs::remove_dir_all(&out).unwrap();
+            }
+        }
+    }
+}
