@@ -1,16 +1,20 @@
 //! The web page in a real browser: Debian's Chromium, headless (WebGL2 through SwiftShader),
 //! driven over WebDriver by chromedriver, against `facewire demo` started as a process.
 //! Checks that the page goes live, that the head moves, that switching the algorithm
-//! reconnects with it, that a second view runs beside the first, and that an unknown head
-//! shows the error state. WebDriver is plain HTTP and JSON, spoken here with reqwest.
+//! reconnects with it, that a second view runs beside the first, that a stream which stops
+//! sending shows as stalled and a new stream appears in the picker, that the heat-map's
+//! scale is picked and kept in the URL, and that an unknown head shows the error state.
+//! WebDriver is plain HTTP and JSON, spoken here with reqwest; the test's own producer
+//! speaks WebSocket with tokio-tungstenite.
 
 use std::io::{BufRead, BufReader};
 use std::panic::AssertUnwindSafe;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use futures_util::FutureExt;
+use futures_util::{FutureExt, SinkExt, StreamExt};
 use serde_json::{json, Value};
+use tokio_tungstenite::tungstenite::Message;
 
 /// Kills a child process when the test ends, passed or not.
 struct Process(Child);
@@ -134,20 +138,39 @@ impl Browser {
         }
     }
 
-    /// A WebDriver command: POST with a JSON body, or GET when `body` is None.
-    async fn command(&self, path: &str, body: Option<Value>) -> Value {
+    /// A WebDriver command: POST with a JSON body, or GET when `body` is None; the
+    /// WebDriver error reply when it fails.
+    async fn try_command(&self, path: &str, body: Option<Value>) -> Result<Value, Value> {
         let url = format!("{}{path}", self.session);
         let request = match body {
             Some(body) => self.http.post(url).json(&body),
             None => self.http.get(url),
         };
         let reply: Value = request.send().await.unwrap().json().await.unwrap();
-        assert!(reply["value"].get("error").is_none(), "WebDriver {path}: {reply}");
-        reply["value"].clone()
+        match reply["value"].get("error") {
+            None => Ok(reply["value"].clone()),
+            Some(_) => Err(reply),
+        }
     }
 
+    async fn command(&self, path: &str, body: Option<Value>) -> Value {
+        self.try_command(path, body)
+            .await
+            .unwrap_or_else(|reply| panic!("WebDriver {path}: {reply}"))
+    }
+
+    /// Loads `url`. A page drawing two live WebGL views on a busy 2-core machine can keep
+    /// the renderer from answering chromedriver in time ("timeout"): that is retried.
     async fn open(&self, url: &str) {
-        self.command("/url", Some(json!({ "url": url }))).await;
+        for attempt in 1.. {
+            match self.try_command("/url", Some(json!({ "url": url }))).await {
+                Ok(_) => return,
+                Err(reply) if attempt < 3 && reply["value"]["error"] == "timeout" => {
+                    eprintln!("WebDriver /url timed out (attempt {attempt}); retrying: {reply}");
+                }
+                Err(reply) => panic!("WebDriver /url: {reply}"),
+            }
+        }
     }
 
     /// Runs `script` (a function body) in the page and returns its result.
@@ -301,6 +324,9 @@ async fn check_the_page(browser: &Browser) {
         .await;
     println!("headless Chromium, two views: frames {fps}, bytes per frame {bytes}");
 
+    check_the_heat_map_scale(browser, &url, long).await;
+    check_a_stalled_stream(browser, &url, long).await;
+
     // An unknown head: the server's error and close 4404 end in the error state.
     browser.open(&format!("{url}?head=nosuch")).await;
     browser
@@ -310,5 +336,96 @@ async fn check_the_page(browser: &Browser) {
     assert!(
         message.as_str().unwrap().contains("nosuch"),
         "the message names the head: {message}"
+    );
+}
+
+/// One jaw-drop frame as a producer sends it, and the server's ack.
+async fn produce<S>(producer: &mut S, seq: u64)
+where
+    S: SinkExt<Message> + StreamExt<Item = tokio_tungstenite::tungstenite::Result<Message>> + Unpin,
+    <S as futures_util::Sink<Message>>::Error: std::fmt::Debug,
+{
+    let frame = json!({"seq": seq, "t": seq as f64 / 30.0, "au": {"jaw_drop": 0.4}});
+    producer
+        .send(Message::Text(frame.to_string().into()))
+        .await
+        .unwrap();
+    let reply = producer.next().await.expect("an ack").unwrap();
+    assert!(reply.to_text().unwrap().contains("\"ack\""), "{reply:?}");
+}
+
+/// A stream of the test's own: it appears in the stream picker without a reload, shows
+/// "Stalled" when its producer stops sending, and "Live" again with the next frame.
+async fn check_a_stalled_stream(browser: &Browser, url: &str, long: Duration) {
+    browser.open(&format!("{url}?head=scan&stream=quiet")).await;
+    browser
+        .wait_for(
+            "waiting for the new stream",
+            &state_is("status-0", "waiting"),
+            long,
+        )
+        .await;
+    let ws = url.replacen("http://", "ws://", 1);
+    let (mut producer, _) =
+        tokio_tungstenite::connect_async(format!("{ws}v1/heads/scan/streams/quiet/produce"))
+            .await
+            .expect("producer connects");
+    for seq in 0..3 {
+        produce(&mut producer, seq).await;
+    }
+    browser
+        .wait_for("the new stream to go live", &state_is("status-0", "live"), long)
+        .await;
+    browser
+        .wait_for(
+            "the stream picker to list it",
+            "return [...document.getElementById('stream').options].some((o) => o.text === 'quiet')",
+            Duration::from_secs(20),
+        )
+        .await;
+    browser
+        .wait_for(
+            "the stalled state",
+            &state_is("status-0", "stalled"),
+            Duration::from_secs(10),
+        )
+        .await;
+    let status = browser.js(&text_of("status-0")).await;
+    assert!(status.as_str().unwrap().contains("no frame for"), "{status}");
+    produce(&mut producer, 3).await;
+    browser
+        .wait_for("live again", &state_is("status-0", "live"), long)
+        .await;
+    producer.close(None).await.unwrap();
+}
+
+/// The heat-map's scale: hidden until the heat-map is on, then picked, shown in the
+/// legend and kept in the URL.
+async fn check_the_heat_map_scale(browser: &Browser, url: &str, long: Duration) {
+    browser.open(&format!("{url}?head=scan&stream=main")).await;
+    browser
+        .wait_for("the demo stream live", &state_is("status-0", "live"), long)
+        .await;
+    let hidden = browser
+        .js("return document.getElementById('heatfield-0').hidden")
+        .await;
+    assert_eq!(hidden, true, "the scale picker waits for the heat-map");
+    browser.js("document.getElementById('heat-0').click()").await;
+    browser
+        .wait_for("the heat-map view live", &state_is("status-0", "live"), long)
+        .await;
+    browser
+        .js(
+            "const s = document.getElementById('heatmax-0'); s.value = '0.05'; \
+             s.dispatchEvent(new Event('change')); return s.value",
+        )
+        .await;
+    let legend = browser.js(&text_of("legendmax-0")).await;
+    assert_eq!(legend, "0.05 or more");
+    let address = browser.js("return location.search").await;
+    let address = address.as_str().unwrap();
+    assert!(
+        address.contains("heat=1") && address.contains("heatmax=0.05"),
+        "the URL keeps the heat-map and its scale: {address}"
     );
 }

@@ -1,15 +1,18 @@
-// app.js: the page. Reads ?head=&stream=&algo=&algo2=&heat=&heat2=&token=, fills the
-// pickers from /v1/heads and /v1/algorithms, runs one view or two side by side (one shared
-// camera), and the drawing loop: once per animation frame each view decodes only its newest
-// frame, and two views draw the same sequence number so they stay in step.
+// app.js: the page. Reads ?head=&stream=&algo=&algo2=&heat=&heat2=&heatmax=&heatmax2=&token=,
+// fills the pickers from /v1/heads (read again every few seconds, so new heads and streams
+// appear) and /v1/algorithms, runs one view or two side by side (one shared camera), and
+// the drawing loop: once per animation frame each view decodes only its newest frame, and
+// two views draw the same sequence number so they stay in step.
 
 import { attachPointerControls, handleCameraKey, OrbitCamera } from "./camera.js";
 import { LiveChart } from "./chart.js";
 import { parseMesh } from "./decode.js";
-import { Panel } from "./panel.js";
+import { DEFAULT_HEAT_MAX, Panel } from "./panel.js";
 
 /** A view whose last frame is older than this does not hold the other one back. */
 const STALE_MS = 300;
+/** How often the head and stream lists are read again. */
+const LIST_REFRESH_MS = 5000;
 
 const byId = (id) => document.getElementById(id);
 const controls = {
@@ -118,6 +121,9 @@ function writeUrl() {
     if (panel.settings.heat) {
       query.set(`heat${suffix}`, "1");
     }
+    if (panel.settings.heatMax !== DEFAULT_HEAT_MAX) {
+      query.set(`heatmax${suffix}`, String(panel.settings.heatMax));
+    }
   });
   if (page.token) {
     query.set("token", page.token);
@@ -126,18 +132,25 @@ function writeUrl() {
 }
 
 /** What a view connects with: the page's head and stream, the view's own choices. */
-function connectSettings({ algorithm, heat }) {
+function connectSettings({ algorithm, heat, heatMax }) {
   return {
     head: page.head,
     stream: page.stream,
     algorithm,
     heat,
+    heatMax,
     token: page.token,
     knownStreams: streamsOf(page.head),
   };
 }
 
-function addPanel(algorithm, heat) {
+/** The `heatmax` (or `heatmax2`) URL parameter, when it is a positive number. */
+function heatMaxParam(name) {
+  const value = Number(params.get(name));
+  return params.has(name) && value > 0 && Number.isFinite(value) ? value : DEFAULT_HEAT_MAX;
+}
+
+function addPanel(algorithm, heat, heatMax) {
   const index = page.panels.length;
   const panel = new Panel({
     index,
@@ -161,7 +174,7 @@ function addPanel(algorithm, heat) {
     }
   });
   page.panels.push(panel);
-  panel.connect(connectSettings({ algorithm, heat }));
+  panel.connect(connectSettings({ algorithm, heat, heatMax }));
 }
 
 function setCompare(on) {
@@ -170,7 +183,11 @@ function setCompare(on) {
   if (on && page.panels.length === 1) {
     const first = page.panels[0].settings.algorithm;
     const other = page.algorithms.find((a) => a.spec !== first)?.spec ?? first;
-    addPanel(params.has("algo2") ? resolveAlgorithm(params.get("algo2")) : other, params.get("heat2") === "1");
+    addPanel(
+      params.has("algo2") ? resolveAlgorithm(params.get("algo2")) : other,
+      params.get("heat2") === "1",
+      heatMaxParam("heatmax2"),
+    );
   } else if (!on && page.panels.length === 2) {
     page.panels.pop().destroy();
   }
@@ -266,13 +283,40 @@ async function start() {
   fillHeadPicker();
   fillStreamPicker();
   try {
-    addPanel(resolveAlgorithm(params.get("algo")), params.get("heat") === "1");
+    addPanel(resolveAlgorithm(params.get("algo")), params.get("heat") === "1", heatMaxParam("heatmax"));
   } catch (error) {
     showPageMessage(`The 3D view cannot start: ${error.message}`);
     return;
   }
   setCompare(params.has("algo2"));
   requestAnimationFrame(animate);
+  setInterval(refreshHeads, LIST_REFRESH_MS);
+}
+
+/**
+ * Reads the head list again: heads registered and streams started since the page loaded
+ * appear in the pickers (the choices stay). A failed read keeps the old list.
+ */
+async function refreshHeads() {
+  let heads;
+  try {
+    heads = await fetchJson("/v1/heads");
+  } catch {
+    return;
+  }
+  if (JSON.stringify(heads) === JSON.stringify(page.heads)) {
+    return;
+  }
+  page.heads = heads;
+  if (document.activeElement !== controls.head) {
+    fillHeadPicker();
+  }
+  if (document.activeElement !== controls.stream) {
+    fillStreamPicker();
+  }
+  for (const panel of page.panels) {
+    panel.setKnownStreams(streamsOf(page.head));
+  }
 }
 
 start();

@@ -1,6 +1,6 @@
 // panel.js: one view of the page: its algorithm picker and heat-map switch, a viewer
 // socket, the 3D head and the numbers under it (connection state, syllable, fps, latency
-// per hop, bytes per frame). Frames are kept raw as they arrive (only their fixed header
+// per hop, bytes per frame). A live stream that stops sending shows as stalled. Frames are kept raw as they arrive (only their fixed header
 // is read, for the numbers and the chart); the page decodes just the one it draws, so a
 // slow machine skips frames instead of falling behind.
 
@@ -10,8 +10,11 @@ import { ViewerSocket } from "./stream.js";
 
 /** Raw frames kept while waiting to be drawn; older ones are dropped. */
 const KEEP_FRAMES = 8;
-/** Face roughness (mean 1 - n·n around a vertex) at the top of the heat-map ramp. */
-const HEAT_SCALE = 0.1;
+/** Face roughness (mean 1 - n·n around a vertex) at the top of the heat-map ramp, unless
+ * the view picks another. */
+export const DEFAULT_HEAT_MAX = 0.1;
+/** A live stream with no frame for this long is shown as stalled. */
+const STALL_MS = 2000;
 
 const STATE_TEXT = {
   connecting: "Connecting",
@@ -42,11 +45,10 @@ export class Panel {
     for (const label of fragment.querySelectorAll("label[data-for]")) {
       label.htmlFor = `${label.dataset.for}-${index}`;
     }
-    const { view: root, title, algo, heat, canvas } = this.parts;
+    const { view: root, title, algo, heat, heatmax, canvas } = this.parts;
     root.classList.add(`view-${index}`);
     root.setAttribute("aria-labelledby", title.id);
     title.textContent = `View ${index + 1}`;
-    this.parts.heatmax.textContent = `${HEAT_SCALE} or more`;
     for (const a of algorithms) {
       algo.add(new Option(`${a.letter}: ${a.description}`, a.spec));
     }
@@ -57,8 +59,15 @@ export class Panel {
     });
     heat.addEventListener("change", () => {
       this.settings.heat = heat.checked;
-      this.parts.legend.hidden = !heat.checked;
+      this.showHeatControls();
       this.reconnect();
+      onSettings();
+    });
+    heatmax.addEventListener("change", () => {
+      this.settings.heatMax = Number(heatmax.value);
+      this.showHeatControls();
+      this.renderer.setHeatScale(this.settings.heatMax);
+      this.needsDraw = true;
       onSettings();
     });
     container.append(fragment);
@@ -81,17 +90,36 @@ export class Panel {
     this.resetStats();
   }
 
-  /** Connects with `settings`: { head, stream, algorithm, heat, token, knownStreams }. */
+  /**
+   * Connects with `settings`: { head, stream, algorithm, heat, heatMax, token,
+   * knownStreams }.
+   */
   connect(settings) {
     this.settings = { ...settings };
-    const { algo, heat, legend } = this.parts;
+    const { algo, heat, heatmax } = this.parts;
     if (![...algo.options].some((o) => o.value === settings.algorithm)) {
       algo.add(new Option(`${settings.algorithm} (as given)`, settings.algorithm));
     }
     algo.value = settings.algorithm;
     heat.checked = settings.heat;
-    legend.hidden = !settings.heat;
+    const scale = String(settings.heatMax);
+    if (![...heatmax.options].some((o) => o.value === scale)) {
+      heatmax.add(new Option(`${scale} (as given)`, scale));
+    }
+    heatmax.value = scale;
+    this.showHeatControls();
     this.reconnect();
+  }
+
+  /** The known streams changed (the page re-reads the list): only the messages use them. */
+  setKnownStreams(knownStreams) {
+    this.settings.knownStreams = knownStreams;
+  }
+
+  showHeatControls() {
+    const { heat, heatfield, legend, legendmax } = this.parts;
+    heatfield.hidden = legend.hidden = !heat.checked;
+    legendmax.textContent = `${this.settings.heatMax} or more`;
   }
 
   reconnect() {
@@ -176,6 +204,7 @@ export class Panel {
     }
     this.lastSeq = header.seq;
     this.lastArrival = performance.now();
+    this.markStall(this.lastArrival);
     this.lip = header.lip;
     this.chart.push(this.index, this.lastArrival, header.lip.mean);
     this.pending.push({ seq: header.seq, buffer });
@@ -226,7 +255,7 @@ export class Panel {
     }
     applyFrame(this.mesh.positions, frame, this.positions);
     this.renderer.setPositions(this.positions);
-    this.renderer.setHeat(frame.face, HEAT_SCALE);
+    this.renderer.setHeat(frame.face, this.settings.heatMax);
     this.parts.syllable.textContent = frame.label ?? "–";
     this.parts.label.textContent = frame.label ?? "";
     this.stats.drawn += 1;
@@ -266,6 +295,22 @@ export class Panel {
     }
   }
 
+  /** Shows "stalled" instead of "Live" while a live stream sends nothing, and back. */
+  markStall(now) {
+    const { status } = this.parts;
+    if (this.state !== "live") {
+      return;
+    }
+    const idle = now - this.lastArrival;
+    if (idle >= STALL_MS) {
+      status.dataset.state = "stalled";
+      status.textContent = `Stalled: no frame for ${Math.floor(idle / 1000)} s`;
+    } else if (status.dataset.state === "stalled") {
+      status.dataset.state = "live";
+      status.textContent = STATE_TEXT.live;
+    }
+  }
+
   showMessage(text) {
     const { message } = this.parts;
     message.hidden = !text;
@@ -278,6 +323,7 @@ export class Panel {
 
   /** Writes the last second's numbers under the view and starts a new second. */
   updateStats(now) {
+    this.markStall(now);
     const s = this.stats;
     const seconds = (now - s.since) / 1000;
     const { fps, latency, bytes, lip } = this.parts;

@@ -188,6 +188,13 @@ export class HeadRenderer {
     }
   }
 
+  /** Changes the top of the ramp while a heat-map is shown. */
+  setHeatScale(scale) {
+    if (this.heatScale > 0) {
+      this.heatScale = scale;
+    }
+  }
+
   /** Matches the drawing buffer to the canvas's CSS size; true when it changed. */
   fitCanvas() {
     const ratio = window.devicePixelRatio || 1;
