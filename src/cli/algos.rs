@@ -49,6 +49,7 @@ pub fn run(args: Args) -> CliResult {
     println!();
     println!("Any spec can be written short (`bary2:r_mm=10`) or as its letter (`C`).");
     println!("Weight systems: none, distance (r_mm, local), planar_bones (r_pct, n), kshirsagar (r_mm, geometric only).");
+    println!("point_distance: k=N|all, local, interpolate=true|false (false: the thesis's G and H).");
     println!("rbf: kernel=gaussian|multiquadric|inverse_multiquadric|thin_plate|wendland, distance=euclidean|surface, r_mm, poly=linear|none.");
     Ok(())
 }

@@ -229,7 +229,7 @@ pub const PRESETS: [(char, &str, &str); 21] = [
     (
         'U',
         "point_distance",
-        "G with exact anchors: its weights blend values solved to reproduce every control",
+        "3 nearest controls, 1/(1+d^2) weights, exact at the anchors (recommended)",
     ),
 ];
 
