@@ -223,7 +223,7 @@ fn print_table(comparison: &Comparison) {
     );
 }
 
-/// `[########........] 7/20 algorithms (G), frame 120/487` on a terminal, redrawn in
+/// `[########........] 7/21 algorithms (G), frame 120/487` on a terminal, redrawn in
 /// place; one line per finished algorithm otherwise (logs, pipes).
 struct ProgressBar {
     terminal: bool,
