@@ -16,4 +16,5 @@ pub mod render;
 pub mod report;
 pub mod server;
 pub mod stream;
+pub mod text_table;
 pub mod web;

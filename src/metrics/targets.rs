@@ -9,6 +9,7 @@ use std::path::Path;
 use glam::Vec3;
 
 use crate::fit::Anchors;
+use crate::text_table::{self, FieldProblem, Row};
 
 /// A malformed target file, or inputs that do not fit the target.
 #[derive(Debug, thiserror::Error)]
@@ -107,13 +108,7 @@ impl ExpressionTarget {
         let mut displacements = vec![Vec3::ZERO; vertex_count];
         let mut listed = Vec::new();
         let mut listed_on = vec![0usize; vertex_count];
-        for (index, raw) in text.lines().enumerate() {
-            let line = index + 1;
-            let content = raw.trim();
-            if content.is_empty() || content.starts_with('#') {
-                continue;
-            }
-            let fields: Vec<&str> = content.split_whitespace().collect();
+        for Row { line, fields } in text_table::rows(text) {
             let &[vertex, dx, dy, dz] = fields.as_slice() else {
                 return Err(TargetError::FieldCount {
                     origin: origin.to_string(),
@@ -121,27 +116,15 @@ impl ExpressionTarget {
                     found: fields.len(),
                 });
             };
-            let field_error = |field: &'static str, found: &str, problem: &'static str| TargetError::Field {
+            let field_error = |p: FieldProblem| TargetError::Field {
                 origin: origin.to_string(),
                 line,
-                field,
-                found: found.to_string(),
-                problem,
+                field: p.field,
+                found: p.found,
+                problem: p.problem,
             };
-            let vertex: u32 = vertex
-                .parse()
-                .map_err(|_| field_error("vertex", vertex, "is not a vertex index"))?;
-            let component = |field: &'static str, text: &str| -> Result<f32, TargetError> {
-                let value: f32 = text
-                    .parse()
-                    .map_err(|_| field_error(field, text, "is not a number"))?;
-                if value.is_finite() {
-                    Ok(value)
-                } else {
-                    Err(field_error(field, text, "is not finite"))
-                }
-            };
-            let d = Vec3::new(component("dx", dx)?, component("dy", dy)?, component("dz", dz)?);
+            let vertex = text_table::index("vertex", vertex, "is not a vertex index").map_err(field_error)?;
+            let d = text_table::vec3(["dx", "dy", "dz"], [dx, dy, dz]).map_err(field_error)?;
             let Some(first_line) = listed_on.get_mut(vertex as usize) else {
                 return Err(TargetError::VertexOutOfRange {
                     origin: origin.to_string(),
@@ -265,7 +248,7 @@ mod tests {
         let err = parse("0 0 0 inf\n").unwrap_err();
         assert_eq!(
             err.to_string(),
-            "t.target: line 1: field dz: \"inf\" is not finite"
+            "t.target: line 1: field dz: \"inf\" is not a finite number"
         );
         let err = parse("3 0 0 0\n").unwrap_err();
         assert_eq!(

@@ -21,6 +21,7 @@ use glam::Vec3;
 use super::frame::{arkit_index, ARKIT_BLENDSHAPES};
 use crate::fit::{Anchors, FittedMask};
 use crate::metrics::{ExpressionTarget, TargetError};
+use crate::text_table::{self, FieldProblem, Row};
 
 /// The shipped basis (`data/arkit/basis.tsv`), derived from the MakeHuman head's targets.
 pub const SHIPPED_BASIS_TSV: &str = include_str!("../../data/arkit/basis.tsv");
@@ -118,13 +119,7 @@ impl ArkitBasis {
     pub fn parse(origin: &str, text: &str) -> Result<ArkitBasis, ArkitBasisError> {
         let mut rows = Vec::new();
         let mut first_lines: HashMap<(u8, u32), usize> = HashMap::new();
-        for (index, raw) in text.lines().enumerate() {
-            let line = index + 1;
-            let content = raw.trim();
-            if content.is_empty() || content.starts_with('#') {
-                continue;
-            }
-            let fields: Vec<&str> = content.split_whitespace().collect();
+        for Row { line, fields } in text_table::rows(text) {
             let &[name, vertex, dx, dy, dz] = fields.as_slice() else {
                 return Err(ArkitBasisError::FieldCount {
                     origin: origin.to_string(),
@@ -138,32 +133,17 @@ impl ArkitBasis {
                 name: name.to_string(),
                 valid: ARKIT_BLENDSHAPES.join(", "),
             })?;
-            let field_error =
-                |field: &'static str, found: &str, problem: &'static str| ArkitBasisError::Field {
-                    origin: origin.to_string(),
-                    line,
-                    field,
-                    found: found.to_string(),
-                    problem,
-                };
-            let vertex: u32 = vertex
-                .parse()
-                .map_err(|_| field_error(COLUMNS[1], vertex, "is not a mask vertex index"))?;
-            let component = |field: &'static str, text: &str| -> Result<f32, ArkitBasisError> {
-                let value: f32 = text
-                    .parse()
-                    .map_err(|_| field_error(field, text, "is not a number"))?;
-                if value.is_finite() {
-                    Ok(value)
-                } else {
-                    Err(field_error(field, text, "is not a finite number"))
-                }
+            let field_error = |p: FieldProblem| ArkitBasisError::Field {
+                origin: origin.to_string(),
+                line,
+                field: p.field,
+                found: p.found,
+                problem: p.problem,
             };
-            let offset = Vec3::new(
-                component(COLUMNS[2], dx)?,
-                component(COLUMNS[3], dy)?,
-                component(COLUMNS[4], dz)?,
-            );
+            let vertex =
+                text_table::index(COLUMNS[1], vertex, "is not a mask vertex index").map_err(field_error)?;
+            let offset =
+                text_table::vec3([COLUMNS[2], COLUMNS[3], COLUMNS[4]], [dx, dy, dz]).map_err(field_error)?;
             if let Some(&first_line) = first_lines.get(&(shape, vertex)) {
                 return Err(ArkitBasisError::Repeated {
                     origin: origin.to_string(),
