@@ -122,7 +122,8 @@ impl TriangleFrame {
 pub struct SourceMap {
     /// Mask vertex indices of the rows and columns, in order.
     controls: Vec<u16>,
-    /// Row-major, `controls.len()` squared.
+    /// Column-major, `controls.len()` squared: column k is what control k's displacement
+    /// adds to every source.
     matrix: Vec<f32>,
 }
 
@@ -130,18 +131,24 @@ impl SourceMap {
     /// `matrix(row, column)` gives the entry for controls `controls[row]`, `controls[column]`.
     pub fn new(controls: Vec<u16>, matrix: impl Fn(usize, usize) -> f32) -> SourceMap {
         let m = controls.len();
-        let matrix = (0..m * m).map(|i| matrix(i / m, i % m)).collect();
+        let matrix = (0..m * m).map(|i| matrix(i % m, i / m)).collect();
         SourceMap { controls, matrix }
     }
 
+    /// Column by column, skipping the controls that do not move (in speech, most of them).
     fn apply(&self, deltas: &[Vec3A], sources: &mut [Vec3A]) {
+        for &j in &self.controls {
+            sources[j as usize] = Vec3A::ZERO;
+        }
         let m = self.controls.len();
-        for (&j, row) in self.controls.iter().zip(self.matrix.chunks_exact(m)) {
-            let mut source = Vec3A::ZERO;
-            for (&weight, &k) in row.iter().zip(&self.controls) {
-                source += weight * deltas[k as usize];
+        for (&k, column) in self.controls.iter().zip(self.matrix.chunks_exact(m)) {
+            let delta = deltas[k as usize];
+            if delta == Vec3A::ZERO {
+                continue;
             }
-            sources[j as usize] = source;
+            for (&j, &weight) in self.controls.iter().zip(column) {
+                sources[j as usize] += weight * delta;
+            }
         }
     }
 }

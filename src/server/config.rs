@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 /// The algorithm facewire recommends (preset U, the thesis's G made exact at the anchors):
-/// smooth lips, almost no new creases, every control reproduced, about 36 µs per frame on
+/// smooth lips, almost no new creases, every control reproduced, about 31 µs per frame on
 /// the scan. See the README's "Which algorithm" and docs/reports/.
 pub const DEFAULT_ALGORITHM: &str = "point_distance";
 
