@@ -138,39 +138,20 @@ impl Browser {
         }
     }
 
-    /// A WebDriver command: POST with a JSON body, or GET when `body` is None; the
-    /// WebDriver error reply when it fails.
-    async fn try_command(&self, path: &str, body: Option<Value>) -> Result<Value, Value> {
+    /// A WebDriver command: POST with a JSON body, or GET when `body` is None.
+    async fn command(&self, path: &str, body: Option<Value>) -> Value {
         let url = format!("{}{path}", self.session);
         let request = match body {
             Some(body) => self.http.post(url).json(&body),
             None => self.http.get(url),
         };
         let reply: Value = request.send().await.unwrap().json().await.unwrap();
-        match reply["value"].get("error") {
-            None => Ok(reply["value"].clone()),
-            Some(_) => Err(reply),
-        }
+        assert!(reply["value"].get("error").is_none(), "WebDriver {path}: {reply}");
+        reply["value"].clone()
     }
 
-    async fn command(&self, path: &str, body: Option<Value>) -> Value {
-        self.try_command(path, body)
-            .await
-            .unwrap_or_else(|reply| panic!("WebDriver {path}: {reply}"))
-    }
-
-    /// Loads `url`. A page drawing two live WebGL views on a busy 2-core machine can keep
-    /// the renderer from answering chromedriver in time ("timeout"): that is retried.
     async fn open(&self, url: &str) {
-        for attempt in 1.. {
-            match self.try_command("/url", Some(json!({ "url": url }))).await {
-                Ok(_) => return,
-                Err(reply) if attempt < 3 && reply["value"]["error"] == "timeout" => {
-                    eprintln!("WebDriver /url timed out (attempt {attempt}); retrying: {reply}");
-                }
-                Err(reply) => panic!("WebDriver /url: {reply}"),
-            }
-        }
+        self.command("/url", Some(json!({ "url": url }))).await;
     }
 
     /// Runs `script` (a function body) in the page and returns its result.
@@ -222,8 +203,10 @@ fn text_of(id: &str) -> String {
     format!("return document.getElementById('{id}').textContent")
 }
 
+/// Whether the element's `data-state` is `state`; false while the element does not exist
+/// (the views appear once the page has read the server's lists).
 fn state_is(id: &str, state: &str) -> String {
-    format!("return document.getElementById('{id}').dataset.state === '{state}'")
+    format!("return document.getElementById('{id}')?.dataset.state === '{state}'")
 }
 
 #[tokio::test]
