@@ -309,6 +309,52 @@ fn fap_writer_refuses_what_the_format_cannot_carry() {
     );
 }
 
+#[test]
+fn writers_name_the_first_field_their_format_cannot_carry() {
+    let mask = Mask::candide3();
+    let turned = Frame {
+        animation: vec![(1, 0.2)],
+        head_rotation_rad: Some([0.0, 0.1, 0.0]),
+        arkit: vec![(3, 0.5)],
+        ..Frame::at(3, 0.0)
+    };
+    let viseme_only = Frame {
+        viseme: Some(VisemeFap {
+            select1: 1,
+            select2: 2,
+            blend: 10,
+            definition: 0,
+        }),
+        ..Frame::at(5, 0.0)
+    };
+    let mut au = AuTextWriter::new(Vec::new(), &mask, 11, false).unwrap();
+    assert_eq!(
+        au.write_frame(&turned).unwrap_err().to_string(),
+        "frame 3: arkit: the AU text format cannot carry it"
+    );
+    assert_eq!(
+        au.write_frame(&viseme_only).unwrap_err().to_string(),
+        "frame 5: fap: the AU text format cannot carry it"
+    );
+    let header = FapHeader {
+        version: "2.1".into(),
+        name: "x".into(),
+        fps: 25.0,
+        frame_count: 1,
+    };
+    let mut fap = FapWriter::new(Vec::new(), &header).unwrap();
+    let turned_by_faps = Frame {
+        head_rotation_rad: Some([0.0, 0.1, 0.0]),
+        arkit: vec![(3, 0.5)],
+        ..Frame::at(3, 0.0)
+    };
+    assert_eq!(
+        fap.write_frame(&turned_by_faps).unwrap_err().to_string(),
+        "frame 3: arkit: the .fap format cannot carry it"
+    );
+    fap.write_frame(&viseme_only).unwrap();
+}
+
 // ---------------------------------------------------------------- JSONL
 
 fn every_field_frames(mask: &Mask) -> Vec<Frame> {

@@ -308,25 +308,12 @@ impl<W: Write> AuTextWriter<W> {
 
     pub fn write_frame(&mut self, frame: &Frame) -> Result<(), StreamError> {
         let seq = frame.seq;
-        let unrepresentable = |field: &str| StreamError::Unrepresentable {
-            seq,
-            field: field.to_string(),
-            format: "AU text",
-        };
-        if !frame.faps.is_empty() || frame.viseme.is_some() || frame.expression.is_some() {
-            return Err(unrepresentable("fap"));
-        }
-        if !frame.arkit.is_empty() {
-            return Err(unrepresentable("arkit"));
-        }
-        if frame.head_rotation_rad.is_some() {
-            return Err(unrepresentable("head_rotation_rad"));
-        }
-        if frame.head_translation.is_some() {
-            return Err(unrepresentable("head_translation"));
-        }
-        if frame.controls.is_some() {
-            return Err(unrepresentable("controls"));
+        if let Some(field) = frame.content().find(|&field| field != "au") {
+            return Err(StreamError::Unrepresentable {
+                seq,
+                field: field.to_string(),
+                format: "AU text",
+            });
         }
         let invalid = |field: String, reason: String| StreamError::InvalidFrame { seq, field, reason };
         self.weights.fill(0.0);

@@ -361,22 +361,15 @@ impl<W: Write> FapWriter<W> {
     /// from frame to frame.
     pub fn write_frame(&mut self, frame: &Frame) -> Result<(), StreamError> {
         let seq = frame.seq;
-        let unrepresentable = |field: &str| StreamError::Unrepresentable {
-            seq,
-            field: field.to_string(),
-            format: ".fap",
-        };
-        if !frame.animation.is_empty() {
-            return Err(unrepresentable("au"));
-        }
-        if !frame.arkit.is_empty() {
-            return Err(unrepresentable("arkit"));
-        }
-        if frame.head_translation.is_some() {
-            return Err(unrepresentable("head_translation"));
-        }
-        if frame.controls.is_some() {
-            return Err(unrepresentable("controls"));
+        if let Some(field) = frame
+            .content()
+            .find(|&field| field != "fap" && field != "head_rotation_rad")
+        {
+            return Err(StreamError::Unrepresentable {
+                seq,
+                field: field.to_string(),
+                format: ".fap",
+            });
         }
         let invalid = |field: String, reason: String| StreamError::InvalidFrame { seq, field, reason };
         if self.written == self.announced {

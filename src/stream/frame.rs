@@ -154,6 +154,26 @@ pub struct Frame {
 }
 
 impl Frame {
+    /// The kinds of content this frame carries, named by the JSONL field that holds them:
+    /// `au`, `fap` (FAPs 1 and 2 included), `arkit`, `head_rotation_rad`,
+    /// `head_translation`, `controls`. A writer refuses the kinds its format cannot hold
+    /// rather than dropping them.
+    pub fn content(&self) -> impl Iterator<Item = &'static str> {
+        [
+            ("au", !self.animation.is_empty()),
+            (
+                "fap",
+                !self.faps.is_empty() || self.viseme.is_some() || self.expression.is_some(),
+            ),
+            ("arkit", !self.arkit.is_empty()),
+            ("head_rotation_rad", self.head_rotation_rad.is_some()),
+            ("head_translation", self.head_translation.is_some()),
+            ("controls", self.controls.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(field, present)| present.then_some(field))
+    }
+
     /// An empty frame (the mask at rest) with a sequence number and a time.
     pub fn at(seq: u64, time_s: f64) -> Frame {
         Frame {
