@@ -14,7 +14,7 @@ use crate::deform::{bind, AlgoSpec, Registration};
 use crate::fit::FittedMask;
 use crate::head::obj;
 use crate::metrics::{LipRegion, LipRoughness, RoughnessTsvWriter};
-use crate::stream::{open_stream, ArkitBasis};
+use crate::stream::{open_stream, ArkitBasis, FramePoser};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -100,11 +100,8 @@ pub fn run(args: Args) -> CliResult {
     let in_metrics = |e| format!("{}: {e}", metrics_path.display());
     let mut metrics = RoughnessTsvWriter::new(BufWriter::new(create(&metrics_path)?)).map_err(in_metrics)?;
 
-    let fitted = &registration.fitted;
-    let mut weights = vec![0.0f32; mask.animation_units.len()];
-    let mut mask_now = vec![Vec3::ZERO; mask.vertices.len()];
-    let mut offsets = vec![Vec3::ZERO; mask.vertices.len()];
     let arkit = ArkitBasis::shipped();
+    let mut poser = FramePoser::new(&registration.fitted, &arkit);
     let mut scratch = binding.scratch(mask.vertices.len(), mask.triangles.len());
     let mut deformed = vec![Vec3::ZERO; registration.vertex_count()];
     let header = vec![
@@ -123,13 +120,11 @@ pub fn run(args: Args) -> CliResult {
         if index < range.start {
             continue;
         }
-        frame.animation_weights(&mask, &fitted.fapu, &mut weights);
-        frame.mask_offsets(&arkit, &mut offsets);
-        fitted.pose_with_offsets_into(&weights, &offsets, &mut mask_now);
+        let mask_now = poser.pose(&frame);
         binding.deform(
             &registration.head.positions,
             registration.mask_rest(),
-            &mask_now,
+            mask_now,
             registration.mask_triangles(),
             &mut scratch,
             &mut deformed,

@@ -12,14 +12,13 @@ use serde::Serialize;
 
 use super::{Candidate, CompareError};
 use crate::deform::{bind, Registration};
-use crate::fit::FittedMask;
 use crate::head::Head;
 use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
 use crate::metrics::{
     control_error, ground_truth_error, mouth_opening, ExpressionTarget, FaceVertices, LipRegion,
     LipRoughness, Roughness, RoughnessError, SyllableScores, LIP_ROWS,
 };
-use crate::stream::{open_stream, ArkitBasis, Frame};
+use crate::stream::{open_stream, ArkitBasis, FramePoser};
 
 /// Syllable label of frames that carry none.
 pub const UNLABELLED: &str = "-";
@@ -202,7 +201,7 @@ pub fn compare(
         lips,
         face,
         face_smoothness,
-        poser: Poser::new(&reg.fitted, input.basis),
+        poser: FramePoser::new(&reg.fitted, input.basis),
         deformed: vec![Vec3::ZERO; rest.len()],
         target_positions,
         controls: vec![Vec3::ZERO; mask.vertices.len()],
@@ -267,7 +266,7 @@ struct Run<'i, 'a> {
     lips: LipRoughness,
     face: FaceVertices,
     face_smoothness: FaceSmoothness,
-    poser: Poser<'a>,
+    poser: FramePoser<'a>,
     deformed: Vec<Vec3>,
     target_positions: Vec<Vec3>,
     controls: Vec<Vec3>,
@@ -516,37 +515,6 @@ fn survey(input: &CompareInput<'_>) -> Result<Survey, CompareError> {
         frames,
         syllables: labels.len(),
     })
-}
-
-/// Moves the fitted mask frame by frame, with its buffers.
-struct Poser<'a> {
-    fitted: &'a FittedMask,
-    basis: &'a ArkitBasis,
-    weights: Vec<f32>,
-    offsets: Vec<Vec3>,
-    posed: Vec<Vec3>,
-}
-
-impl<'a> Poser<'a> {
-    fn new(fitted: &'a FittedMask, basis: &'a ArkitBasis) -> Poser<'a> {
-        Poser {
-            fitted,
-            basis,
-            weights: vec![0.0; fitted.mask.animation_units.len()],
-            offsets: vec![Vec3::ZERO; fitted.mask.vertices.len()],
-            posed: vec![Vec3::ZERO; fitted.mask.vertices.len()],
-        }
-    }
-
-    /// The fitted mask moved by a frame (head units): animation weights plus per-vertex
-    /// offsets (raw controls, ARKit weights through the basis).
-    fn pose(&mut self, frame: &Frame) -> &[Vec3] {
-        frame.animation_weights(&self.fitted.mask, &self.fitted.fapu, &mut self.weights);
-        frame.mask_offsets(self.basis, &mut self.offsets);
-        self.fitted
-            .pose_with_offsets_into(&self.weights, &self.offsets, &mut self.posed);
-        &self.posed
-    }
 }
 
 /// `delta_j = c'_j - c_j` for the controls (mask vertices a triangle uses), zero for the

@@ -15,6 +15,7 @@ pub mod fap_file;
 mod frame;
 pub mod jsonl;
 mod lines;
+mod poser;
 pub mod summary;
 pub mod syllables;
 
@@ -33,6 +34,7 @@ pub use frame::{
 };
 pub use jsonl::{JsonlReader, JsonlWriter};
 pub use lines::MAX_LINE_BYTES;
+pub use poser::FramePoser;
 pub use summary::{summarize, StreamSummary};
 
 use crate::mask::Mask;
