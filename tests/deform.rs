@@ -9,7 +9,7 @@ use std::sync::OnceLock;
 use facewire::deform::{bind, AlgoSpec, Registration};
 use facewire::head::Head;
 use facewire::mask::{Mask, LOWER_LIP};
-use facewire::stream::{open_stream, Frame};
+use facewire::stream::{open_stream, ArkitBasis, Frame, FramePoser};
 use glam::{Mat3, Vec3};
 
 fn scan() -> &'static Registration {
@@ -73,15 +73,13 @@ fn no_nan_on_the_shipped_streams() {
         .unwrap()
         .map(Result::unwrap)
         .collect();
+    let basis = ArkitBasis::shipped();
     for (name, reg) in heads() {
+        let mut poser = FramePoser::new(&reg.fitted, &basis);
         let frames: Vec<Vec<Vec3>> = syllables
             .iter()
             .chain(&joy)
-            .map(|frame| {
-                let mut weights = vec![0.0; 65];
-                frame.animation_weights(&reg.fitted.mask, &reg.fitted.fapu, &mut weights);
-                posed(reg, &weights)
-            })
+            .map(|frame| poser.pose(frame).to_vec())
             .collect();
         for spec in variants() {
             let binding = bind(reg, &spec);
@@ -399,13 +397,13 @@ fn exact_point_distance_does_not_overshoot_on_speech() {
         .map(Result::unwrap)
         .step_by(3)
         .collect();
+    let basis = ArkitBasis::shipped();
     for (name, reg) in heads() {
         let binding = bind(reg, &"U".parse().unwrap());
+        let mut poser = FramePoser::new(&reg.fitted, &basis);
         let mut worst = 0.0f32;
         for frame in &frames {
-            let mut weights = vec![0.0; 65];
-            frame.animation_weights(&reg.fitted.mask, &reg.fitted.fapu, &mut weights);
-            let mask_now = posed(reg, &weights);
+            let mask_now = poser.pose(frame);
             let largest_control = mask_now
                 .iter()
                 .zip(reg.mask_rest())
@@ -414,7 +412,7 @@ fn exact_point_distance_does_not_overshoot_on_speech() {
             if largest_control < 1e-6 {
                 continue;
             }
-            let out = deform_with(reg, &binding, &mask_now);
+            let out = deform_with(reg, &binding, mask_now);
             let largest_vertex = out
                 .iter()
                 .zip(&reg.head.positions)

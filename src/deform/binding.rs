@@ -324,5 +324,11 @@ mod tests {
         // 2/3 * 2x + 1/3 * -x = x.
         assert_eq!(0.5 * sources[2] + 0.5 * sources[0], 0.5 * Vec3A::X);
         assert!((2.0 / 3.0 * sources[2] + 1.0 / 3.0 * sources[0] - Vec3A::X).length() < 1e-6);
+        // Rows and columns kept apart: [[1, 2], [3, 4]] over controls (2, 0).
+        let map = SourceMap::new(vec![2, 0], |row, column| (2 * row + column + 1) as f32);
+        let deltas = [Vec3A::Y, Vec3A::ZERO, Vec3A::X];
+        map.apply(&deltas, &mut sources);
+        assert_eq!(sources[2], Vec3A::X + 2.0 * Vec3A::Y);
+        assert_eq!(sources[0], 3.0 * Vec3A::X + 4.0 * Vec3A::Y);
     }
 }

@@ -73,9 +73,9 @@
 //! term, a surface `Phi` that happens to be singular, a very wide gaussian or
 //! multiquadric: Euclidean at `r_mm = 60` on the MakeHuman head reaches 1e13) the
 //! **truncated SVD pseudo-inverse** is used: in the dropped directions the anchors are
-//! matched in the least-squares sense instead of exactly, and the weights stay bounded. A system with non-finite entries, or whose
-//! SVD does not converge, binds every vertex to nothing (the head stays at rest) rather
-//! than panicking.
+//! matched in the least-squares sense instead of exactly, and the weights stay bounded.
+//! A system with non-finite entries, or whose SVD does not converge, binds every vertex to
+//! nothing (the head stays at rest) rather than panicking.
 //!
 //! Weights with `|w| < 1e-7` are dropped. Each dropped term changes a displacement by less
 //! than `1e-7 |delta|`, so with about a hundred centres the interpolation error at the
