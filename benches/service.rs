@@ -41,6 +41,8 @@ async fn run(channels: usize, per_channel: usize, seconds: f64, algo: String) {
         data_dir: None,
         limits: facewire::server::config::Limits {
             max_viewers: 100_000,
+            max_streams_per_head: 10_000,
+            max_connections: 100_000,
             ..Default::default()
         },
         ..Config::default()
@@ -63,7 +65,7 @@ async fn run(channels: usize, per_channel: usize, seconds: f64, algo: String) {
         .send()
         .await
         .unwrap();
-    while state.registry.get("h").and_then(|h| h.ready()).is_none() {
+    while state.registry.get("h").and_then(|h| h.ready().ok()).is_none() {
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
     let mask = Mask::candide3();

@@ -5,6 +5,7 @@
 //! frame), **head units** (whatever the head's OBJ uses) and **mm** (via the fit's
 //! `mm_per_unit`).
 
+pub mod animate;
 pub mod atomic;
 pub mod cli;
 pub mod deform;
@@ -17,4 +18,3 @@ pub mod report;
 pub mod server;
 pub mod stream;
 pub mod text_table;
-pub mod web;

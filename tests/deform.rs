@@ -75,11 +75,11 @@ fn no_nan_on_the_shipped_streams() {
         .collect();
     let basis = ArkitBasis::shipped();
     for (name, reg) in heads() {
-        let mut poser = FramePoser::new(&reg.fitted, &basis);
+        let mut poser = FramePoser::new(&reg.fitted);
         let frames: Vec<Vec<Vec3>> = syllables
             .iter()
             .chain(&joy)
-            .map(|frame| poser.pose(frame).to_vec())
+            .map(|frame| poser.pose(&reg.fitted, &basis, frame).to_vec())
             .collect();
         for spec in variants() {
             let binding = bind(reg, &spec);
@@ -400,10 +400,10 @@ fn exact_point_distance_does_not_overshoot_on_speech() {
     let basis = ArkitBasis::shipped();
     for (name, reg) in heads() {
         let binding = bind(reg, &"U".parse().unwrap());
-        let mut poser = FramePoser::new(&reg.fitted, &basis);
+        let mut poser = FramePoser::new(&reg.fitted);
         let mut worst = 0.0f32;
         for frame in &frames {
-            let mask_now = poser.pose(frame);
+            let mask_now = poser.pose(&reg.fitted, &basis, frame);
             let largest_control = mask_now
                 .iter()
                 .zip(reg.mask_rest())

@@ -77,12 +77,12 @@ impl Server {
             .await
             .unwrap();
         assert_eq!(response.status(), 202, "{}", response.text().await.unwrap());
-        self.wait_ready(id).await;
+        self.wait_ready(id, query).await;
     }
 
-    async fn wait_ready(&self, id: &str) -> HeadInfo {
+    async fn wait_ready(&self, id: &str, query: &str) -> HeadInfo {
         for _ in 0..600 {
-            let info: HeadInfo = reqwest::get(self.http(&format!("/v1/heads/{id}")))
+            let info: HeadInfo = reqwest::get(self.http(&format!("/v1/heads/{id}{query}")))
                 .await
                 .unwrap()
                 .json()
@@ -405,7 +405,7 @@ async fn malformed_input_is_refused_and_the_stream_keeps_running() {
             ServerMessage::Error {
                 code: got, message, ..
             } => {
-                assert_eq!(got, code, "{message}");
+                assert_eq!(got.as_str(), code, "{message}");
                 message
             }
             other => panic!("expected error {code}, got {other:?}"),
@@ -464,15 +464,14 @@ async fn malformed_input_is_refused_and_the_stream_keeps_running() {
     .encode();
     match send(&mut producer, Message::Binary(nan.into())).await {
         ServerMessage::Error { code, field, .. } => {
-            assert_eq!(code, "bad_frame");
+            assert_eq!(code.as_str(), "bad_frame");
             assert_eq!(field.as_deref(), Some("au"));
         }
         other => panic!("expected an error, got {other:?}"),
     }
-    expect_error("message_too_large")(send(&mut producer, Message::Text("x".repeat(10_000).into())).await);
     match send(&mut producer, ok(0)).await {
         ServerMessage::Error { code, seq, field, .. } => {
-            assert_eq!(code, "out_of_order");
+            assert_eq!(code.as_str(), "out_of_order");
             assert_eq!(seq, Some(0));
             assert_eq!(field.as_deref(), Some("seq"));
         }
@@ -497,6 +496,23 @@ async fn malformed_input_is_refused_and_the_stream_keeps_running() {
         seqs.push(next_frame(&mut viewer).await.header.seq);
     }
     assert!(seqs.iter().all(|s| [0, 1, 2].contains(s)), "{seqs:?}");
+
+    // A message over the limit is refused at the socket: close 1009, and the stream ends.
+    producer
+        .send(Message::Text("x".repeat(10_000).into()))
+        .await
+        .unwrap();
+    match producer.next().await {
+        Some(Ok(Message::Close(Some(frame)))) => {
+            assert_eq!(u16::from(frame.code), 1009);
+            assert!(frame.reason.contains("message_too_large"), "{}", frame.reason);
+        }
+        other => panic!("expected a 1009 close, got {other:?}"),
+    }
+    match next_json(&mut viewer).await {
+        ServerMessage::End { reason, .. } => assert_eq!(reason.as_str(), "producer_disconnected"),
+        other => panic!("expected end, got {other:?}"),
+    }
 
     // Unknown heads: a viewer gets an error and a 4404 close; a producer is refused.
     let mut lost = connect(&server.ws("/v1/heads/nosuch/streams/s/view")).await;
@@ -532,12 +548,12 @@ async fn heads_survive_a_restart() {
     server.stop().await;
     // Viewers are told why they are closed.
     match next_json(&mut viewer).await {
-        ServerMessage::End { reason } => assert_eq!(reason, "server shutting down"),
+        ServerMessage::End { reason, .. } => assert_eq!(reason.as_str(), "server_shutdown"),
         other => panic!("expected end, got {other:?}"),
     }
 
     let server = Server::start(config).await;
-    let info = server.wait_ready("mh").await;
+    let info = server.wait_ready("mh", "").await;
     assert_eq!(info.vertices, 4352);
     let mesh = reqwest::get(server.http("/v1/heads/mh/mesh.bin"))
         .await
@@ -640,7 +656,7 @@ async fn fast_and_idle_producers_are_told_why() {
             ServerMessage::Ack { .. } => acks += 1,
             ServerMessage::Error {
                 code, seq: Some(_), ..
-            } if code == "rate_limited" => limited += 1,
+            } if code.as_str() == "rate_limited" => limited += 1,
             other => panic!("unexpected {other:?}"),
         }
     }
@@ -648,7 +664,7 @@ async fn fast_and_idle_producers_are_told_why() {
     assert!((2..=3).contains(&acks), "{acks} acked");
     assert_eq!(acks + limited, 10);
     match next_json(&mut producer).await {
-        ServerMessage::Error { code, .. } => assert_eq!(code, "idle"),
+        ServerMessage::Error { code, .. } => assert_eq!(code.as_str(), "idle"),
         other => panic!("expected idle, got {other:?}"),
     }
     match producer.next().await {

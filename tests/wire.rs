@@ -4,71 +4,38 @@
 //! --nocapture` prints every preset (docs/PERFORMANCE.md).
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use facewire::animate::{AnimatedHead, FrameJob, FrameTimes};
 
 use facewire::deform::{bind, AlgoSpec, Registration};
 use facewire::fit::{FitFile, FittedMask};
 use facewire::head::Head;
 use facewire::mask::Mask;
-use facewire::server::STEP_MM;
-use facewire::stream::open_stream;
-use facewire_proto::frame::{decode, FrameContent, FrameEncoder, FrameHeader, LipRoughness};
+use facewire::stream::{open_stream, ArkitBasis};
+use facewire_proto::frame::decode;
 use glam::Vec3;
 
 fn data(path: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path)
 }
 
-/// (mean bytes per frame, worst quantization error in mm) over the syllable stream.
-fn measure(reg: &Registration, spec: &AlgoSpec) -> (f64, f32) {
+/// (mean bytes per frame, worst quantization error in mm) over the syllable stream, as
+/// the service's per-frame job encodes it.
+fn measure(head: &Arc<AnimatedHead>, spec: &AlgoSpec) -> (f64, f32) {
+    let reg = &head.registration;
     let frames: Vec<_> = open_stream(&data("streams/syllables.jsonl"), &reg.fitted.mask)
         .unwrap()
         .map(Result::unwrap)
         .collect();
-    let binding = bind(reg, spec);
-    let mut scratch = binding.scratch(113, reg.mask_triangles().len());
-    let (mut weights, mut mask_now) = (vec![0.0; 65], vec![Vec3::ZERO; 113]);
-    let mut deformed = vec![Vec3::ZERO; reg.vertex_count()];
-    let mut deltas = vec![[0.0f32; 3]; reg.vertex_count()];
-    let mut encoder = FrameEncoder::default();
-    let step = STEP_MM / reg.mm_per_unit();
-    let lip = LipRoughness {
-        per_vertex: vec![0.0; 18],
-        ..LipRoughness::default()
-    };
+    let binding = Arc::new(bind(reg, spec));
+    let mut job = FrameJob::new(head.clone(), binding, Arc::new(ArkitBasis::shipped()), false).unwrap();
     let rest: Vec<f32> = reg.head.positions.iter().flat_map(|p| p.to_array()).collect();
     let (mut bytes, mut worst) = (0usize, 0.0f32);
     let mut decoded = Vec::new();
     for frame in &frames {
-        frame.animation_weights(&reg.fitted.mask, &reg.fitted.fapu, &mut weights);
-        reg.fitted.pose_into(&weights, &mut mask_now);
-        binding.deform(
-            &reg.head.positions,
-            reg.mask_rest(),
-            &mask_now,
-            reg.mask_triangles(),
-            &mut scratch,
-            &mut deformed,
-        );
-        for ((d, now), was) in deltas.iter_mut().zip(&deformed).zip(&reg.head.positions) {
-            *d = (*now - *was).to_array();
-        }
-        let header = FrameHeader {
-            seq: frame.seq,
-            producer_time_s: frame.time_s,
-            server_receive_us: 0,
-            server_send_us: 0,
-        };
-        let encoded = encoder.encode(
-            &header,
-            &FrameContent {
-                step,
-                deltas: &deltas,
-                lip: &lip,
-                label: frame.label.as_deref(),
-                face: None,
-                deflate: true,
-            },
-        );
+        let deformed = job.deform(frame).to_vec();
+        let encoded = job.encode(frame, FrameTimes::default()).unwrap();
         bytes += encoded.len();
         decode(encoded).unwrap().apply(&rest, &mut decoded);
         for (v, p) in deformed.iter().enumerate() {
@@ -87,8 +54,8 @@ fn default_algorithm_frames_are_a_tenth_of_raw_deltas() {
         .unwrap()
         .resolve("fit", &mask)
         .unwrap();
-    let reg = Registration::new(head, FittedMask::new(mask, fit));
-    let raw = reg.vertex_count() as f64 * 12.0;
+    let head = Arc::new(AnimatedHead::new(Registration::new(head, FittedMask::new(mask, fit))).unwrap());
+    let raw = head.registration.vertex_count() as f64 * 12.0;
     let default: AlgoSpec = facewire::server::Config::default()
         .default_algorithm
         .parse()
@@ -98,7 +65,7 @@ fn default_algorithm_frames_are_a_tenth_of_raw_deltas() {
         specs = vec![default];
     }
     for spec in specs {
-        let (mean, worst) = measure(&reg, &spec);
+        let (mean, worst) = measure(&head, &spec);
         eprintln!(
             "{:<58} {:>8.0} bytes/frame = {:>5.1} % of raw f32 ({raw:.0}), worst error {worst:.4} mm",
             spec.to_string(),

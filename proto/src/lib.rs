@@ -2,12 +2,16 @@
 //! tests share, so that all of them agree on every field and byte. `PROTOCOL.md` beside
 //! this crate describes the same messages for clients written in other languages.
 //!
+//! - [`codes`]: error codes, WebSocket close codes and end-of-stream reasons.
 //! - [`messages`]: JSON control messages (snapshots, acks, errors, end of stream).
 //! - [`frame`]: the binary per-frame message a viewer receives (quantized vertex deltas
 //!   plus roughness).
+//! - [`mesh`]: the binary rest mesh a viewer downloads once.
 //! - [`params`]: the binary per-frame message a producer may send instead of JSON.
 
+pub mod codes;
 pub mod frame;
+pub mod mesh;
 pub mod messages;
 pub mod params;
 mod varint;

@@ -3,6 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::codes::{EndReason, ErrorCode};
+
 /// First message on a viewer socket: everything needed to show the frames that follow.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Snapshot {
@@ -38,16 +40,18 @@ pub enum ServerMessage {
     },
     /// Something was refused; `seq` and `field` say which frame and field when known.
     Error {
-        code: String,
+        code: ErrorCode,
         message: String,
         #[serde(default, skip_serializing_if = "Option::is_none")]
         seq: Option<u64>,
         #[serde(default, skip_serializing_if = "Option::is_none")]
         field: Option<String>,
     },
-    /// The stream ended (producer finished, head deleted, server shutting down).
+    /// The stream ended (producer finished or gone, head deleted, server shutting down).
+    /// A producer that sent `end` gets it back before its socket closes.
     End {
-        reason: String,
+        reason: EndReason,
+        message: String,
     },
 }
 
@@ -72,17 +76,31 @@ pub struct HeadInfo {
     pub progress: f32,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
-    /// Streams with a producer or recent frames.
+    /// Live streams: those with a producer, a viewer or a frame in the last
+    /// `stream_linger_s`.
     pub streams: Vec<String>,
     /// Algorithms bound so far (canonical specs).
     pub algorithms: Vec<String>,
 }
 
+impl ServerMessage {
+    /// An `end` message with the reason's sentence.
+    pub fn end(reason: EndReason) -> ServerMessage {
+        ServerMessage::End {
+            reason,
+            message: reason.message().to_string(),
+        }
+    }
+}
+
 /// The body of every HTTP error response.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ErrorBody {
-    pub error: String,
+    pub error: ErrorCode,
     pub message: String,
+    /// For `internal` errors: the id the server's log has the cause under.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub request_id: Option<String>,
 }
 
 #[cfg(test)]
@@ -102,7 +120,7 @@ mod tests {
         let end: ProducerMessage = serde_json::from_str(r#"{"type":"end"}"#).unwrap();
         assert_eq!(end, ProducerMessage::End);
         let error = ServerMessage::Error {
-            code: "bad_frame".into(),
+            code: ErrorCode::BadFrame,
             message: "line 1".into(),
             seq: Some(4),
             field: None,

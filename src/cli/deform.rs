@@ -101,7 +101,7 @@ pub fn run(args: Args) -> CliResult {
     let mut metrics = RoughnessTsvWriter::new(BufWriter::new(create(&metrics_path)?)).map_err(in_metrics)?;
 
     let arkit = ArkitBasis::shipped();
-    let mut poser = FramePoser::new(&registration.fitted, &arkit);
+    let mut poser = FramePoser::new(&registration.fitted);
     let mut scratch = binding.scratch(mask.vertices.len(), mask.triangles.len());
     let mut deformed = vec![Vec3::ZERO; registration.vertex_count()];
     let header = vec![
@@ -120,7 +120,7 @@ pub fn run(args: Args) -> CliResult {
         if index < range.start {
             continue;
         }
-        let mask_now = poser.pose(&frame);
+        let mask_now = poser.pose(&registration.fitted, &arkit, &frame);
         binding.deform(
             &registration.head.positions,
             registration.mask_rest(),

@@ -6,8 +6,8 @@ use std::net::SocketAddr;
 
 use super::serve::{init_logging, runtime};
 use super::CliResult;
-use crate::server::demo::{loop_syllables, DEMO_HEADS};
-use crate::server::{serve, AppState, Config, HeadMeta, HeadRecord};
+use crate::server::demo::{loop_syllables, register_heads, DEMO_HEADS};
+use crate::server::{serve, AppState, Config};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -30,17 +30,7 @@ pub fn run(args: Args) -> CliResult {
     let state = AppState::new(config)?;
     let rt = runtime()?;
     rt.block_on(async {
-        for (id, obj, fit) in DEMO_HEADS {
-            state.registry.register(
-                HeadRecord {
-                    id: id.to_string(),
-                    obj: obj.to_vec(),
-                    fit_toml: fit.to_string(),
-                    meta: HeadMeta::default(),
-                },
-                false,
-            )?;
-        }
+        register_heads(&state).await?;
         tokio::spawn(loop_syllables(
             state.clone(),
             DEMO_HEADS.iter().map(|h| h.0.to_string()).collect(),

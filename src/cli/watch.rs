@@ -104,7 +104,7 @@ pub fn run(args: Args) -> CliResult {
                         }
                     }
                     ServerMessage::Error { code, message, .. } => return Err(format!("server refused: {code}: {message}").into()),
-                    ServerMessage::End { reason } => ended = Some(reason),
+                    ServerMessage::End { reason, .. } => ended = Some(reason.to_string()),
                     ServerMessage::Ack { .. } => {}
                 },
                 Message::Binary(data) => {

@@ -201,7 +201,7 @@ pub fn compare(
         lips,
         face,
         face_smoothness,
-        poser: FramePoser::new(&reg.fitted, input.basis),
+        poser: FramePoser::new(&reg.fitted),
         deformed: vec![Vec3::ZERO; rest.len()],
         target_positions,
         controls: vec![Vec3::ZERO; mask.vertices.len()],
@@ -266,7 +266,7 @@ struct Run<'i, 'a> {
     lips: LipRoughness,
     face: FaceVertices,
     face_smoothness: FaceSmoothness,
-    poser: FramePoser<'a>,
+    poser: FramePoser,
     deformed: Vec<Vec3>,
     target_positions: Vec<Vec3>,
     controls: Vec<Vec3>,
@@ -304,7 +304,7 @@ impl Run<'_, '_> {
         let lower = reg.anchors.vertex[INNER_LIP_MID_LOWER] as usize;
         for (f, frame) in open_stream(self.input.stream, mask)?.enumerate() {
             let frame = frame?;
-            let mask_now = self.poser.pose(&frame);
+            let mask_now = self.poser.pose(&reg.fitted, self.input.basis, &frame);
             let started = Instant::now();
             binding.deform(
                 rest,

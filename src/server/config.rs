@@ -5,7 +5,11 @@
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
+use std::time::Duration;
+
 use serde::Deserialize;
+
+use crate::deform::AlgoSpec;
 
 /// The algorithm facewire recommends (preset U, the thesis's G made exact at the anchors):
 /// smooth lips, almost no new creases, every control reproduced, about 31 µs per frame on
@@ -21,6 +25,9 @@ pub struct Config {
     pub data_dir: Option<PathBuf>,
     /// Algorithm viewers get when they name none ([`DEFAULT_ALGORITHM`]).
     pub default_algorithm: String,
+    /// When set, the only algorithms viewers may ask for (specs or preset letters); the
+    /// default algorithm is always allowed.
+    pub algorithms: Option<Vec<String>>,
     pub limits: Limits,
     pub auth: Auth,
 }
@@ -42,6 +49,26 @@ pub struct Limits {
     pub max_viewers: usize,
     /// Most frames one HTTP batch may hold.
     pub max_batch_frames: usize,
+    /// Longest HTTP batch, seconds from its first frame's `t` to its last.
+    pub max_batch_duration_s: f64,
+    /// Most live streams per head.
+    pub max_streams_per_head: usize,
+    /// A stream with no producer and no viewer is dropped this long after its last
+    /// frame, seconds.
+    pub stream_linger_s: f64,
+    /// Most algorithms bound at once per head; bindings no viewer uses are evicted first.
+    pub max_bindings_per_head: usize,
+    /// Most head registrations (upload, parse, fit, surface distances) at once.
+    pub max_registrations: usize,
+    /// Most open connections; more wait in the kernel's accept queue.
+    pub max_connections: usize,
+    /// A connection must send its request headers within this, seconds.
+    pub header_timeout_s: f64,
+    /// An HTTP request (body included) must be answered within this, seconds.
+    pub request_timeout_s: f64,
+    /// On SIGTERM, sockets get this long to close with a reason before the process
+    /// exits, seconds.
+    pub shutdown_grace_s: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Default, Deserialize)]
@@ -62,6 +89,7 @@ impl Default for Config {
             addr: SocketAddr::from(([127, 0, 0, 1], 8480)),
             data_dir: Some(PathBuf::from("facewire-data")),
             default_algorithm: DEFAULT_ALGORITHM.into(),
+            algorithms: None,
             limits: Limits::default(),
             auth: Auth::default(),
         }
@@ -78,6 +106,15 @@ impl Default for Limits {
             producer_idle_s: 30.0,
             max_viewers: 2_000,
             max_batch_frames: 200_000,
+            max_batch_duration_s: 3600.0,
+            max_streams_per_head: 16,
+            stream_linger_s: 30.0,
+            max_bindings_per_head: 8,
+            max_registrations: 2,
+            max_connections: 1000,
+            header_timeout_s: 10.0,
+            request_timeout_s: 120.0,
+            shutdown_grace_s: 5.0,
         }
     }
 }
@@ -94,8 +131,18 @@ pub enum ConfigError {
         value: String,
         message: String,
     },
-    #[error("default_algorithm {value:?}: {message}")]
-    Algorithm { value: String, message: String },
+    #[error("{field} {value:?}: {message}")]
+    Algorithm {
+        field: &'static str,
+        value: String,
+        message: String,
+    },
+    #[error("limits.{field} = {value}: {expected}")]
+    Limit {
+        field: &'static str,
+        value: f64,
+        expected: &'static str,
+    },
 }
 
 impl Config {
@@ -143,13 +190,77 @@ impl Config {
 
     /// Checks what parsing alone cannot.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        self.default_algorithm
-            .parse::<crate::deform::AlgoSpec>()
-            .map_err(|e| ConfigError::Algorithm {
-                value: self.default_algorithm.clone(),
+        self.allowed_algorithms()?;
+        self.limits.validate()
+    }
+
+    /// The default algorithm and the allow-list, parsed: `(default, None)` when every
+    /// algorithm is allowed.
+    pub fn allowed_algorithms(&self) -> Result<(AlgoSpec, Option<Vec<AlgoSpec>>), ConfigError> {
+        let parse = |field, text: &String| {
+            text.parse::<AlgoSpec>().map_err(|e| ConfigError::Algorithm {
+                field,
+                value: text.clone(),
                 message: e.to_string(),
-            })?;
+            })
+        };
+        let default = parse("default_algorithm", &self.default_algorithm)?;
+        let allowed = match &self.algorithms {
+            None => None,
+            Some(list) => {
+                let mut specs = vec![default];
+                for text in list {
+                    specs.push(parse("algorithms", text)?);
+                }
+                Some(specs)
+            }
+        };
+        Ok((default, allowed))
+    }
+}
+
+impl Limits {
+    fn validate(&self) -> Result<(), ConfigError> {
+        let positive = |field, value: f64| {
+            if value.is_finite() && value > 0.0 && value <= 1e9 {
+                Ok(())
+            } else {
+                Err(ConfigError::Limit {
+                    field,
+                    value,
+                    expected: "a positive number of at most 1e9",
+                })
+            }
+        };
+        for (field, value) in [
+            ("max_fps", self.max_fps),
+            ("producer_idle_s", self.producer_idle_s),
+            ("max_batch_duration_s", self.max_batch_duration_s),
+            ("stream_linger_s", self.stream_linger_s),
+            ("header_timeout_s", self.header_timeout_s),
+            ("request_timeout_s", self.request_timeout_s),
+            ("shutdown_grace_s", self.shutdown_grace_s),
+        ] {
+            positive(field, value)?;
+        }
+        for (field, value) in [
+            ("max_upload_bytes", self.max_upload_bytes),
+            ("max_vertices", self.max_vertices),
+            ("max_message_bytes", self.max_message_bytes),
+            ("max_viewers", self.max_viewers),
+            ("max_batch_frames", self.max_batch_frames),
+            ("max_streams_per_head", self.max_streams_per_head),
+            ("max_bindings_per_head", self.max_bindings_per_head),
+            ("max_registrations", self.max_registrations),
+            ("max_connections", self.max_connections),
+        ] {
+            positive(field, value as f64)?;
+        }
         Ok(())
+    }
+
+    pub fn duration(seconds: f64) -> Duration {
+        Duration::from_secs_f64(seconds)
     }
 }
 
@@ -190,5 +301,15 @@ mod tests {
         assert!(toml::from_str::<Config>("adress = 1").is_err());
         config.default_algorithm = "smooth".into();
         assert!(config.validate().is_err());
+        config.default_algorithm = "U".into();
+        config.algorithms = Some(vec!["E".into(), "nonsense".into()]);
+        let err = config.validate().unwrap_err().to_string();
+        assert!(err.starts_with("algorithms \"nonsense\""), "{err}");
+        config.algorithms = Some(vec!["E".into()]);
+        let (default, allowed) = config.allowed_algorithms().unwrap();
+        assert_eq!(allowed.unwrap(), vec![default, "E".parse().unwrap()]);
+        config.limits.max_batch_duration_s = f64::NAN;
+        let err = config.validate().unwrap_err().to_string();
+        assert!(err.starts_with("limits.max_batch_duration_s = NaN"), "{err}");
     }
 }

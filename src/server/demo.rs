@@ -3,7 +3,8 @@
 
 use std::time::Duration;
 
-use super::ingest::publish_frame;
+use super::error::ApiError;
+use super::store::{HeadMeta, HeadRecord};
 use super::AppState;
 use crate::stream::{syllables, Frame};
 
@@ -21,30 +22,38 @@ pub const DEMO_HEADS: [(&str, &[u8], &str); 2] = [
     ),
 ];
 
+/// Registers the demo heads (in memory) from the embedded files.
+pub async fn register_heads(state: &AppState) -> Result<(), ApiError> {
+    for (id, obj, fit) in DEMO_HEADS {
+        let slot = state.registry.registration_slot(Duration::MAX).await?;
+        let record = HeadRecord {
+            id: id.to_string(),
+            obj: obj.to_vec(),
+            fit_toml: fit.to_string(),
+            meta: HeadMeta::default(),
+        };
+        state.registry.register(record, false, slot).await?;
+    }
+    Ok(())
+}
+
 /// Plays the syllable stream on `stream` of every head in `heads`, forever (until
 /// shutdown), with sequence numbers and timestamps that keep increasing across loops.
 pub async fn loop_syllables(state: AppState, heads: Vec<String>, stream: String) {
     let frames: Vec<Frame> = syllables::generate(syllables::SHIPPED_FPS).expect("the shipped fps is valid");
     let period = frames.last().map_or(1.0, |f| f.time_s) + 1.0 / syllables::SHIPPED_FPS;
-    let producer = state.next_id();
     // Wait for registration, then hold the producer slot of each stream.
-    let mut targets = Vec::new();
+    let mut producers = Vec::new();
     for id in &heads {
         let Some(entry) = state.registry.get(id) else {
             continue;
         };
-        let ready = loop {
-            if let Some(ready) = entry.ready() {
-                break ready;
-            }
-            tokio::select! {
-                _ = state.shutdown.cancelled() => return,
-                _ = tokio::time::sleep(Duration::from_millis(50)) => {}
-            }
-        };
-        let channel = entry.channel(&stream);
-        if channel.claim_producer(producer) {
-            targets.push((ready, channel));
+        tokio::select! {
+            _ = state.shutdown.cancelled() => return,
+            ready = entry.wait_ready(Duration::MAX) => if ready.is_err() { continue },
+        }
+        if let Some(permit) = entry.stream(&stream).ok().and_then(|s| s.claim_producer()) {
+            producers.push(permit);
         }
     }
     let start = tokio::time::Instant::now();
@@ -60,8 +69,8 @@ pub async fn loop_syllables(state: AppState, heads: Vec<String>, stream: String)
             looped.seq = seq;
             looped.time_s = t;
             seq += 1;
-            for (ready, channel) in &targets {
-                publish_frame(&state, ready, channel, looped.clone(), super::now_us());
+            for permit in &producers {
+                permit.publish(looped.clone(), super::now_us());
             }
         }
     }

@@ -1,59 +1,165 @@
-//! HTTP errors: a code a client can branch on and a message a person can act on, as JSON
-//! (`{"error": "unknown_head", "message": "no head \"x\""}`). Causes are logged here, not
-//! sent.
+//! HTTP errors as an enum of causes. Each answers a status, a code a client can branch on
+//! ([`ErrorCode`]) and a message a person can act on, as JSON
+//! (`{"error":"unknown_head","message":"no head \"x\""}`). Server faults log their cause
+//! under the request's id and answer only `internal` with that id, never internal text
+//! such as file paths.
 
 use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use axum::Json;
+use facewire_proto::codes::ErrorCode;
 use facewire_proto::messages::ErrorBody;
 
-#[derive(Debug)]
-pub struct ApiError {
-    pub status: StatusCode,
-    pub code: &'static str,
-    pub message: String,
+tokio::task_local! {
+    /// The id of the request being handled (set by [`super::app`]'s request-id layer).
+    pub static REQUEST_ID: String;
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ApiError {
+    #[error("{0}")]
+    BadRequest(String),
+    #[error("{what} {id:?} is not valid: use 1-64 lowercase letters, digits, '-' or '_'")]
+    BadId { what: &'static str, id: String },
+    #[error("{0}")]
+    BadLandmarks(String),
+    #[error("{0}")]
+    BadFrame(String),
+    #[error("{0}")]
+    BadAlgorithm(String),
+    #[error("the body is larger than {limit} bytes")]
+    TooLarge { limit: usize },
+    #[error("more than {limit} frames in one batch")]
+    TooManyFrames { limit: usize },
+    #[error("the batch spans {duration_s} s; at most {limit_s} s")]
+    TooLong { duration_s: f64, limit_s: f64 },
+    #[error("a valid {role} token is required (?token= or Authorization: Bearer)")]
+    Unauthorized { role: &'static str },
+    #[error("no head {0:?}")]
+    UnknownHead(String),
+    #[error("stream {stream:?} of head {head:?} has no producer")]
+    NoProducer { head: String, stream: String },
+    #[error("no such resource: {0}")]
+    NotFound(String),
+    #[error("method {method} is not allowed on {path}")]
+    MethodNotAllowed { method: String, path: String },
+    #[error("head {0:?} is already registered")]
+    HeadExists(String),
+    #[error("stream {0:?} already has a producer; one at a time")]
+    ProducerBusy(String),
+    #[error("head {id:?} failed to register: {error}")]
+    RegistrationFailed { id: String, error: String },
+    #[error("head {id:?} is still registering ({percent:.0} %)")]
+    Registering { id: String, percent: f32 },
+    #[error("{0}")]
+    LimitReached(String),
+    #[error("the request took longer than {0} s")]
+    Timeout(f64),
+    #[error("the server is shutting down")]
+    ShuttingDown,
+    #[error("internal error: {0}")]
+    Internal(#[source] Box<dyn std::error::Error + Send + Sync>),
 }
 
 impl ApiError {
-    pub fn new(status: StatusCode, code: &'static str, message: impl Into<String>) -> ApiError {
-        ApiError {
-            status,
-            code,
-            message: message.into(),
+    pub fn internal(cause: impl Into<Box<dyn std::error::Error + Send + Sync>>) -> ApiError {
+        ApiError::Internal(cause.into())
+    }
+
+    pub fn status(&self) -> StatusCode {
+        match self {
+            ApiError::BadRequest(_)
+            | ApiError::BadId { .. }
+            | ApiError::BadLandmarks(_)
+            | ApiError::BadFrame(_)
+            | ApiError::BadAlgorithm(_) => StatusCode::BAD_REQUEST,
+            ApiError::TooLarge { .. } | ApiError::TooManyFrames { .. } | ApiError::TooLong { .. } => {
+                StatusCode::PAYLOAD_TOO_LARGE
+            }
+            ApiError::Unauthorized { .. } => StatusCode::UNAUTHORIZED,
+            ApiError::UnknownHead(_) | ApiError::NoProducer { .. } | ApiError::NotFound(_) => {
+                StatusCode::NOT_FOUND
+            }
+            ApiError::MethodNotAllowed { .. } => StatusCode::METHOD_NOT_ALLOWED,
+            ApiError::HeadExists(_) | ApiError::ProducerBusy(_) | ApiError::RegistrationFailed { .. } => {
+                StatusCode::CONFLICT
+            }
+            ApiError::LimitReached(_) => StatusCode::TOO_MANY_REQUESTS,
+            ApiError::Timeout(_) => StatusCode::REQUEST_TIMEOUT,
+            ApiError::Registering { .. } | ApiError::ShuttingDown => StatusCode::SERVICE_UNAVAILABLE,
+            ApiError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
         }
     }
 
-    pub fn bad_request(code: &'static str, message: impl Into<String>) -> ApiError {
-        ApiError::new(StatusCode::BAD_REQUEST, code, message)
-    }
-
-    pub fn unknown_head(id: &str) -> ApiError {
-        ApiError::new(StatusCode::NOT_FOUND, "unknown_head", format!("no head {id:?}"))
-    }
-
-    pub fn unauthorized(what: &str) -> ApiError {
-        ApiError::new(
-            StatusCode::UNAUTHORIZED,
-            "unauthorized",
-            format!("a valid {what} token is required (?token= or Authorization: Bearer)"),
-        )
+    pub fn code(&self) -> ErrorCode {
+        match self {
+            ApiError::BadRequest(_) => ErrorCode::BadRequest,
+            ApiError::BadId { .. } => ErrorCode::BadId,
+            ApiError::BadLandmarks(_) => ErrorCode::BadLandmarks,
+            ApiError::BadFrame(_) => ErrorCode::BadFrame,
+            ApiError::BadAlgorithm(_) => ErrorCode::BadAlgorithm,
+            ApiError::TooLarge { .. } => ErrorCode::TooLarge,
+            ApiError::TooManyFrames { .. } => ErrorCode::TooManyFrames,
+            ApiError::TooLong { .. } => ErrorCode::TooLong,
+            ApiError::Unauthorized { .. } => ErrorCode::Unauthorized,
+            ApiError::UnknownHead(_) => ErrorCode::UnknownHead,
+            ApiError::NoProducer { .. } => ErrorCode::UnknownStream,
+            ApiError::NotFound(_) | ApiError::MethodNotAllowed { .. } => ErrorCode::NotFound,
+            ApiError::HeadExists(_) => ErrorCode::HeadExists,
+            ApiError::ProducerBusy(_) => ErrorCode::ProducerBusy,
+            ApiError::RegistrationFailed { .. } => ErrorCode::RegistrationFailed,
+            ApiError::Registering { .. } => ErrorCode::Registering,
+            ApiError::LimitReached(_) => ErrorCode::LimitReached,
+            ApiError::Timeout(_) => ErrorCode::Timeout,
+            ApiError::ShuttingDown => ErrorCode::ShuttingDown,
+            ApiError::Internal(_) => ErrorCode::Internal,
+        }
     }
 }
 
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
-        if self.status.is_server_error() {
-            tracing::error!(code = self.code, message = %self.message, "request failed");
-        } else {
-            tracing::debug!(code = self.code, message = %self.message, "request refused");
-        }
-        (
-            self.status,
-            Json(ErrorBody {
-                error: self.code.to_string(),
-                message: self.message,
-            }),
-        )
-            .into_response()
+        let status = self.status();
+        let request_id = REQUEST_ID.try_with(Clone::clone).ok();
+        let body = match &self {
+            ApiError::Internal(cause) => {
+                tracing::error!(request_id = request_id.as_deref().unwrap_or("-"), error = %cause, "request failed");
+                ErrorBody {
+                    error: ErrorCode::Internal,
+                    message: "internal error; the server's log has the cause under this request_id".into(),
+                    request_id,
+                }
+            }
+            refused => {
+                tracing::debug!(code = %refused.code(), message = %refused, "request refused");
+                ErrorBody {
+                    error: refused.code(),
+                    message: refused.to_string(),
+                    request_id: None,
+                }
+            }
+        };
+        (status, Json(body)).into_response()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[tokio::test]
+    async fn internal_errors_carry_the_request_id_and_no_cause() {
+        let response = REQUEST_ID
+            .scope("r-7".to_string(), async {
+                ApiError::internal(std::io::Error::other("/srv/facewire-data/heads: disk full"))
+                    .into_response()
+            })
+            .await;
+        assert_eq!(response.status(), StatusCode::INTERNAL_SERVER_ERROR);
+        let bytes = axum::body::to_bytes(response.into_body(), 1 << 16).await.unwrap();
+        let body: ErrorBody = serde_json::from_slice(&bytes).unwrap();
+        assert_eq!(body.error, ErrorCode::Internal);
+        assert_eq!(body.request_id.as_deref(), Some("r-7"));
+        assert!(!body.message.contains("/srv"), "{}", body.message);
     }
 }

@@ -1,245 +1,181 @@
-//! A deform pipeline: for one stream and one algorithm, turns the newest parameters into
-//! an encoded viewer frame (pose the mask, deform, lip roughness, quantize) once, and
-//! publishes it to every viewer through a watch channel, so a slow viewer skips to the
-//! newest frame and never holds anyone up. The work runs off the async runtime.
+//! A deform pipeline: for one stream and one algorithm, runs the per-frame job
+//! ([`crate::animate::FrameJob`]) on the newest parameters, off the async runtime, and
+//! publishes each encoded frame once for all its viewers through a watch channel. Busy, it
+//! skips to the newest parameters; it never skips the last frame before an end. It
+//! retires itself when its last viewer leaves.
 
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use bytes::Bytes;
-use glam::Vec3;
 use tokio::sync::watch;
 
-use super::channel::{Channel, Event, Params};
-use super::registry::ReadyHead;
+use super::stream::ParamTimeline;
 use super::telemetry::Telemetry;
-use crate::deform::{Binding, DeformScratch};
-use crate::mask::LIP_VERTICES;
-use crate::metrics::{LipRoughness, Roughness};
-use facewire_proto::frame::{FrameContent, FrameEncoder, FrameHeader, LipRoughness as WireLip};
+use super::timeline::{Step, Timeline};
+use crate::animate::{FrameJob, FrameTimes};
 
-/// An encoded frame, shared by every viewer of a pipeline.
+/// What a pipeline computes: an algorithm (canonical spec) with or without per-vertex
+/// face roughness.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct PipelineKey {
+    pub spec: String,
+    pub face: bool,
+}
+
+/// An encoded viewer frame, shared by every viewer of a pipeline.
 #[derive(Debug)]
 pub struct Encoded {
+    /// The producer's sequence number.
     pub seq: u64,
     pub bytes: Bytes,
     /// When it was published, for the publish-to-send latency.
     pub published: Instant,
 }
 
-#[derive(Debug, Clone)]
-pub enum Output {
-    Waiting,
-    Frame(Arc<Encoded>),
-    Ended(String),
-}
-
 pub struct Pipeline {
-    output: watch::Sender<Output>,
-    stopped: AtomicBool,
+    output: watch::Sender<Timeline<Encoded>>,
+    /// Set, under this lock, when the pipeline has no viewer and stops; viewers join
+    /// under the same lock, so none joins a stopped pipeline.
+    retired: Mutex<bool>,
 }
 
 impl Pipeline {
-    pub fn subscribe(&self) -> watch::Receiver<Output> {
-        self.output.subscribe()
-    }
-
-    pub fn viewer_count(&self) -> usize {
-        self.output.receiver_count()
-    }
-
-    pub fn is_stopped(&self) -> bool {
-        self.stopped.load(Ordering::Acquire)
-    }
-
-    pub fn stop(&self) {
-        self.stopped.store(true, Ordering::Release);
-    }
-
-    /// Starts a pipeline task for `channel` with `binding`.
+    /// Starts the pipeline's task: `job` turns each frame of `params` into a viewer frame.
+    /// Returns the first viewer's receiver with it, so the pipeline never starts unwatched.
     pub fn start(
-        channel: Arc<Channel>,
-        key: (String, bool),
-        head: Arc<ReadyHead>,
-        binding: Arc<Binding>,
-        events: watch::Receiver<Event>,
+        job: FrameJob,
+        params: watch::Receiver<ParamTimeline>,
         telemetry: Arc<Telemetry>,
-    ) -> Arc<Pipeline> {
+    ) -> (Arc<Pipeline>, watch::Receiver<Timeline<Encoded>>) {
+        let (output, first) = watch::channel(Timeline::default());
         let pipeline = Arc::new(Pipeline {
-            output: watch::Sender::new(Output::Waiting),
-            stopped: AtomicBool::new(false),
+            output,
+            retired: Mutex::new(false),
         });
-        let worker = Worker::new(head, binding, key.1);
-        tokio::spawn(run(channel, key, pipeline.clone(), worker, events, telemetry));
-        pipeline
+        tokio::spawn(run(pipeline.clone(), Box::new(job), params, telemetry));
+        (pipeline, first)
+    }
+
+    /// A receiver of the encoded frames; `None` once the pipeline has retired.
+    pub fn subscribe(&self) -> Option<watch::Receiver<Timeline<Encoded>>> {
+        let retired = self.retired.lock().expect("retired lock");
+        (!*retired).then(|| self.output.subscribe())
+    }
+
+    pub fn is_retired(&self) -> bool {
+        *self.retired.lock().expect("retired lock")
+    }
+
+    /// Retires the pipeline if nobody watches it; true when it did.
+    fn retire_if_unwatched(&self) -> bool {
+        let mut retired = self.retired.lock().expect("retired lock");
+        if self.output.receiver_count() == 0 {
+            *retired = true;
+        }
+        *retired
     }
 }
 
 async fn run(
-    channel: Arc<Channel>,
-    key: (String, bool),
     pipeline: Arc<Pipeline>,
-    mut worker: Box<Worker>,
-    mut events: watch::Receiver<Event>,
+    mut job: Box<FrameJob>,
+    mut params: watch::Receiver<ParamTimeline>,
     telemetry: Arc<Telemetry>,
 ) {
-    let mut last_seq: Option<u64> = None;
-    while events.changed().await.is_ok() {
-        let event = events.borrow_and_update().clone();
-        match event {
-            Event::Idle => {}
-            Event::Ended(reason) => {
-                last_seq = None;
-                pipeline.output.send_replace(Output::Ended(reason));
+    telemetry.pipelines.inc();
+    // Start from the newest frame, as a viewer joining now does.
+    let mut done = params.borrow().join_point();
+    params.mark_changed();
+    loop {
+        tokio::select! {
+            changed = params.changed() => if changed.is_err() { break },
+            _ = pipeline.output.closed() => {
+                if pipeline.retire_if_unwatched() {
+                    break;
+                }
+                continue;
             }
-            Event::Frame(params) => {
-                if let Some(previous) = last_seq {
-                    if params.seq > previous + 1 {
-                        telemetry.skipped("deform", params.seq - previous - 1);
+        }
+        let steps: Vec<Step<_>> = params.borrow_and_update().steps_after(done).collect();
+        for step in steps {
+            match step {
+                Step::Frame(received) => {
+                    let skipped = received.serial.saturating_sub(done + 1);
+                    if skipped > 0 {
+                        telemetry.skipped("deform", skipped);
+                    }
+                    done = received.serial;
+                    let job_telemetry = telemetry.clone();
+                    let value = received.value.clone();
+                    let outcome = tokio::task::spawn_blocking(move || {
+                        let encoded = process(&mut job, &value, &job_telemetry);
+                        (job, encoded)
+                    })
+                    .await;
+                    match outcome {
+                        Ok((returned, encoded)) => {
+                            job = returned;
+                            if let Some(encoded) = encoded {
+                                pipeline
+                                    .output
+                                    .send_modify(|t| t.publish_at(received.serial, Arc::new(encoded)));
+                            }
+                        }
+                        Err(e) => {
+                            tracing::error!(error = %e, "deform pipeline task failed");
+                            *pipeline.retired.lock().expect("retired lock") = true;
+                            telemetry.pipelines.dec();
+                            return;
+                        }
                     }
                 }
-                last_seq = Some(params.seq);
-                let telemetry_for_job = telemetry.clone();
-                let job = tokio::task::spawn_blocking(move || {
-                    let encoded = worker.process(&params, &telemetry_for_job);
-                    (worker, encoded)
-                });
-                let (returned, encoded) = match job.await {
-                    Ok(done) => done,
-                    Err(e) => {
-                        tracing::error!(error = %e, "deform pipeline failed");
-                        pipeline
-                            .output
-                            .send_replace(Output::Ended("internal error".into()));
-                        pipeline.stop();
-                        return;
-                    }
-                };
-                worker = returned;
-                pipeline.output.send_replace(Output::Frame(Arc::new(encoded)));
+                Step::End { serial, reason } => {
+                    done = serial;
+                    pipeline.output.send_modify(|t| t.end_at(serial, reason));
+                }
             }
         }
-        if pipeline.viewer_count() == 0 && channel.retire_pipeline(&key, &pipeline) {
-            return;
-        }
     }
-    pipeline.stop();
+    *pipeline.retired.lock().expect("retired lock") = true;
+    telemetry.pipelines.dec();
 }
 
-/// The per-frame state of a pipeline, moved into a blocking task for each frame.
-struct Worker {
-    head: Arc<ReadyHead>,
-    binding: Arc<Binding>,
-    scratch: DeformScratch,
-    mask_now: Vec<Vec3>,
-    deformed: Vec<Vec3>,
-    deltas: Vec<[f32; 3]>,
-    lip: LipRoughness,
-    lip_wire: WireLip,
-    face: Option<(Roughness, Vec<f32>)>,
-    encoder: FrameEncoder,
-}
-
-impl Worker {
-    fn new(head: Arc<ReadyHead>, binding: Arc<Binding>, face: bool) -> Box<Worker> {
-        let reg = &head.registration;
-        let n = reg.vertex_count();
-        let lip = LipRoughness::new(&reg.head, &head.lip_region).expect("lip region belongs to this head");
-        let face = face.then(|| {
-            (
-                Roughness::whole_mesh(&reg.head).expect("whole mesh region"),
-                vec![0.0; n],
-            )
-        });
-        Box::new(Worker {
-            scratch: binding.scratch(reg.mask_rest().len(), reg.mask_triangles().len()),
-            mask_now: vec![Vec3::ZERO; reg.mask_rest().len()],
-            deformed: vec![Vec3::ZERO; n],
-            deltas: vec![[0.0; 3]; n],
-            lip,
-            lip_wire: WireLip {
-                per_vertex: vec![0.0; LIP_VERTICES.len()],
-                ..WireLip::default()
-            },
-            face,
-            encoder: FrameEncoder::default(),
-            head,
-            binding,
-        })
-    }
-
-    fn process(&mut self, params: &Params, telemetry: &Telemetry) -> Encoded {
-        let started = Instant::now();
-        let reg = &self.head.registration;
-        reg.fitted
-            .pose_with_offsets_into(&params.animation, &params.offsets, &mut self.mask_now);
-        self.binding.deform(
-            &reg.head.positions,
-            reg.mask_rest(),
-            &self.mask_now,
-            reg.mask_triangles(),
-            &mut self.scratch,
-            &mut self.deformed,
-        );
-        let deformed_at = Instant::now();
-        telemetry
-            .deform_seconds
-            .observe((deformed_at - started).as_secs_f64());
-
-        for ((d, now), rest) in self
-            .deltas
-            .iter_mut()
-            .zip(&self.deformed)
-            .zip(&reg.head.positions)
-        {
-            *d = (*now - *rest).to_array();
+/// One frame through the job; `None` (logged and counted) when it cannot be shown.
+fn process(
+    job: &mut FrameJob,
+    received: &super::stream::ReceivedFrame,
+    telemetry: &Telemetry,
+) -> Option<Encoded> {
+    let started = Instant::now();
+    job.deform(&received.frame);
+    let deformed_at = Instant::now();
+    telemetry
+        .deform_seconds
+        .observe((deformed_at - started).as_secs_f64());
+    let times = FrameTimes {
+        received_us: received.received_us,
+        send_us: super::now_us(),
+    };
+    let bytes = match job.encode(&received.frame, times) {
+        Ok(bytes) => Bytes::copy_from_slice(bytes),
+        Err(e) => {
+            tracing::warn!(error = %e, "frame not shown");
+            telemetry.reject("not_shown");
+            return None;
         }
-        if let Ok(rows) = self.lip.rows(&self.deformed, params.seq, params.time_s) {
-            for (slot, row) in self.lip_wire.per_vertex.iter_mut().zip(&rows) {
-                *slot = row.mean as f32;
-            }
-            let summary = rows[rows.len() - 1];
-            self.lip_wire.min = summary.min as f32;
-            self.lip_wire.max = summary.max as f32;
-            self.lip_wire.mean = summary.mean as f32;
-        }
-        let face = match &mut self.face {
-            Some((roughness, values)) => roughness
-                .face_vertex_roughness(&self.deformed, values)
-                .ok()
-                .map(|_| values.as_slice()),
-            None => None,
-        };
-        let header = FrameHeader {
-            seq: params.seq,
-            producer_time_s: params.time_s,
-            server_receive_us: params.received_us,
-            server_send_us: super::now_us(),
-        };
-        let bytes = Bytes::copy_from_slice(self.encoder.encode(
-            &header,
-            &FrameContent {
-                step: self.head.step,
-                deltas: &self.deltas,
-                lip: &self.lip_wire,
-                label: params.label.as_deref(),
-                face,
-                deflate: true,
-            },
-        ));
-        let published = Instant::now();
-        telemetry
-            .encode_seconds
-            .observe((published - deformed_at).as_secs_f64());
-        telemetry.latency(
-            "receive_to_publish",
-            (header.server_send_us.saturating_sub(params.received_us)) as f64 * 1e-6,
-        );
-        Encoded {
-            seq: params.seq,
-            bytes,
-            published,
-        }
-    }
+    };
+    let published = Instant::now();
+    telemetry
+        .encode_seconds
+        .observe((published - deformed_at).as_secs_f64());
+    telemetry.latency(
+        "receive_to_publish",
+        times.send_us.saturating_sub(received.received_us) as f64 * 1e-6,
+    );
+    Some(Encoded {
+        seq: received.frame.seq,
+        bytes,
+        published,
+    })
 }

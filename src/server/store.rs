@@ -1,12 +1,15 @@
 //! Where registered heads live between runs: one folder per head in the data directory
 //! (`heads/<id>/head.obj`, `fit.toml`, `head.json`), every file written atomically.
 //! `head.json` is written last and removed first, so a folder without it is an
-//! interrupted write and is skipped (and reported) on load.
+//! interrupted write: it is removed at start, with any temporary file left by a crash.
+//! Folders that cannot be loaded are reported, never fatal. Blocking: call it from the
+//! blocking pool.
 
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use super::auth::TokenDigest;
 use crate::atomic::write_atomic;
 
 /// What a head was registered with: enough to register it again after a restart.
@@ -18,11 +21,34 @@ pub struct HeadRecord {
     pub meta: HeadMeta,
 }
 
+/// `head.json`.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct HeadMeta {
-    /// The head's own producer token, if it was registered with one.
+    /// SHA-256 (hex) of the head's own producer token, if it was registered with one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub producer_token: Option<String>,
+    pub producer_token_sha256: Option<String>,
+    /// Written by versions that stored the token itself; read once and replaced by its
+    /// digest.
+    #[serde(default, skip_serializing)]
+    producer_token: Option<String>,
+}
+
+impl HeadMeta {
+    pub fn with_producer_token(token: Option<&str>) -> HeadMeta {
+        HeadMeta {
+            producer_token_sha256: token
+                .filter(|t| !t.is_empty())
+                .map(|t| TokenDigest::of(t).to_hex()),
+            producer_token: None,
+        }
+    }
+
+    pub fn producer_token(&self) -> Option<TokenDigest> {
+        self.producer_token_sha256
+            .as_deref()
+            .and_then(TokenDigest::from_hex)
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -38,6 +64,23 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> StoreError + '_ {
         path: path.display().to_string(),
         source,
     }
+}
+
+/// A stored head that could not be loaded.
+#[derive(Debug)]
+pub struct BrokenHead {
+    /// The folder's name, when it is a valid head id (then `DELETE` removes it).
+    pub id: Option<String>,
+    pub problem: StoreError,
+}
+
+/// What [`Store::load_all`] found.
+#[derive(Debug, Default)]
+pub struct StoredHeads {
+    pub records: Vec<HeadRecord>,
+    pub broken: Vec<BrokenHead>,
+    /// Leftovers of interrupted writes that were removed (paths).
+    pub cleaned: Vec<String>,
 }
 
 #[derive(Debug, Clone)]
@@ -63,11 +106,16 @@ impl Store {
         write_atomic(&obj, &record.obj).map_err(io(&obj))?;
         let fit = dir.join("fit.toml");
         write_atomic(&fit, record.fit_toml.as_bytes()).map_err(io(&fit))?;
-        let meta = dir.join("head.json");
-        let text = serde_json::to_vec_pretty(&record.meta).expect("metadata serializes");
-        write_atomic(&meta, &text).map_err(io(&meta))
+        self.save_meta(&record.id, &record.meta)
     }
 
+    fn save_meta(&self, id: &str, meta: &HeadMeta) -> Result<(), StoreError> {
+        let path = self.dir(id).join("head.json");
+        let text = serde_json::to_vec_pretty(meta).expect("metadata serializes");
+        write_atomic(&path, &text).map_err(io(&path))
+    }
+
+    /// Removes a head's folder, complete or not; nothing there is fine.
     pub fn delete(&self, id: &str) -> Result<(), StoreError> {
         let dir = self.dir(id);
         let meta = dir.join("head.json");
@@ -83,49 +131,80 @@ impl Store {
         }
     }
 
-    /// Every complete head folder, sorted by id; problems with single folders are
-    /// returned beside the records instead of failing the whole load.
-    pub fn load_all(&self) -> Result<(Vec<HeadRecord>, Vec<StoreError>), StoreError> {
-        let mut records = Vec::new();
-        let mut problems = Vec::new();
+    /// Every complete head folder, sorted by id. Leftovers of interrupted writes are
+    /// removed; folders that cannot be loaded are reported beside the records.
+    pub fn load_all(&self) -> Result<StoredHeads, StoreError> {
+        let mut found = StoredHeads::default();
         let mut entries: Vec<_> = std::fs::read_dir(&self.root)
             .map_err(io(&self.root))?
             .filter_map(Result::ok)
-            .filter(|e| e.path().is_dir())
             .collect();
         entries.sort_by_key(|e| e.file_name());
         for entry in entries {
-            let dir = entry.path();
-            let id = entry.file_name().to_string_lossy().into_owned();
-            let meta_path = dir.join("head.json");
-            if !meta_path.exists() {
-                problems.push(StoreError::Invalid {
-                    path: dir.display().to_string(),
-                    message: "incomplete (no head.json): skipped".into(),
+            let path = entry.path();
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if !path.is_dir() {
+                if name.starts_with(".tmp") {
+                    std::fs::remove_file(&path).map_err(io(&path))?;
+                    found.cleaned.push(path.display().to_string());
+                }
+                continue;
+            }
+            if !super::ids::valid_id(&name) {
+                found.broken.push(BrokenHead {
+                    id: None,
+                    problem: StoreError::Invalid {
+                        path: path.display().to_string(),
+                        message: "not a valid head id (1-64 of a-z 0-9 - _): skipped".into(),
+                    },
                 });
                 continue;
             }
-            let load = || -> Result<HeadRecord, StoreError> {
-                let meta_text = std::fs::read(&meta_path).map_err(io(&meta_path))?;
-                let meta: HeadMeta = serde_json::from_slice(&meta_text).map_err(|e| StoreError::Invalid {
-                    path: meta_path.display().to_string(),
-                    message: e.to_string(),
-                })?;
-                let obj_path = dir.join("head.obj");
-                let fit_path = dir.join("fit.toml");
-                Ok(HeadRecord {
-                    id: id.clone(),
-                    obj: std::fs::read(&obj_path).map_err(io(&obj_path))?,
-                    fit_toml: std::fs::read_to_string(&fit_path).map_err(io(&fit_path))?,
-                    meta,
-                })
-            };
-            match load() {
-                Ok(record) => records.push(record),
-                Err(e) => problems.push(e),
+            for leftover in std::fs::read_dir(&path)
+                .map_err(io(&path))?
+                .filter_map(Result::ok)
+            {
+                if leftover.file_name().to_string_lossy().starts_with(".tmp") {
+                    std::fs::remove_file(leftover.path()).map_err(io(&leftover.path()))?;
+                    found.cleaned.push(leftover.path().display().to_string());
+                }
+            }
+            if !path.join("head.json").exists() {
+                self.delete(&name)?;
+                found.cleaned.push(path.display().to_string());
+                continue;
+            }
+            match self.load(&name) {
+                Ok(record) => found.records.push(record),
+                Err(problem) => found.broken.push(BrokenHead {
+                    id: Some(name),
+                    problem,
+                }),
             }
         }
-        Ok((records, problems))
+        Ok(found)
+    }
+
+    fn load(&self, id: &str) -> Result<HeadRecord, StoreError> {
+        let dir = self.dir(id);
+        let meta_path = dir.join("head.json");
+        let meta_text = std::fs::read(&meta_path).map_err(io(&meta_path))?;
+        let mut meta: HeadMeta = serde_json::from_slice(&meta_text).map_err(|e| StoreError::Invalid {
+            path: meta_path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        if let Some(token) = meta.producer_token.take() {
+            meta = HeadMeta::with_producer_token(Some(&token));
+            self.save_meta(id, &meta)?;
+        }
+        let obj_path = dir.join("head.obj");
+        let fit_path = dir.join("fit.toml");
+        Ok(HeadRecord {
+            id: id.to_string(),
+            obj: std::fs::read(&obj_path).map_err(io(&obj_path))?,
+            fit_toml: std::fs::read_to_string(&fit_path).map_err(io(&fit_path))?,
+            meta,
+        })
     }
 }
 
@@ -133,25 +212,67 @@ impl Store {
 mod tests {
     use super::*;
 
+    fn record(id: &str) -> HeadRecord {
+        HeadRecord {
+            id: id.into(),
+            obj: b"v 0 0 0\n".to_vec(),
+            fit_toml: "scale = 1.0\n".into(),
+            meta: HeadMeta::with_producer_token(Some("t")),
+        }
+    }
+
     #[test]
     fn saves_loads_and_deletes() {
         let dir = tempfile::tempdir().unwrap();
         let store = Store::open(dir.path()).unwrap();
-        let record = HeadRecord {
-            id: "h1".into(),
-            obj: b"v 0 0 0\n".to_vec(),
-            fit_toml: "scale = 1.0\n".into(),
-            meta: HeadMeta {
-                producer_token: Some("t".into()),
-            },
-        };
-        store.save(&record).unwrap();
-        std::fs::create_dir_all(dir.path().join("heads/broken")).unwrap();
-        let (records, problems) = store.load_all().unwrap();
-        assert_eq!(records, vec![record]);
-        assert_eq!(problems.len(), 1);
-        assert!(problems[0].to_string().contains("broken"));
+        store.save(&record("h1")).unwrap();
+        let stored = std::fs::read_to_string(dir.path().join("heads/h1/head.json")).unwrap();
+        assert!(
+            !stored.contains("\"t\""),
+            "the token itself is not stored: {stored}"
+        );
+        assert_eq!(store.load_all().unwrap().records, vec![record("h1")]);
         store.delete("h1").unwrap();
-        assert!(store.load_all().unwrap().0.is_empty());
+        assert!(store.load_all().unwrap().records.is_empty());
+    }
+
+    #[test]
+    fn leftovers_are_cleaned_and_bad_folders_reported() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(dir.path()).unwrap();
+        store.save(&record("good")).unwrap();
+        let heads = dir.path().join("heads");
+        std::fs::create_dir_all(heads.join("partial")).unwrap();
+        std::fs::write(heads.join("partial/head.obj"), "v 0 0 0\n").unwrap();
+        std::fs::write(heads.join("good/.tmpAbC123"), "half").unwrap();
+        std::fs::write(heads.join(".tmpXyZ"), "half").unwrap();
+        std::fs::create_dir_all(heads.join("Not Valid")).unwrap();
+        std::fs::create_dir_all(heads.join("corrupt")).unwrap();
+        std::fs::write(heads.join("corrupt/head.json"), "{").unwrap();
+        let found = store.load_all().unwrap();
+        assert_eq!(found.records, vec![record("good")]);
+        assert_eq!(found.cleaned.len(), 3, "{:?}", found.cleaned);
+        assert!(!heads.join("partial").exists());
+        assert!(!heads.join("good/.tmpAbC123").exists());
+        let broken: Vec<_> = found.broken.iter().map(|b| b.id.clone()).collect();
+        assert_eq!(broken, vec![None, Some("corrupt".to_string())]);
+        assert!(found.broken[0].problem.to_string().contains("Not Valid"));
+        store.delete("corrupt").unwrap();
+        assert!(!heads.join("corrupt").exists());
+    }
+
+    #[test]
+    fn stored_plain_tokens_are_replaced_by_their_digest() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(dir.path()).unwrap();
+        store.save(&record("h")).unwrap();
+        std::fs::write(dir.path().join("heads/h/head.json"), r#"{"producer_token":"t"}"#).unwrap();
+        let found = store.load_all().unwrap();
+        assert_eq!(found.records[0].meta.producer_token(), Some(TokenDigest::of("t")));
+        let stored = std::fs::read_to_string(dir.path().join("heads/h/head.json")).unwrap();
+        assert!(
+            stored.contains("producer_token_sha256") && !stored.contains("\"t\""),
+            "{stored}"
+        );
     }
 }

@@ -46,6 +46,8 @@ pub struct Telemetry {
     pub latency_seconds: Family<HopLabel, Histogram>,
     pub viewers: Gauge,
     pub producers: Gauge,
+    /// Deform pipelines running (one per stream and algorithm with viewers).
+    pub pipelines: Gauge,
     pub heads: Gauge,
 }
 
@@ -68,6 +70,7 @@ impl Default for Telemetry {
             latency_seconds: Family::new_with_constructor(seconds_histogram),
             viewers: Gauge::default(),
             producers: Gauge::default(),
+            pipelines: Gauge::default(),
             heads: Gauge::default(),
             registry: Registry::default(),
         };
@@ -101,6 +104,7 @@ impl Default for Telemetry {
         registry.register("latency_seconds", "Latency per hop", t.latency_seconds.clone());
         registry.register("viewers", "Connected viewers", t.viewers.clone());
         registry.register("producers", "Connected producers", t.producers.clone());
+        registry.register("pipelines", "Deform pipelines running", t.pipelines.clone());
         registry.register("heads", "Registered heads", t.heads.clone());
         Telemetry { registry, ..t }
     }

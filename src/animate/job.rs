@@ -1,0 +1,150 @@
+//! The per-frame job for one head and one algorithm: pose the mask from a frame, deform
+//! the head, measure lip (and optionally whole-face) roughness, quantize the deltas and
+//! encode the viewer frame. Every buffer is made once, in [`FrameJob::new`].
+
+use std::sync::Arc;
+
+use glam::Vec3;
+
+use super::AnimatedHead;
+use crate::deform::{Binding, DeformScratch};
+use crate::mask::LIP_VERTICES;
+use crate::metrics::{LipRoughness, Roughness, RoughnessError};
+use crate::stream::{ArkitBasis, Frame, FramePoser};
+use facewire_proto::frame::{FrameContent, FrameEncoder, FrameHeader, LipRoughness as WireLip};
+
+/// The server's clock readings a viewer frame carries (µs since the Unix epoch).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FrameTimes {
+    /// When the parameters were received.
+    pub received_us: u64,
+    /// When the frame is published to viewers.
+    pub send_us: u64,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum FrameJobError {
+    #[error("roughness: {0}")]
+    Roughness(#[from] RoughnessError),
+    /// Cannot happen for frames within the documented parameter ranges; checked so that
+    /// nothing non-finite ever reaches a viewer.
+    #[error("frame {seq}: the deformed head has a non-finite position at vertex {vertex}")]
+    NonFinite { seq: u64, vertex: usize },
+}
+
+/// One head seen through one algorithm, frame after frame.
+pub struct FrameJob {
+    head: Arc<AnimatedHead>,
+    binding: Arc<Binding>,
+    basis: Arc<ArkitBasis>,
+    poser: FramePoser,
+    scratch: DeformScratch,
+    deformed: Vec<Vec3>,
+    deltas: Vec<[f32; 3]>,
+    lip: LipRoughness,
+    lip_wire: WireLip,
+    face: Option<(Roughness, Vec<f32>)>,
+    encoder: FrameEncoder,
+}
+
+impl FrameJob {
+    /// A job for `head` deformed by `binding` (bound on that head), retargeting ARKit
+    /// weights through `basis`; `face` adds per-vertex face roughness to every frame.
+    pub fn new(
+        head: Arc<AnimatedHead>,
+        binding: Arc<Binding>,
+        basis: Arc<ArkitBasis>,
+        face: bool,
+    ) -> Result<FrameJob, FrameJobError> {
+        let reg = &head.registration;
+        let n = reg.vertex_count();
+        let lip = LipRoughness::new(&reg.head, &head.lip_region)?;
+        let face = match face {
+            true => Some((Roughness::whole_mesh(&reg.head)?, vec![0.0; n])),
+            false => None,
+        };
+        Ok(FrameJob {
+            poser: FramePoser::new(&reg.fitted),
+            scratch: binding.scratch(reg.mask_rest().len(), reg.mask_triangles().len()),
+            deformed: vec![Vec3::ZERO; n],
+            deltas: vec![[0.0; 3]; n],
+            lip,
+            lip_wire: WireLip {
+                per_vertex: vec![0.0; LIP_VERTICES.len()],
+                ..WireLip::default()
+            },
+            face,
+            encoder: FrameEncoder::default(),
+            head,
+            binding,
+            basis,
+        })
+    }
+
+    pub fn head(&self) -> &AnimatedHead {
+        &self.head
+    }
+
+    /// Poses the mask from `frame` and deforms the head: the deformed vertices, head
+    /// units, in the head's vertex order.
+    pub fn deform(&mut self, frame: &Frame) -> &[Vec3] {
+        let reg = &self.head.registration;
+        let mask_now = self.poser.pose(&reg.fitted, &self.basis, frame);
+        self.binding.deform(
+            &reg.head.positions,
+            reg.mask_rest(),
+            mask_now,
+            reg.mask_triangles(),
+            &mut self.scratch,
+            &mut self.deformed,
+        );
+        &self.deformed
+    }
+
+    /// Encodes the head as [`FrameJob::deform`] left it, for `frame`: quantized deltas
+    /// against the rest mesh, lip roughness, the label, face roughness if asked for.
+    pub fn encode(&mut self, frame: &Frame, times: FrameTimes) -> Result<&[u8], FrameJobError> {
+        let rest = &self.head.registration.head.positions;
+        if let Some(vertex) = self.deformed.iter().position(|p| !p.is_finite()) {
+            return Err(FrameJobError::NonFinite {
+                seq: frame.seq,
+                vertex,
+            });
+        }
+        for ((d, now), rest) in self.deltas.iter_mut().zip(&self.deformed).zip(rest) {
+            *d = (*now - *rest).to_array();
+        }
+        let rows = self.lip.rows(&self.deformed, frame.seq, frame.time_s)?;
+        for (slot, row) in self.lip_wire.per_vertex.iter_mut().zip(&rows) {
+            *slot = row.mean as f32;
+        }
+        let summary = rows[rows.len() - 1];
+        self.lip_wire.min = summary.min as f32;
+        self.lip_wire.max = summary.max as f32;
+        self.lip_wire.mean = summary.mean as f32;
+        let face = match &mut self.face {
+            Some((roughness, values)) => {
+                roughness.face_vertex_roughness(&self.deformed, values)?;
+                Some(values.as_slice())
+            }
+            None => None,
+        };
+        let header = FrameHeader {
+            seq: frame.seq,
+            producer_time_s: frame.time_s,
+            server_receive_us: times.received_us,
+            server_send_us: times.send_us,
+        };
+        Ok(self.encoder.encode(
+            &header,
+            &FrameContent {
+                step: self.head.step,
+                deltas: &self.deltas,
+                lip: &self.lip_wire,
+                label: frame.label.as_deref(),
+                face,
+                deflate: true,
+            },
+        ))
+    }
+}

@@ -1,0 +1,186 @@
+//! One registered head: its registration status (awaited through a watch, never polled),
+//! what viewers download once it is ready, its bound algorithms, and its live streams.
+//! Deleting a head cancels its token: its registration stops, its producers and viewers
+//! close, and a head registered again under the same id is a new entry.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use bytes::Bytes;
+use tokio::sync::watch;
+use tokio_util::sync::CancellationToken;
+
+use super::auth::TokenDigest;
+use super::bindings::BindingCache;
+use super::error::ApiError;
+use super::ids::valid_id;
+use super::store::HeadMeta;
+use super::stream::Stream;
+use crate::animate::AnimatedHead;
+use facewire_proto::codes::EndReason;
+use facewire_proto::messages::HeadInfo;
+
+/// A head ready to animate.
+pub struct ReadyHead {
+    pub animated: Arc<AnimatedHead>,
+    /// `mesh.bin` (FWM1) and OBJ of the rest mesh.
+    pub rest_bin: Bytes,
+    pub rest_obj: Bytes,
+    pub bindings: BindingCache,
+}
+
+#[derive(Clone)]
+pub enum HeadStatus {
+    Registering { progress: f32 },
+    Ready(Arc<ReadyHead>),
+    Failed(String),
+}
+
+/// Per-head stream limits (from the configuration).
+#[derive(Debug, Clone, Copy)]
+pub struct StreamLimits {
+    pub max_streams: usize,
+    pub linger: Duration,
+}
+
+pub struct HeadEntry {
+    pub id: String,
+    meta: HeadMeta,
+    status: watch::Sender<HeadStatus>,
+    streams: Mutex<HashMap<String, Arc<Stream>>>,
+    limits: StreamLimits,
+    /// Cancelled when the head is deleted.
+    pub deleted: CancellationToken,
+}
+
+impl HeadEntry {
+    pub fn new(id: String, meta: HeadMeta, status: HeadStatus, limits: StreamLimits) -> HeadEntry {
+        HeadEntry {
+            id,
+            meta,
+            status: watch::Sender::new(status),
+            streams: Mutex::new(HashMap::new()),
+            limits,
+            deleted: CancellationToken::new(),
+        }
+    }
+
+    pub fn status(&self) -> HeadStatus {
+        self.status.borrow().clone()
+    }
+
+    pub fn set_status(&self, status: HeadStatus) {
+        self.status.send_replace(status);
+    }
+
+    pub fn producer_token(&self) -> Option<TokenDigest> {
+        self.meta.producer_token()
+    }
+
+    /// The ready head, or why there is none now.
+    pub fn ready(&self) -> Result<Arc<ReadyHead>, ApiError> {
+        match self.status() {
+            HeadStatus::Ready(ready) => Ok(ready),
+            HeadStatus::Registering { progress } => Err(ApiError::Registering {
+                id: self.id.clone(),
+                percent: progress * 100.0,
+            }),
+            HeadStatus::Failed(error) => Err(ApiError::RegistrationFailed {
+                id: self.id.clone(),
+                error,
+            }),
+        }
+    }
+
+    /// Waits up to `limit` for the registration to finish.
+    pub async fn wait_ready(&self, limit: Duration) -> Result<Arc<ReadyHead>, ApiError> {
+        let mut status = self.status.subscribe();
+        let finished = |s: &HeadStatus| !matches!(s, HeadStatus::Registering { .. });
+        let _ = tokio::time::timeout(limit, status.wait_for(finished)).await;
+        self.ready()
+    }
+
+    /// The stream `name`, made if it does not exist and the head has room for it.
+    pub fn stream(&self, name: &str) -> Result<Arc<Stream>, ApiError> {
+        if !valid_id(name) {
+            return Err(ApiError::BadId {
+                what: "stream name",
+                id: name.to_string(),
+            });
+        }
+        let mut streams = self.streams.lock().expect("streams lock");
+        if let Some(stream) = streams.get(name) {
+            return Ok(stream.clone());
+        }
+        if streams.len() >= self.limits.max_streams {
+            let now = tokio::time::Instant::now();
+            streams.retain(|_, s| s.is_live(now, self.limits.linger));
+            if streams.len() >= self.limits.max_streams {
+                return Err(ApiError::LimitReached(format!(
+                    "head {:?} has {} live streams, the most it takes; end one or wait {} s after it ends",
+                    self.id,
+                    streams.len(),
+                    self.limits.linger.as_secs_f64()
+                )));
+            }
+        }
+        let stream = Arc::new(Stream::new(name));
+        streams.insert(name.to_string(), stream.clone());
+        Ok(stream)
+    }
+
+    /// The stream `name` if it exists.
+    pub fn existing_stream(&self, name: &str) -> Option<Arc<Stream>> {
+        self.streams.lock().expect("streams lock").get(name).cloned()
+    }
+
+    /// Drops streams with no producer, no viewer and nothing for `stream_linger_s`.
+    pub fn sweep(&self, now: tokio::time::Instant) {
+        self.streams
+            .lock()
+            .expect("streams lock")
+            .retain(|_, s| s.is_live(now, self.limits.linger));
+    }
+
+    /// Ends every stream (the head is going away).
+    pub fn end_streams(&self, reason: EndReason) {
+        for stream in self.streams.lock().expect("streams lock").values() {
+            stream.end(reason);
+        }
+    }
+
+    pub fn stream_count(&self) -> usize {
+        self.streams.lock().expect("streams lock").len()
+    }
+
+    pub fn info(&self) -> HeadInfo {
+        let (status, progress, error, ready) = match self.status() {
+            HeadStatus::Registering { progress } => ("registering", progress, None, None),
+            HeadStatus::Ready(r) => ("ready", 1.0, None, Some(r)),
+            HeadStatus::Failed(e) => ("failed", 0.0, Some(e), None),
+        };
+        let now = tokio::time::Instant::now();
+        let mut streams: Vec<String> = self
+            .streams
+            .lock()
+            .expect("streams lock")
+            .values()
+            .filter(|s| s.is_live(now, self.limits.linger))
+            .map(|s| s.name.clone())
+            .collect();
+        streams.sort();
+        let reg = ready.as_ref().map(|r| &r.animated.registration);
+        HeadInfo {
+            id: self.id.clone(),
+            vertices: reg.map_or(0, |r| r.vertex_count() as u32),
+            triangles: reg.map_or(0, |r| r.head.triangles.len() as u32),
+            mm_per_unit: reg.map_or(0.0, |r| r.mm_per_unit()),
+            status: status.into(),
+            progress,
+            error,
+            streams,
+            algorithms: ready.map(|r| r.bindings.bound()).unwrap_or_default(),
+        }
+    }
+}

@@ -1,0 +1,143 @@
+//! HTTP resources of heads: register, list, get, delete, their rest meshes, and the
+//! algorithm catalogue. Registration holds one of `max_registrations` slots from before
+//! its body is read until its background job ends, so concurrent uploads are bounded.
+
+use std::time::Duration;
+
+use axum::body::Body;
+use axum::extract::{Path, State};
+use axum::http::{header, StatusCode};
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use serde::{Deserialize, Serialize};
+
+use super::error::ApiError;
+use super::registration::fit_from_landmarks;
+use super::store::{HeadMeta, HeadRecord};
+use super::AppState;
+use crate::deform::AlgoSpec;
+use facewire_proto::messages::HeadInfo;
+
+/// How long a registration request waits for a free registration slot.
+const SLOT_WAIT: Duration = Duration::from_secs(10);
+
+/// `POST /v1/heads` body.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegisterRequest {
+    pub id: String,
+    /// The head as OBJ text.
+    pub obj: String,
+    /// A `.fit.toml` text, or
+    #[serde(default)]
+    pub fit: Option<String>,
+    /// a `.landmarks.toml` text to solve the fit from.
+    #[serde(default)]
+    pub landmarks: Option<String>,
+    /// This head's own producer token (stored as a digest).
+    #[serde(default)]
+    pub producer_token: Option<String>,
+}
+
+pub async fn register_head(
+    State(state): State<AppState>,
+    body: Body,
+) -> Result<(StatusCode, Json<HeadInfo>), ApiError> {
+    let slot = state.registry.registration_slot(SLOT_WAIT).await?;
+    let limit = state.config.limits.max_upload_bytes;
+    let bytes = axum::body::to_bytes(body, limit)
+        .await
+        .map_err(|_| ApiError::TooLarge { limit })?;
+    let request: RegisterRequest = serde_json::from_slice(&bytes)
+        .map_err(|e| ApiError::BadRequest(format!("registration request: {e}")))?;
+    drop(bytes);
+    let fit_toml = match (request.fit, request.landmarks) {
+        (Some(fit), None) => fit,
+        (None, Some(landmarks)) => {
+            let obj = request.obj.clone();
+            tokio::task::spawn_blocking(move || fit_from_landmarks(obj.as_bytes(), &landmarks))
+                .await
+                .map_err(ApiError::internal)?
+                .map_err(|e| ApiError::BadLandmarks(e.to_string()))?
+        }
+        _ => {
+            return Err(ApiError::BadRequest(
+                "give exactly one of `fit` and `landmarks`".into(),
+            ))
+        }
+    };
+    let record = HeadRecord {
+        id: request.id,
+        obj: request.obj.into_bytes(),
+        fit_toml,
+        meta: HeadMeta::with_producer_token(request.producer_token.as_deref()),
+    };
+    let entry = state.registry.register(record, true, slot).await?;
+    state.telemetry.heads.set(state.registry.list().len() as i64);
+    Ok((StatusCode::ACCEPTED, Json(entry.info())))
+}
+
+pub async fn list_heads(State(state): State<AppState>) -> Json<Vec<HeadInfo>> {
+    Json(state.registry.list().iter().map(|h| h.info()).collect())
+}
+
+pub async fn get_head(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<HeadInfo>, ApiError> {
+    Ok(Json(state.registry.head(&id)?.info()))
+}
+
+pub async fn delete_head(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<StatusCode, ApiError> {
+    state.registry.delete(&id).await?;
+    state.telemetry.heads.set(state.registry.list().len() as i64);
+    Ok(StatusCode::NO_CONTENT)
+}
+
+pub async fn mesh_bin(State(state): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {
+    let ready = state.registry.head(&id)?.ready()?;
+    Ok((
+        [(header::CONTENT_TYPE, "application/octet-stream")],
+        ready.rest_bin.clone(),
+    )
+        .into_response())
+}
+
+pub async fn mesh_obj(State(state): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {
+    let ready = state.registry.head(&id)?.ready()?;
+    Ok((
+        [(header::CONTENT_TYPE, "text/plain; charset=utf-8")],
+        ready.rest_obj.clone(),
+    )
+        .into_response())
+}
+
+#[derive(Serialize)]
+pub struct AlgorithmInfo {
+    letter: char,
+    spec: String,
+    linear: bool,
+    description: &'static str,
+    default: bool,
+    /// False when the server's allow-list leaves it out.
+    allowed: bool,
+}
+
+pub async fn algorithms(State(state): State<AppState>) -> Json<Vec<AlgorithmInfo>> {
+    Json(
+        AlgoSpec::presets()
+            .into_iter()
+            .map(|(letter, spec, description)| AlgorithmInfo {
+                letter,
+                spec: spec.to_string(),
+                linear: spec.is_linear(),
+                description,
+                default: spec == state.default_spec,
+                allowed: state.allowed_specs.as_ref().is_none_or(|a| a.contains(&spec)),
+            })
+            .collect(),
+    )
+}

@@ -1,0 +1,192 @@
+//! One named stream of one head: the timeline of its parameter frames, the single
+//! producer slot, and the pipelines its viewers watch (one per algorithm and face-roughness
+//! choice, however many viewers). A stream lives while it has a producer, a viewer, or a
+//! frame newer than `stream_linger_s`; the head's sweep drops it after that.
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+
+use tokio::sync::watch;
+use tokio::time::Instant;
+use tokio_util::sync::CancellationToken;
+
+use super::pipeline::{Encoded, Pipeline, PipelineKey};
+use super::timeline::Timeline;
+use crate::stream::Frame;
+use facewire_proto::codes::EndReason;
+
+/// A producer's frame as the server received it.
+#[derive(Debug)]
+pub struct ReceivedFrame {
+    pub frame: Frame,
+    /// µs since the Unix epoch.
+    pub received_us: u64,
+}
+
+pub type ParamTimeline = Timeline<ReceivedFrame>;
+
+pub struct Stream {
+    pub name: String,
+    params: watch::Sender<ParamTimeline>,
+    /// Cancels the current producer (`DELETE .../producer`); a new token per producer.
+    producer: Mutex<Option<CancellationToken>>,
+    pipelines: Mutex<HashMap<PipelineKey, Arc<Pipeline>>>,
+    viewers: AtomicUsize,
+    last_activity: Mutex<Instant>,
+}
+
+impl Stream {
+    pub fn new(name: &str) -> Stream {
+        Stream {
+            name: name.to_string(),
+            params: watch::Sender::new(Timeline::default()),
+            producer: Mutex::new(None),
+            pipelines: Mutex::new(HashMap::new()),
+            viewers: AtomicUsize::new(0),
+            last_activity: Mutex::new(Instant::now()),
+        }
+    }
+
+    /// Takes the producer slot; `None` when another producer holds it. The slot is
+    /// released, and the stream ended if the producer did not end it, when the permit drops.
+    pub fn claim_producer(self: &Arc<Self>) -> Option<ProducerPermit> {
+        let mut slot = self.producer.lock().expect("producer lock");
+        if slot.is_some() {
+            return None;
+        }
+        let cancel = CancellationToken::new();
+        *slot = Some(cancel.clone());
+        self.touch();
+        Some(ProducerPermit {
+            stream: self.clone(),
+            cancel,
+            ended: false,
+        })
+    }
+
+    /// Cancels the current producer; false when there is none.
+    pub fn cancel_producer(&self) -> bool {
+        match self.producer.lock().expect("producer lock").as_ref() {
+            Some(token) => {
+                token.cancel();
+                true
+            }
+            None => false,
+        }
+    }
+
+    pub fn has_producer(&self) -> bool {
+        self.producer.lock().expect("producer lock").is_some()
+    }
+
+    /// Ends the stream for its viewers (once: a second end with no frame between is
+    /// ignored).
+    pub fn end(&self, reason: EndReason) {
+        self.params.send_if_modified(|t| t.end(reason).is_some());
+        self.touch();
+    }
+
+    pub fn subscribe(&self) -> watch::Receiver<ParamTimeline> {
+        self.params.subscribe()
+    }
+
+    fn touch(&self) {
+        *self.last_activity.lock().expect("activity lock") = Instant::now();
+    }
+
+    /// A viewer's hold on the stream: counted while it lives.
+    pub fn hold(self: &Arc<Self>) -> ViewerHold {
+        self.viewers.fetch_add(1, Ordering::AcqRel);
+        ViewerHold { stream: self.clone() }
+    }
+
+    /// A receiver of the running pipeline for `key`, or of a new one made by `start`;
+    /// retired pipelines (no viewer left) are replaced.
+    pub fn pipeline<E>(
+        &self,
+        key: PipelineKey,
+        start: impl FnOnce(
+            watch::Receiver<ParamTimeline>,
+        ) -> Result<(Arc<Pipeline>, watch::Receiver<Timeline<Encoded>>), E>,
+    ) -> Result<watch::Receiver<Timeline<Encoded>>, E> {
+        let mut pipelines = self.pipelines.lock().expect("pipelines lock");
+        if let Some(rx) = pipelines.get(&key).and_then(|p| p.subscribe()) {
+            return Ok(rx);
+        }
+        let (pipeline, rx) = start(self.subscribe())?;
+        pipelines.insert(key, pipeline);
+        Ok(rx)
+    }
+
+    /// Pipelines running now (retired ones are dropped on the way).
+    pub fn pipeline_count(&self) -> usize {
+        let mut pipelines = self.pipelines.lock().expect("pipelines lock");
+        pipelines.retain(|_, p| !p.is_retired());
+        pipelines.len()
+    }
+
+    /// Whether the stream is still in use: a producer, a viewer, or activity within
+    /// `linger`.
+    pub fn is_live(&self, now: Instant, linger: std::time::Duration) -> bool {
+        self.has_producer()
+            || self.viewers.load(Ordering::Acquire) > 0
+            || self.pipeline_count() > 0
+            || now.saturating_duration_since(*self.last_activity.lock().expect("activity lock")) < linger
+    }
+}
+
+/// The producer slot of a stream, held by a producer socket or a playing batch.
+pub struct ProducerPermit {
+    stream: Arc<Stream>,
+    cancel: CancellationToken,
+    ended: bool,
+}
+
+impl ProducerPermit {
+    /// Publishes a frame: viewers' pipelines deform the newest one.
+    pub fn publish(&self, frame: Frame, received_us: u64) {
+        let frame = Arc::new(ReceivedFrame { frame, received_us });
+        self.stream.params.send_modify(|t| {
+            t.publish(frame);
+        });
+        self.stream.touch();
+    }
+
+    /// Ends the stream with `reason` and gives the slot back.
+    pub fn end(mut self, reason: EndReason) {
+        self.stream.end(reason);
+        self.ended = true;
+    }
+
+    /// Resolves when the producer is cancelled (`DELETE .../producer`).
+    pub fn cancelled(&self) -> tokio_util::sync::WaitForCancellationFuture<'_> {
+        self.cancel.cancelled()
+    }
+
+    pub fn stream(&self) -> &Arc<Stream> {
+        &self.stream
+    }
+}
+
+impl Drop for ProducerPermit {
+    fn drop(&mut self) {
+        if !self.ended {
+            self.stream.end(EndReason::ProducerDisconnected);
+        }
+        *self.stream.producer.lock().expect("producer lock") = None;
+        self.stream.touch();
+    }
+}
+
+/// Keeps a stream live while a viewer watches it.
+pub struct ViewerHold {
+    stream: Arc<Stream>,
+}
+
+impl Drop for ViewerHold {
+    fn drop(&mut self) {
+        self.stream.viewers.fetch_sub(1, Ordering::AcqRel);
+        self.stream.touch();
+    }
+}
