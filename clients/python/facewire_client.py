@@ -1,0 +1,1451 @@
+#!/usr/bin/env python3
+"""A Python client for facewire's wire protocol, v1 (``proto/PROTOCOL.md``).
+
+One module, the standard library plus ``websocket-client`` (``pip install
+websocket-client``, imported as ``websocket``), which only the two WebSocket classes
+need:
+
+- :class:`Producer` pushes parameter frames (facewire's JSONL objects, ``docs/STREAMS.md``)
+  to ``/v1/heads/{id}/streams/{stream}/produce`` as JSON text or binary ``FWP1``, reads
+  the server's answer to each and raises :class:`Refused` (code, field, seq) on a refusal.
+- :class:`Viewer` watches ``/v1/heads/{id}/streams/{stream}/view``: it reads the snapshot,
+  downloads the rest mesh (``FWM1``) and decodes every ``FWF1`` frame into seq, time,
+  label, lip roughness and per-vertex positions (plain lists, no numpy); ``end`` and
+  ``error`` messages come out as :class:`StreamEnd` and :class:`ServerError` events.
+- :class:`Client` wraps the HTTP resources: register a head, wait until it is ready, list
+  heads, download the rest mesh, post a batch.
+
+The binary formats have pure functions of their own (:func:`encode_fwp1`,
+:func:`decode_fwf1`, :func:`decode_mesh`). Nothing is kept in globals: every connection is
+an object the caller owns.
+
+Run ``python3 facewire_client.py --help`` for the command line (produce, view, register,
+heads, batch).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import struct
+import sys
+import time
+import urllib.error
+import urllib.parse
+import urllib.request
+import zlib
+from dataclasses import dataclass, field
+from typing import (Any, Dict, Iterable, Iterator, List, Mapping, Optional, Sequence, Tuple, Union,
+                    cast)
+
+__all__ = [
+    "ANIMATION_UNITS",
+    "ANIMATION_UNIT_NAMES",
+    "ARKIT_BLENDSHAPES",
+    "FAP_NAMES",
+    "Ack",
+    "Client",
+    "ConnectionClosed",
+    "FacewireError",
+    "FrameError",
+    "HttpError",
+    "LipRoughness",
+    "Producer",
+    "ProtocolError",
+    "Refused",
+    "RestMesh",
+    "ServerError",
+    "Snapshot",
+    "StreamEnd",
+    "Viewer",
+    "ViewerFrame",
+    "animation_unit_index",
+    "arkit_index",
+    "decode_fwf1",
+    "decode_mesh",
+    "encode_fwp1",
+    "encode_json",
+    "fap_number",
+    "read_jsonl",
+]
+
+PROTOCOL_VERSION = "v1"
+#: The server's default ``max_message_bytes``: a producer message may be at most this long.
+DEFAULT_MAX_MESSAGE_BYTES = 64 * 1024
+#: The server's default ``max_fps``: frames per second a producer may send on average.
+DEFAULT_MAX_FPS = 240.0
+
+# ---------------------------------------------------------------------------------------
+# Names: CANDIDE-3 animation units, MPEG-4 FAPs, ARKit blendshapes (docs/STREAMS.md).
+# The Rust test tests/python_client.rs checks these tables against the library.
+
+#: MPEG-4 FAP names, FAP n at index n - 1 (``src/mask/fap.rs``).
+FAP_NAMES: Tuple[str, ...] = (
+    "viseme", "expression", "open_jaw", "lower_t_midlip", "raise_b_midlip",
+    "stretch_l_cornerlip", "stretch_r_cornerlip", "lower_t_lip_lm", "lower_t_lip_rm",
+    "raise_b_lip_lm", "raise_b_lip_rm", "raise_l_cornerlip", "raise_r_cornerlip",
+    "thrust_jaw", "shift_jaw", "push_b_lip", "push_t_lip", "depress_chin",
+    "close_t_l_eyelid", "close_t_r_eyelid", "close_b_l_eyelid", "close_b_r_eyelid",
+    "yaw_l_eyeball", "yaw_r_eyeball", "pitch_l_eyeball", "pitch_r_eyeball",
+    "thrust_l_eyeball", "thrust_r_eyeball", "dilate_l_pupil", "dilate_r_pupil",
+    "raise_l_i_eyebrow", "raise_r_i_eyebrow", "raise_l_m_eyebrow", "raise_r_m_eyebrow",
+    "raise_l_o_eyebrow", "raise_r_o_eyebrow", "squeeze_l_eyebrow", "squeeze_r_eyebrow",
+    "puff_l_cheek", "puff_r_cheek", "lift_l_cheek", "lift_r_cheek", "shift_tongue_tip",
+    "raise_tongue_tip", "thrust_tongue_tip", "raise_tongue", "tongue_roll", "head_pitch",
+    "head_yaw", "head_roll", "lower_t_midlip_o", "raise_b_midlip_o",
+    "stretch_l_cornerlip_o", "stretch_r_cornerlip_o", "lower_t_lip_lm_o",
+    "lower_t_lip_rm_o", "raise_b_lip_lm_o", "raise_b_lip_rm_o", "raise_l_cornerlip_o",
+    "raise_r_cornerlip_o", "stretch_l_nose", "stretch_r_nose", "raise_nose", "bend_nose",
+    "raise_l_ear", "raise_r_ear", "pull_l_ear", "pull_r_ear",
+)
+
+#: The 52 ARKit blendshapes in Apple's order; a name's index is what ``FWP1`` carries.
+ARKIT_BLENDSHAPES: Tuple[str, ...] = (
+    "eyeBlinkLeft", "eyeLookDownLeft", "eyeLookInLeft", "eyeLookOutLeft", "eyeLookUpLeft",
+    "eyeSquintLeft", "eyeWideLeft", "eyeBlinkRight", "eyeLookDownRight", "eyeLookInRight",
+    "eyeLookOutRight", "eyeLookUpRight", "eyeSquintRight", "eyeWideRight", "jawForward",
+    "jawLeft", "jawRight", "jawOpen", "mouthClose", "mouthFunnel", "mouthPucker",
+    "mouthLeft", "mouthRight", "mouthSmileLeft", "mouthSmileRight", "mouthFrownLeft",
+    "mouthFrownRight", "mouthDimpleLeft", "mouthDimpleRight", "mouthStretchLeft",
+    "mouthStretchRight", "mouthRollLower", "mouthRollUpper", "mouthShrugLower",
+    "mouthShrugUpper", "mouthPressLeft", "mouthPressRight", "mouthLowerDownLeft",
+    "mouthLowerDownRight", "mouthUpperUpLeft", "mouthUpperUpRight", "browDownLeft",
+    "browDownRight", "browInnerUp", "browOuterUpLeft", "browOuterUpRight", "cheekPuff",
+    "cheekSquintLeft", "cheekSquintRight", "noseSneerLeft", "noseSneerRight", "tongueOut",
+)
+
+# CANDIDE-3.1.6's animation units in file order: 11 AUVs, then the 54 FAPs it implements.
+_AUV_UNITS: Tuple[Tuple[str, int], ...] = (
+    ("upper_lip_raiser", 0), ("jaw_drop", 11), ("lip_stretcher", 2), ("brow_lowerer", 3),
+    ("lip_corner_depressor", 14), ("outer_brow_raiser", 5), ("eyes_closed", 6),
+    ("lid_tightener", 7), ("nose_wrinkler", 8), ("lip_presser", 9), ("upper_lid_raiser", 10),
+)
+_FAP_UNITS: Tuple[int, ...] = tuple(range(3, 43)) + tuple(range(51, 65))
+
+#: Every name each CANDIDE-3 animation unit answers to, its key first, by unit index
+#: (``jaw_drop``, ``auv11``; ``fap3_open_jaw``, ``fap3``, ``open_jaw``).
+ANIMATION_UNIT_NAMES: Tuple[Tuple[str, ...], ...] = tuple(
+    [(key, "auv%d" % auv) for key, auv in _AUV_UNITS]
+    + [("fap%d_%s" % (n, FAP_NAMES[n - 1]), "fap%d" % n, FAP_NAMES[n - 1]) for n in _FAP_UNITS]
+)
+#: The unit keys by index: what ``FWP1``'s unit index points at.
+ANIMATION_UNITS: Tuple[str, ...] = tuple(names[0] for names in ANIMATION_UNIT_NAMES)
+
+# The keys a JSONL frame object may have, and those FWP1 cannot carry.
+_FRAME_KEYS = ("seq", "t", "label", "au", "fap", "arkit", "head_rotation_rad",
+               "head_translation", "controls", "viseme", "expression")
+_JSON_ONLY_KEYS = ("head_translation", "controls", "viseme", "expression")
+
+_U64_MAX = (1 << 64) - 1
+
+
+# ---------------------------------------------------------------------------------------
+# Errors
+
+
+class FacewireError(Exception):
+    """Base class of every error this module raises."""
+
+
+class FrameError(FacewireError, ValueError):
+    """A frame that cannot be sent as given (checked before anything goes on the wire)."""
+
+
+class ProtocolError(FacewireError):
+    """The server sent something this client cannot read (a malformed binary message, an
+    unexpected message type). ``field`` and ``at`` name the field and byte when known."""
+
+    def __init__(self, message: str, field: Optional[str] = None, at: Optional[int] = None):
+        where = ""
+        if field is not None:
+            where = "%s: " % field if at is None else "byte %d: %s: " % (at, field)
+        super().__init__(where + message)
+        self.field = field
+        self.at = at
+
+
+class HttpError(FacewireError):
+    """An HTTP error response: ``{"error": code, "message": ...}`` with its status."""
+
+    def __init__(self, method: str, url: str, status: int, code: str, message: str):
+        super().__init__("%s %s: HTTP %d %s: %s" % (method, url, status, code, message))
+        self.method = method
+        self.url = url
+        self.status = status
+        self.code = code
+        self.message = message
+
+
+class Refused(FacewireError):
+    """The server refused a frame or a connection with an ``error`` message.
+
+    ``code`` is the machine code (``bad_frame``, ``out_of_order``, ``rate_limited``,
+    ``message_too_large``, ``producer_busy``, ``idle``, ``unknown_head``, ...); ``seq`` and
+    ``field`` say which frame and field when the server knows them. After a refused frame
+    the stream keeps running: the producer may send the next one."""
+
+    def __init__(self, code: str, message: str, seq: Optional[int] = None,
+                 field: Optional[str] = None):
+        parts = ["refused: %s" % code]
+        if seq is not None:
+            parts.append("seq %d" % seq)
+        if field is not None:
+            parts.append("field %s" % field)
+        super().__init__("%s: %s" % (", ".join(parts), message))
+        self.code = code
+        self.message = message
+        self.seq = seq
+        self.field = field
+
+
+class ConnectionClosed(FacewireError):
+    """The WebSocket closed. ``code`` is the close code (1001 server shutting down, 4408
+    idle producer, 4409 another producer / registration failed, 4404 unknown head, ...)."""
+
+    def __init__(self, code: Optional[int], reason: str = ""):
+        text = "connection closed"
+        if code is not None:
+            text += " with code %d" % code
+        if reason:
+            text += ": %s" % reason
+        super().__init__(text)
+        self.code = code
+        self.reason = reason
+
+
+def _websocket_module() -> Any:
+    """Imports websocket-client, or says how to install it."""
+    try:
+        import websocket  # type: ignore[import-not-found, unused-ignore]
+    except ImportError as e:
+        raise FacewireError(
+            "facewire_client needs the websocket-client package for producers and viewers: "
+            "pip install websocket-client (%s)" % e
+        ) from None
+    if not hasattr(websocket, "create_connection"):
+        raise FacewireError(
+            "the module named `websocket` at %s is not websocket-client; "
+            "pip uninstall websocket && pip install websocket-client"
+            % getattr(websocket, "__file__", "?")
+        )
+    return websocket
+
+
+# ---------------------------------------------------------------------------------------
+# Name resolution (case-insensitive, as the server's JSONL reader does)
+
+
+def _index_text(key: str) -> Optional[int]:
+    text = key.strip()
+    if text.isascii() and text.isdigit():
+        return int(text)
+    return None
+
+
+def animation_unit_index(key: Union[str, int]) -> int:
+    """The CANDIDE-3 animation unit index of ``key``: an index (``1`` or ``"1"``), a unit
+    key (``jaw_drop``, ``fap3_open_jaw``) or an alias (``auv11``, ``fap3``, ``open_jaw``)."""
+    count = len(ANIMATION_UNIT_NAMES)
+    index = key if isinstance(key, int) and not isinstance(key, bool) else None
+    if isinstance(key, str):
+        index = _index_text(key)
+        if index is None:
+            lower = key.strip().lower()
+            for i, names in enumerate(ANIMATION_UNIT_NAMES):
+                if lower in names:
+                    return i
+    if index is not None and 0 <= index < count:
+        return index
+    raise FrameError("unknown animation unit %r; valid: an index 0..%d or one of %s"
+                     % (key, count, ", ".join(ANIMATION_UNITS)))
+
+
+def fap_number(key: Union[str, int]) -> int:
+    """The FAP number of ``key``: a number 3..68 (``3`` or ``"3"``), a standard name
+    (``open_jaw``), ``fap3`` or ``fap3_open_jaw``. FAPs 1 and 2 (viseme, expression) are
+    not values: JSONL frames give them as ``viseme`` / ``expression``."""
+    number: Optional[int] = None
+    if isinstance(key, int) and not isinstance(key, bool):
+        number = key
+    elif isinstance(key, str):
+        lower = key.strip().lower()
+        number = _index_text(lower)
+        if number is None and lower.startswith("fap"):
+            rest = lower[3:]
+            digits = len(rest) - len(rest.lstrip("0123456789"))
+            if digits and 1 <= int(rest[:digits]) <= len(FAP_NAMES):
+                n = int(rest[:digits])
+                name = rest[digits:]
+                if name == "" or name == "_" + FAP_NAMES[n - 1]:
+                    number = n
+        elif number is None and lower in FAP_NAMES:
+            number = FAP_NAMES.index(lower) + 1
+    if number is not None and 3 <= number <= len(FAP_NAMES):
+        return number
+    raise FrameError("unknown FAP %r; valid: a FAP number 3..=68 or a name: %s"
+                     % (key, ", ".join(FAP_NAMES[2:])))
+
+
+def arkit_index(key: Union[str, int]) -> int:
+    """The ARKit blendshape index of ``key``: a name (``jawOpen``, any case) or 0..51."""
+    index: Optional[int] = None
+    if isinstance(key, int) and not isinstance(key, bool):
+        index = key
+    elif isinstance(key, str):
+        index = _index_text(key)
+        if index is None:
+            lower = key.strip().lower()
+            for i, name in enumerate(ARKIT_BLENDSHAPES):
+                if name.lower() == lower:
+                    return i
+    if index is not None and 0 <= index < len(ARKIT_BLENDSHAPES):
+        return index
+    raise FrameError("unknown ARKit blendshape %r; valid: an index 0..51 or one of %s"
+                     % (key, ", ".join(ARKIT_BLENDSHAPES)))
+
+
+# ---------------------------------------------------------------------------------------
+# Producer frames: JSON text and binary FWP1
+
+
+def _frame_seq(frame: Mapping[str, Any]) -> int:
+    if not isinstance(frame, Mapping):
+        raise FrameError("a frame is a mapping (a JSONL object), not %s" % type(frame).__name__)
+    seq = frame.get("seq")
+    if isinstance(seq, bool) or not isinstance(seq, int) or not 0 <= seq <= _U64_MAX:
+        raise FrameError("frame %r: seq must be an integer 0..2^64-1" % (seq,))
+    return seq
+
+
+def _number(seq: int, field_name: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise FrameError("frame seq %d: %s: %r is not a number" % (seq, field_name, value))
+    number = float(value)
+    if not math.isfinite(number):
+        raise FrameError("frame seq %d: %s: %r is not a finite number" % (seq, field_name, value))
+    return number
+
+
+def _f32(seq: int, field_name: str, value: Any) -> float:
+    number = _number(seq, field_name, value)
+    try:
+        struct.pack("<f", number)
+    except OverflowError:
+        raise FrameError("frame seq %d: %s: %r is beyond the range of f32"
+                         % (seq, field_name, value)) from None
+    return number
+
+
+def _sparse(seq: int, frame: Mapping[str, Any], key: str,
+            resolve: Any) -> List[Tuple[int, float]]:
+    value = frame.get(key)
+    if value is None:
+        return []
+    if not isinstance(value, Mapping):
+        raise FrameError("frame seq %d: %s must be an object (name -> value)" % (seq, key))
+    entries: Dict[int, Tuple[Any, float]] = {}
+    for name, weight in value.items():
+        field_name = "%s.%s" % (key, name)
+        try:
+            index = resolve(name)
+        except FrameError as e:
+            raise FrameError("frame seq %d: %s: %s" % (seq, field_name, e)) from None
+        if index in entries:
+            raise FrameError("frame seq %d: %s: names the same entry as %s.%s"
+                             % (seq, field_name, key, entries[index][0]))
+        entries[index] = (name, _f32(seq, field_name, weight))
+    return sorted((index, w) for index, (_, w) in entries.items())
+
+
+def _label_bytes(label: str) -> bytes:
+    """UTF-8, at most 255 bytes, cut at a character boundary (as the server's encoder)."""
+    data = label.encode("utf-8")
+    if len(data) <= 255:
+        return data
+    end = 255
+    while end > 0 and (data[end] & 0xC0) == 0x80:
+        end -= 1
+    return data[:end]
+
+
+def encode_fwp1(frame: Mapping[str, Any]) -> bytes:
+    """Encodes a JSONL-style frame (``seq``, ``t``, ``label``, ``au``, ``fap``, ``arkit``,
+    ``head_rotation_rad``) as a binary ``FWP1`` message (PROTOCOL.md, little-endian).
+
+    Unit, FAP and blendshape keys may be names or indices, as in JSONL. Raises
+    :class:`FrameError` for anything FWP1 cannot carry (``head_translation``,
+    ``controls``, ``viseme``, ``expression``: send such frames as JSON text), for unknown
+    keys and names, and for values that are not finite f32 numbers. A label longer than
+    255 UTF-8 bytes is cut at a character boundary, as the server cuts labels."""
+    seq = _frame_seq(frame)
+    unknown = [k for k in frame if k not in _FRAME_KEYS]
+    if unknown:
+        raise FrameError("frame seq %d: unknown key %r; valid: %s"
+                         % (seq, unknown[0], ", ".join(_FRAME_KEYS)))
+    json_only = [k for k in _JSON_ONLY_KEYS if frame.get(k) is not None]
+    if json_only:
+        raise FrameError("frame seq %d: FWP1 cannot carry %s; send this frame as JSON text"
+                         % (seq, ", ".join(json_only)))
+    if "t" not in frame:
+        raise FrameError("frame seq %d: t (seconds) is missing" % seq)
+    t = _number(seq, "t", frame["t"])
+    au = _sparse(seq, frame, "au", animation_unit_index)
+    faps = _sparse(seq, frame, "fap", fap_number)
+    arkit = _sparse(seq, frame, "arkit", arkit_index)
+    rotation = frame.get("head_rotation_rad")
+    if rotation is not None:
+        if not isinstance(rotation, (list, tuple)) or len(rotation) != 3:
+            raise FrameError("frame seq %d: head_rotation_rad must be [rx, ry, rz]" % seq)
+        rotation = [_f32(seq, "head_rotation_rad[%d]" % k, x) for k, x in enumerate(rotation)]
+    label = frame.get("label")
+    if label is not None and not isinstance(label, str):
+        raise FrameError("frame seq %d: label must be a string or null" % seq)
+
+    flags = (1 if rotation is not None else 0) | (2 if label is not None else 0)
+    out = bytearray(b"FWP1")
+    out += struct.pack("<QdBH", seq, t, flags, len(au))
+    for unit, weight in au:
+        out += struct.pack("<Hf", unit, weight)
+    for entries in (faps, arkit):
+        out += struct.pack("<H", len(entries))
+        for index, value in entries:
+            out += struct.pack("<Bf", index, value)
+    if rotation is not None:
+        out += struct.pack("<3f", *rotation)
+    if label is not None:
+        data = _label_bytes(label)
+        out += struct.pack("<B", len(data)) + data
+    return bytes(out)
+
+
+def encode_json(frame: Mapping[str, Any]) -> str:
+    """One frame as a compact JSONL line (no newline). The server validates names and
+    values; this only refuses what JSON cannot hold (NaN, infinities, non-JSON types)."""
+    seq = _frame_seq(frame)
+    if "t" not in frame:
+        raise FrameError("frame seq %d: t (seconds) is missing" % seq)
+    try:
+        return json.dumps(frame, separators=(",", ":"), allow_nan=False, ensure_ascii=False)
+    except (TypeError, ValueError) as e:
+        raise FrameError("frame seq %d: cannot be written as JSON: %s" % (seq, e)) from None
+
+
+def read_jsonl(path: str) -> Iterator[Dict[str, Any]]:
+    """Reads a facewire JSONL file one line at a time (blank lines skipped)."""
+    with open(path, "r", encoding="utf-8") as f:
+        for number, line in enumerate(f, 1):
+            if not line.strip():
+                continue
+            try:
+                value = json.loads(line)
+            except ValueError as e:
+                raise FrameError("%s: line %d: invalid JSON: %s" % (path, number, e)) from None
+            if not isinstance(value, dict):
+                raise FrameError("%s: line %d: expected a JSON object" % (path, number))
+            yield value
+
+
+# ---------------------------------------------------------------------------------------
+# Viewer frames (FWF1) and the rest mesh (FWM1)
+
+
+@dataclass
+class LipRoughness:
+    """Lip roughness of one frame: summary over the lip region, and the mean around each
+    of the snapshot's ``lip_vertices``."""
+
+    min: float
+    max: float
+    mean: float
+    per_vertex: List[float]
+
+
+@dataclass
+class ViewerFrame:
+    """A decoded ``FWF1`` frame.
+
+    ``moved`` holds ``(vertex, cx, cy, cz)``: the quantized delta of every vertex that
+    moved, in counts of ``step`` head units. ``positions`` is filled by :class:`Viewer`
+    (or :meth:`apply`): one ``(x, y, z)`` tuple per vertex, head units, ``rest + counts x
+    step``. Times: ``producer_time_s`` is the producer's ``t``; the ``_us`` fields are µs
+    since the Unix epoch on the server's clock."""
+
+    seq: int
+    producer_time_s: float
+    server_receive_us: int
+    server_send_us: int
+    step: float
+    vertex_count: int
+    moved: List[Tuple[int, int, int, int]]
+    lip: LipRoughness
+    label: Optional[str]
+    face: Optional[List[float]] = None
+    positions: Optional[List[Tuple[float, float, float]]] = None
+
+    def apply(self, rest: Sequence[Tuple[float, float, float]]) -> List[Tuple[float, float, float]]:
+        """The deformed positions: ``rest`` (one ``(x, y, z)`` per vertex, as
+        :attr:`RestMesh.positions`) plus the deltas. Vertices that did not move share
+        ``rest``'s tuples."""
+        if len(rest) != self.vertex_count:
+            raise ProtocolError("the frame has %d vertices, the rest mesh %d"
+                                % (self.vertex_count, len(rest)), field="vertex_count")
+        out = list(rest)
+        step = self.step
+        for index, cx, cy, cz in self.moved:
+            x, y, z = out[index]
+            out[index] = (x + cx * step, y + cy * step, z + cz * step)
+        return out
+
+
+@dataclass
+class RestMesh:
+    """The rest mesh (``mesh.bin``): one ``(x, y, z)`` per vertex in head units, and
+    triangles as 0-based vertex indices."""
+
+    positions: List[Tuple[float, float, float]]
+    triangles: List[Tuple[int, int, int]]
+    mm_per_unit: float
+
+
+class _Reader:
+    """Little-endian reads that name the field on a short message."""
+
+    def __init__(self, data: bytes):
+        self.data = data
+        self.at = 0
+
+    def take(self, n: int, name: str) -> bytes:
+        end = self.at + n
+        if n < 0 or end > len(self.data):
+            raise ProtocolError("message too short: needs bytes %d..%d, the message has %d"
+                                % (self.at, end, len(self.data)), field=name)
+        chunk = self.data[self.at:end]
+        self.at = end
+        return chunk
+
+    def unpack(self, fmt: str, name: str) -> Tuple[Any, ...]:
+        return struct.unpack("<" + fmt, self.take(struct.calcsize("<" + fmt), name))
+
+    def label(self) -> str:
+        (length,) = self.unpack("B", "label length")
+        at = self.at
+        raw = self.take(length, "label")
+        try:
+            return raw.decode("utf-8")
+        except UnicodeDecodeError:
+            raise ProtocolError("not UTF-8", field="label", at=at) from None
+
+    def finish(self) -> None:
+        extra = len(self.data) - self.at
+        if extra:
+            raise ProtocolError("%d unexpected byte(s) after the message" % extra)
+
+
+def _inflate(stored: bytes, limit: int, at: int) -> bytes:
+    inflater = zlib.decompressobj(-15)  # raw deflate, RFC 1951
+    try:
+        out = inflater.decompress(stored, limit + 1)
+    except zlib.error as e:
+        raise ProtocolError("bad deflate data: %s" % e, field="delta block", at=at) from None
+    if len(out) > limit:
+        raise ProtocolError("inflates past %d bytes" % limit, field="delta block", at=at)
+    if not inflater.eof:
+        raise ProtocolError("truncated deflate data", field="delta block", at=at)
+    return out
+
+
+def _varint_tail(block: bytes, i: int, first: int) -> Tuple[int, int]:
+    """Finishes an LEB128 varint whose first byte (at i - 1) had the high bit set."""
+    value = first & 0x7F
+    shift = 7
+    while True:
+        if i >= len(block) or shift > 63:
+            raise IndexError
+        b = block[i]
+        i += 1
+        value |= (b & 0x7F) << shift
+        if b < 0x80:
+            return value, i
+        shift += 7
+
+
+def decode_fwf1(data: bytes) -> ViewerFrame:
+    """Decodes one binary viewer frame (``FWF1``), checking every length.
+
+    The delta block holds ``moved`` entries: an LEB128 index gap (``index - previous - 1``,
+    previous starting at -1), then dx, dy, dz as zigzag LEB128 differences from the
+    previous entry's counts (starting from 0); it is raw deflate when flag bit 2 is set."""
+    r = _Reader(bytes(data))
+    magic = r.take(4, "magic")
+    if magic != b"FWF1":
+        raise ProtocolError("bad magic %r: expected b'FWF1'" % magic, field="magic", at=0)
+    (flags,) = r.unpack("B", "flags")
+    r.take(3, "reserved")
+    seq, producer_time_s, receive_us, send_us = r.unpack("QdQQ", "header")
+    step, vertex_count, moved_count = r.unpack("fII", "step, vertex_count, moved")
+    lip_min, lip_max, lip_mean = r.unpack("3f", "lip roughness")
+    (lip_count,) = r.unpack("B", "lip_count")
+    per_vertex = list(r.unpack("%df" % lip_count, "lip roughness per vertex"))
+    label = r.label() if flags & 2 else None
+    if moved_count > vertex_count:
+        raise ProtocolError("%d moved of %d vertices" % (moved_count, vertex_count),
+                            field="moved", at=48)
+    (block_length,) = r.unpack("I", "delta block length")
+    block_at = r.at
+    block = r.take(block_length, "delta block")
+    if flags & 4:
+        # An entry takes 4 to 40 bytes: never inflate past what the count allows.
+        block = _inflate(block, moved_count * 40, block_at)
+    if moved_count > len(block) // 4:
+        raise ProtocolError("%d entries cannot fit in %d bytes" % (moved_count, len(block)),
+                            field="moved", at=48)
+
+    moved: List[Tuple[int, int, int, int]] = []
+    append = moved.append
+    i = 0
+    previous = -1
+    qx = qy = qz = 0
+    try:
+        for _ in range(moved_count):
+            b = block[i]
+            i += 1
+            gap, i = (b, i) if b < 0x80 else _varint_tail(block, i, b)
+            index = previous + 1 + gap
+            if index >= vertex_count:
+                raise ProtocolError("vertex %d is out of range (%d vertices)"
+                                    % (index, vertex_count), field="index gap", at=block_at)
+            b = block[i]
+            i += 1
+            z, i = (b, i) if b < 0x80 else _varint_tail(block, i, b)
+            qx += (z >> 1) ^ -(z & 1)
+            b = block[i]
+            i += 1
+            z, i = (b, i) if b < 0x80 else _varint_tail(block, i, b)
+            qy += (z >> 1) ^ -(z & 1)
+            b = block[i]
+            i += 1
+            z, i = (b, i) if b < 0x80 else _varint_tail(block, i, b)
+            qz += (z >> 1) ^ -(z & 1)
+            append((index, qx, qy, qz))
+            previous = index
+    except IndexError:
+        raise ProtocolError("truncated or over-long varint in entry %d of %d"
+                            % (len(moved), moved_count), field="delta block", at=block_at) from None
+    if i != len(block):
+        raise ProtocolError("%d byte(s) left after %d entries" % (len(block) - i, moved_count),
+                            field="delta block", at=block_at)
+    face: Optional[List[float]] = None
+    if flags & 1:
+        (face_max,) = r.unpack("f", "face roughness max")
+        raw = r.take(vertex_count, "face roughness")
+        face = [b / 255.0 * face_max for b in raw]
+    r.finish()
+    return ViewerFrame(
+        seq=seq,
+        producer_time_s=producer_time_s,
+        server_receive_us=receive_us,
+        server_send_us=send_us,
+        step=step,
+        vertex_count=vertex_count,
+        moved=moved,
+        lip=LipRoughness(lip_min, lip_max, lip_mean, per_vertex),
+        label=label,
+        face=face,
+    )
+
+
+def decode_mesh(data: bytes) -> RestMesh:
+    """Decodes ``mesh.bin`` (``FWM1``): counts, mm per head unit, positions, triangles."""
+    r = _Reader(bytes(data))
+    magic = r.take(4, "magic")
+    if magic != b"FWM1":
+        raise ProtocolError("bad magic %r: expected b'FWM1'" % magic, field="magic", at=0)
+    vertices, triangles, mm_per_unit = r.unpack("IIf", "header")
+    flat = r.unpack("%df" % (3 * vertices), "positions")
+    corners = r.unpack("%dI" % (3 * triangles), "triangles")
+    r.finish()
+    if any(c >= vertices for c in corners):
+        raise ProtocolError("a triangle names a vertex beyond %d" % vertices, field="triangles")
+    return RestMesh(
+        positions=list(zip(flat[0::3], flat[1::3], flat[2::3])),
+        triangles=list(zip(corners[0::3], corners[1::3], corners[2::3])),
+        mm_per_unit=mm_per_unit,
+    )
+
+
+# ---------------------------------------------------------------------------------------
+# HTTP
+
+
+def _base_urls(url: str) -> Tuple[str, str]:
+    """(http base, ws base) of a server URL given as http(s):// or ws(s)://, no trailing /."""
+    parts = urllib.parse.urlsplit(url)
+    scheme = parts.scheme.lower()
+    if scheme not in ("http", "https", "ws", "wss") or not parts.netloc:
+        raise FacewireError("server URL %r: expected http://host:port (or https, ws, wss)" % url)
+    secure = scheme in ("https", "wss")
+    path = parts.path.rstrip("/")
+    http = urllib.parse.urlunsplit(("https" if secure else "http", parts.netloc, path, "", ""))
+    ws = urllib.parse.urlunsplit(("wss" if secure else "ws", parts.netloc, path, "", ""))
+    return http, ws
+
+
+def _segment(text: str) -> str:
+    return urllib.parse.quote(text, safe="")
+
+
+class Client:
+    """The HTTP side of a facewire server.
+
+    ``url`` is the server's base URL (``http://127.0.0.1:8480``). ``token``, when the
+    server is configured with tokens, goes in an ``Authorization: Bearer`` header on every
+    request; calls that need another one (admin, producer) take ``token=`` themselves."""
+
+    def __init__(self, url: str, token: Optional[str] = None, timeout: float = 30.0):
+        self.url, self.ws_url = _base_urls(url)
+        self.token = token
+        self.timeout = timeout
+
+    def request(self, method: str, path: str, body: Optional[bytes] = None,
+                content_type: Optional[str] = None,
+                token: Optional[str] = None) -> Tuple[int, bytes]:
+        """One HTTP request; returns (status, body) or raises :class:`HttpError`."""
+        url = self.url + path
+        request = urllib.request.Request(url, data=body, method=method)
+        token = token if token is not None else self.token
+        if token:
+            request.add_header("Authorization", "Bearer " + token)
+        if content_type:
+            request.add_header("Content-Type", content_type)
+        try:
+            with urllib.request.urlopen(request, timeout=self.timeout) as response:
+                return response.status, response.read()
+        except urllib.error.HTTPError as e:
+            raw = e.read()
+            code, message = "http_%d" % e.code, raw.decode("utf-8", "replace").strip()
+            try:
+                parsed = json.loads(raw)
+                if isinstance(parsed, dict):
+                    code = str(parsed.get("error", code))
+                    message = str(parsed.get("message", message))
+            except ValueError:
+                pass
+            raise HttpError(method, url, e.code, code, message or str(e.reason)) from None
+        except urllib.error.URLError as e:
+            raise FacewireError("%s %s: cannot reach the server: %s" % (method, url, e.reason)) from None
+        except OSError as e:
+            raise FacewireError("%s %s: %s" % (method, url, e)) from None
+
+    def _json(self, method: str, path: str, payload: Any = None,
+              token: Optional[str] = None) -> Any:
+        body = None if payload is None else json.dumps(payload).encode("utf-8")
+        _, raw = self.request(method, path, body, "application/json" if body else None, token)
+        try:
+            return json.loads(raw) if raw else None
+        except ValueError:
+            raise ProtocolError("%s %s: the answer is not JSON: %r" % (method, path, raw[:200])) from None
+
+    def health(self) -> Dict[str, Any]:
+        """``GET /healthz``: ``{"status": "ok", "heads": N, "uptime_s": S}``."""
+        return cast(Dict[str, Any], self._json("GET", "/healthz"))
+
+    def algorithms(self) -> List[Dict[str, Any]]:
+        """``GET /v1/algorithms``: presets with letter, spec, linear, description, default."""
+        return cast(List[Dict[str, Any]], self._json("GET", "/v1/algorithms"))
+
+    def list_heads(self) -> List[Dict[str, Any]]:
+        """``GET /v1/heads``: head info of every registered head."""
+        return cast(List[Dict[str, Any]], self._json("GET", "/v1/heads"))
+
+    def head(self, head_id: str) -> Dict[str, Any]:
+        """``GET /v1/heads/{id}``: id, vertices, triangles, mm_per_unit, status, progress,
+        error, streams, algorithms."""
+        return cast(Dict[str, Any], self._json("GET", "/v1/heads/" + _segment(head_id)))
+
+    def register_head(self, head_id: str, obj: str, *, fit: Optional[str] = None,
+                      landmarks: Optional[str] = None, producer_token: Optional[str] = None,
+                      token: Optional[str] = None) -> Dict[str, Any]:
+        """``POST /v1/heads`` with the OBJ text and exactly one of ``fit`` (a ``.fit.toml``
+        text) or ``landmarks`` (a ``.landmarks.toml`` text, the server solves the fit).
+        Registration runs in the background: follow with :meth:`wait_ready`. ``token`` is
+        the admin token."""
+        if (fit is None) == (landmarks is None):
+            raise FacewireError("register_head: give exactly one of fit and landmarks")
+        payload: Dict[str, Any] = {"id": head_id, "obj": obj}
+        if fit is not None:
+            payload["fit"] = fit
+        if landmarks is not None:
+            payload["landmarks"] = landmarks
+        if producer_token is not None:
+            payload["producer_token"] = producer_token
+        return cast(Dict[str, Any], self._json("POST", "/v1/heads", payload, token))
+
+    def register_head_files(self, head_id: str, obj_path: str, *, fit_path: Optional[str] = None,
+                            landmarks_path: Optional[str] = None,
+                            producer_token: Optional[str] = None,
+                            token: Optional[str] = None) -> Dict[str, Any]:
+        """:meth:`register_head` with the texts read from files."""
+
+        def read(path: Optional[str]) -> Optional[str]:
+            if path is None:
+                return None
+            with open(path, "r", encoding="utf-8") as f:
+                return f.read()
+
+        obj = read(obj_path)
+        assert obj is not None
+        return self.register_head(head_id, obj, fit=read(fit_path), landmarks=read(landmarks_path),
+                                  producer_token=producer_token, token=token)
+
+    def wait_ready(self, head_id: str, timeout: float = 300.0, poll_s: float = 0.1) -> Dict[str, Any]:
+        """Polls ``GET /v1/heads/{id}`` until ``status`` is ``ready`` and returns the head
+        info; raises :class:`FacewireError` if registration failed or took too long."""
+        deadline = time.monotonic() + timeout
+        while True:
+            info = self.head(head_id)
+            status = info.get("status")
+            if status == "ready":
+                return info
+            if status == "failed":
+                raise FacewireError("head %r failed to register: %s" % (head_id, info.get("error")))
+            if time.monotonic() >= deadline:
+                raise FacewireError("head %r is still %s (%.0f %%) after %.0f s"
+                                    % (head_id, status, 100 * float(info.get("progress", 0)), timeout))
+            time.sleep(poll_s)
+
+    def delete_head(self, head_id: str, token: Optional[str] = None) -> None:
+        """``DELETE /v1/heads/{id}`` (admin token); its streams end."""
+        self.request("DELETE", "/v1/heads/" + _segment(head_id), token=token)
+
+    def mesh(self, head_id: str) -> RestMesh:
+        """``GET /v1/heads/{id}/mesh.bin``, decoded."""
+        return self.mesh_at("/v1/heads/%s/mesh.bin" % _segment(head_id))
+
+    def mesh_at(self, path: str) -> RestMesh:
+        """The rest mesh at a server path (a snapshot's ``rest_mesh``), decoded."""
+        _, raw = self.request("GET", path)
+        return decode_mesh(raw)
+
+    def post_batch(self, head_id: str, stream: str,
+                   frames: Union[str, bytes, Iterable[Mapping[str, Any]]], *,
+                   fap: bool = False, token: Optional[str] = None) -> Dict[str, Any]:
+        """``POST .../streams/{stream}/batch``: a whole stream, played by the server at its
+        timestamps. ``frames`` is JSONL text or bytes, or frame mappings (written as
+        JSONL); ``fap=True`` sends an MPEG-4 ``.fap`` file's text instead. Returns
+        ``{"frames": N, "duration_s": S}``; errors name the line and field (400
+        ``bad_frame``). ``token`` is the producer token."""
+        if isinstance(frames, bytes):
+            body = frames
+        elif isinstance(frames, str):
+            body = frames.encode("utf-8")
+        else:
+            body = "".join(encode_json(f) + "\n" for f in frames).encode("utf-8")
+        path = "/v1/heads/%s/streams/%s/batch" % (_segment(head_id), _segment(stream))
+        _, raw = self.request("POST", path, body,
+                              "application/x-fap" if fap else "application/x-ndjson", token)
+        return cast(Dict[str, Any], json.loads(raw))
+
+    def producer(self, head_id: str, stream: str = "main", **options: Any) -> "Producer":
+        """A :class:`Producer` on this server (options as :class:`Producer`; the token
+        defaults to this client's)."""
+        options.setdefault("token", self.token)
+        return Producer(self.url, head_id, stream, timeout=options.pop("timeout", self.timeout),
+                        **options)
+
+    def viewer(self, head_id: str, stream: str = "main", **options: Any) -> "Viewer":
+        """A :class:`Viewer` on this server (options as :class:`Viewer`)."""
+        options.setdefault("token", self.token)
+        return Viewer(self.url, head_id, stream, timeout=options.pop("timeout", self.timeout),
+                      **options)
+
+
+# ---------------------------------------------------------------------------------------
+# WebSocket plumbing
+
+
+class _Socket:
+    """A websocket-client connection with close codes, timeouts and HTTP refusals turned
+    into this module's errors."""
+
+    def __init__(self, url: str, token: Optional[str], timeout: float):
+        ws_module = _websocket_module()
+        self._module = ws_module
+        self.url = url
+        self.closed: Optional[ConnectionClosed] = None
+        header = ["Authorization: Bearer " + token] if token else []
+        try:
+            self._ws = ws_module.create_connection(url, header=header, timeout=timeout)
+        except ws_module.WebSocketBadStatusException as e:
+            body = e.resp_body or b""
+            if isinstance(body, str):
+                body = body.encode("utf-8")
+            code, message = "http_%d" % e.status_code, body.decode("utf-8", "replace").strip()
+            try:
+                parsed = json.loads(body)
+                if isinstance(parsed, dict):
+                    code = str(parsed.get("error", code))
+                    message = str(parsed.get("message", message))
+            except ValueError:
+                pass
+            raise HttpError("GET", url, e.status_code, code, message or str(e)) from None
+        except (OSError, ws_module.WebSocketException) as e:
+            raise FacewireError("cannot connect to %s: %s" % (url, e)) from None
+
+    def send_text(self, text: str) -> None:
+        self._send(text, self._module.ABNF.OPCODE_TEXT)
+
+    def send_binary(self, data: bytes) -> None:
+        self._send(data, self._module.ABNF.OPCODE_BINARY)
+
+    def _send(self, payload: Union[str, bytes], opcode: int) -> None:
+        if self.closed is not None:
+            raise self.closed
+        try:
+            self._ws.send(payload, opcode)
+        except (OSError, self._module.WebSocketException) as e:
+            self.closed = ConnectionClosed(None, "while sending: %s" % e)
+            raise self.closed from None
+
+    def receive(self, timeout: Optional[float] = None) -> Union[str, bytes]:
+        """The next text (str) or binary (bytes) message. Raises :class:`ConnectionClosed`
+        when the socket closes and :class:`TimeoutError` after ``timeout`` seconds."""
+        if self.closed is not None:
+            raise self.closed
+        ws = self._module
+        if timeout is not None:
+            self._ws.settimeout(timeout)
+        try:
+            while True:
+                opcode, frame = self._ws.recv_data_frame(True)
+                if opcode == ws.ABNF.OPCODE_TEXT:
+                    return bytes(frame.data).decode("utf-8")
+                if opcode == ws.ABNF.OPCODE_BINARY:
+                    return bytes(frame.data)
+                if opcode == ws.ABNF.OPCODE_CLOSE:
+                    data = bytes(frame.data)
+                    code = struct.unpack("!H", data[:2])[0] if len(data) >= 2 else None
+                    self.closed = ConnectionClosed(code, data[2:].decode("utf-8", "replace"))
+                    self._ws.shutdown()  # websocket-client already answered the close
+                    raise self.closed
+                # ping (answered by websocket-client) and pong: keep reading
+        except ws.WebSocketTimeoutException:
+            raise TimeoutError("no message from %s within %s s" % (self.url, timeout)) from None
+        except ws.WebSocketConnectionClosedException as e:
+            self.closed = ConnectionClosed(None, str(e) or "the server went away")
+            raise self.closed from None
+        except OSError as e:
+            if isinstance(e, TimeoutError):
+                raise TimeoutError("no message from %s within %s s" % (self.url, timeout)) from None
+            self.closed = ConnectionClosed(None, str(e))
+            raise self.closed from None
+
+    def shutdown(self) -> None:
+        try:
+            self._ws.close(timeout=1.0)
+        except Exception:  # closing is best effort: the peer may be gone already
+            pass
+
+
+def _server_message(text: str, url: str) -> Dict[str, Any]:
+    try:
+        message = json.loads(text)
+    except ValueError:
+        raise ProtocolError("%s sent text that is not JSON: %r" % (url, text[:200])) from None
+    if not isinstance(message, dict) or "type" not in message:
+        raise ProtocolError("%s sent JSON without a type: %r" % (url, text[:200]))
+    return message
+
+
+def _refused(message: Mapping[str, Any]) -> Refused:
+    return Refused(str(message.get("code", "?")), str(message.get("message", "")),
+                   message.get("seq"), message.get("field"))
+
+
+# ---------------------------------------------------------------------------------------
+# Producer
+
+
+@dataclass
+class Ack:
+    """The server accepted frame ``seq`` at ``received_us`` (µs since the Unix epoch)."""
+
+    seq: int
+    received_us: int
+
+
+class Producer:
+    """Pushes frames to ``/v1/heads/{head}/streams/{stream}/produce``.
+
+    ``url`` is the server's base URL; ``token`` the producer token (sent as
+    ``Authorization: Bearer``). Each :meth:`send` waits for the server's answer: it
+    returns an :class:`Ack` or raises :class:`Refused` (the stream keeps running after a
+    refused frame). Limits respected before sending: a message longer than
+    ``max_message_bytes`` is refused locally (:class:`FrameError`), and frames are spaced
+    at least ``1 / max_fps`` seconds apart (set both to the server's configuration when it
+    differs from the defaults, 64 KiB and 240 fps). Frames must have increasing ``seq``
+    and non-decreasing ``t``.
+
+    As a context manager it sends ``{"type":"end"}`` on a normal exit (viewers get
+    ``end``) and closes the socket either way::
+
+        with Producer("http://127.0.0.1:8480", "scan", "main") as producer:
+            producer.send({"seq": 0, "t": 0.0, "label": "pa", "au": {"jaw_drop": 0.3}})
+    """
+
+    def __init__(self, url: str, head: str, stream: str = "main", *, token: Optional[str] = None,
+                 binary: bool = False, timeout: float = 10.0, max_fps: float = DEFAULT_MAX_FPS,
+                 max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES):
+        _, ws_base = _base_urls(url)
+        self.url = "%s/v1/heads/%s/streams/%s/produce" % (ws_base, _segment(head), _segment(stream))
+        self.binary = binary
+        self.timeout = timeout
+        self.min_interval_s = 1.0 / max_fps if max_fps and max_fps > 0 else 0.0
+        self.max_message_bytes = max_message_bytes
+        self.ended = False
+        self._last_send: Optional[float] = None
+        self._socket = _Socket(self.url, token, timeout)
+
+    def __enter__(self) -> "Producer":
+        return self
+
+    def __exit__(self, kind: Any, value: Any, traceback: Any) -> None:
+        try:
+            if kind is None and not self.ended and self._socket.closed is None:
+                self.end()
+        finally:
+            self.close()
+
+    def send(self, frame: Mapping[str, Any], *, binary: Optional[bool] = None) -> Ack:
+        """Sends one frame (a JSONL object) as JSON text, or as ``FWP1`` when ``binary``
+        (default: the producer's ``binary``), and returns the server's :class:`Ack`."""
+        use_binary = self.binary if binary is None else binary
+        payload: Union[str, bytes] = encode_fwp1(frame) if use_binary else encode_json(frame)
+        seq = _frame_seq(frame)
+        size = len(payload) if isinstance(payload, bytes) else len(payload.encode("utf-8"))
+        if size > self.max_message_bytes:
+            raise FrameError("frame seq %d is %d bytes; the server takes at most %d "
+                             "(max_message_bytes)" % (seq, size, self.max_message_bytes))
+        self._pace()
+        if isinstance(payload, bytes):
+            self._socket.send_binary(payload)
+        else:
+            self._socket.send_text(payload)
+        message = self._answer()
+        kind = message.get("type")
+        if kind == "ack":
+            ack = Ack(int(message["seq"]), int(message["received_us"]))
+            if ack.seq != seq:
+                raise ProtocolError("sent seq %d, the server acknowledged seq %d" % (seq, ack.seq))
+            return ack
+        if kind == "error":
+            refused = _refused(message)
+            if refused.seq is None and refused.code not in ("producer_busy", "idle"):
+                # bad_frame and message_too_large name no seq: it is the frame just sent
+                refused = Refused(refused.code, refused.message, seq, refused.field)
+            raise refused
+        raise ProtocolError("expected an ack or error for seq %d, got %r" % (seq, message))
+
+    def play(self, frames: Iterable[Mapping[str, Any]], *, realtime: bool = True,
+             speed: float = 1.0) -> List[Ack]:
+        """Sends every frame, at its ``t`` (relative to the first, divided by ``speed``)
+        when ``realtime``, else as fast as the acks and ``max_fps`` allow. Stops at the
+        first refusal (raises :class:`Refused`). Does not end the stream."""
+        acks: List[Ack] = []
+        start: Optional[float] = None
+        first_t = 0.0
+        for frame in frames:
+            if realtime:
+                t = _number(_frame_seq(frame), "t", frame.get("t"))
+                if start is None:
+                    start, first_t = time.monotonic(), t
+                wait = start + (t - first_t) / speed - time.monotonic()
+                if wait > 0:
+                    time.sleep(wait)
+            acks.append(self.send(frame))
+        return acks
+
+    def end(self) -> None:
+        """Sends ``{"type":"end"}``: viewers get ``end``. The server does not answer it; the
+        socket stays usable for a new run of frames (with higher seq)."""
+        self._socket.send_text('{"type":"end"}')
+        self.ended = True
+
+    def close(self) -> None:
+        """Closes the socket (without ending the stream if :meth:`end` was not called)."""
+        self._socket.shutdown()
+
+    def _pace(self) -> None:
+        now = time.monotonic()
+        if self._last_send is not None:
+            wait = self._last_send + self.min_interval_s - now
+            if wait > 0:
+                time.sleep(wait)
+                now += wait
+        self._last_send = now
+
+    def _answer(self) -> Dict[str, Any]:
+        while True:
+            message = self._socket.receive(self.timeout)
+            if isinstance(message, bytes):
+                raise ProtocolError("a producer socket got a binary message (%d bytes)" % len(message))
+            return _server_message(message, self.url)
+
+
+# ---------------------------------------------------------------------------------------
+# Viewer
+
+
+@dataclass
+class Snapshot:
+    """The first message on a viewer socket: what to download and how to decode."""
+
+    protocol: str
+    head: str
+    stream: str
+    algorithm: str
+    vertices: int
+    triangles: int
+    rest_mesh: str
+    rest_obj: str
+    mm_per_unit: float
+    step: float
+    lip_vertices: List[int]
+    face_roughness: bool
+
+    @staticmethod
+    def from_message(message: Mapping[str, Any]) -> "Snapshot":
+        try:
+            return Snapshot(
+                protocol=str(message["protocol"]),
+                head=str(message["head"]),
+                stream=str(message["stream"]),
+                algorithm=str(message["algorithm"]),
+                vertices=int(message["vertices"]),
+                triangles=int(message["triangles"]),
+                rest_mesh=str(message["rest_mesh"]),
+                rest_obj=str(message["rest_obj"]),
+                mm_per_unit=float(message["mm_per_unit"]),
+                step=float(message["step"]),
+                lip_vertices=[int(v) for v in message["lip_vertices"]],
+                face_roughness=bool(message["face_roughness"]),
+            )
+        except (KeyError, TypeError, ValueError) as e:
+            raise ProtocolError("malformed snapshot (%s): %r" % (e, dict(message))) from None
+
+
+@dataclass
+class StreamEnd:
+    """The stream ended (producer finished, batch done, head deleted, server shutting
+    down). The socket stays open for the stream's next producer, except on shutdown."""
+
+    reason: str
+
+
+@dataclass
+class ServerError:
+    """An ``error`` message on a viewer socket (a close follows)."""
+
+    code: str
+    message: str
+    seq: Optional[int] = None
+    field: Optional[str] = None
+
+
+ViewerEvent = Union[ViewerFrame, StreamEnd, ServerError]
+
+
+class Viewer:
+    """Watches ``/v1/heads/{head}/streams/{stream}/view``.
+
+    Connecting reads the snapshot (raises :class:`Refused` for ``unknown_head``,
+    ``bad_algorithm``, ``registration_failed``, ``server_full``) and, unless
+    ``fetch_mesh=False``, downloads the rest mesh over HTTP. Then :meth:`events` (or
+    iterating the viewer) yields a :class:`ViewerFrame` per binary frame, with
+    ``positions`` filled from the rest mesh, a :class:`StreamEnd` per ``end`` and a
+    :class:`ServerError` per ``error``; it stops when the server closes the socket
+    (``close_code`` says why). ``algo`` is a spec or preset letter (the server's default
+    when None); ``face=True`` asks for per-vertex face roughness. A viewer that reads slowly
+    skips to the newest frame: the server never queues a backlog."""
+
+    def __init__(self, url: str, head: str, stream: str = "main", *, algo: Optional[str] = None,
+                 face: bool = False, token: Optional[str] = None, timeout: float = 30.0,
+                 fetch_mesh: bool = True):
+        http_base, ws_base = _base_urls(url)
+        query = {}
+        if algo:
+            query["algo"] = algo
+        if face:
+            query["face"] = "1"
+        self.url = "%s/v1/heads/%s/streams/%s/view" % (ws_base, _segment(head), _segment(stream))
+        if query:
+            self.url += "?" + urllib.parse.urlencode(query)
+        self.timeout = timeout
+        self.close_code: Optional[int] = None
+        self._socket = _Socket(self.url, token, timeout)
+        try:
+            first = self._socket.receive(timeout)
+            if isinstance(first, bytes):
+                raise ProtocolError("expected a snapshot first, got a binary message")
+            message = _server_message(first, self.url)
+            if message["type"] == "error":
+                raise _refused(message)
+            if message["type"] != "snapshot":
+                raise ProtocolError("expected a snapshot first, got %r" % message)
+            self.snapshot = Snapshot.from_message(message)
+            self.rest: Optional[RestMesh] = None
+            if fetch_mesh:
+                self.rest = Client(http_base, token, timeout).mesh_at(self.snapshot.rest_mesh)
+                if len(self.rest.positions) != self.snapshot.vertices:
+                    raise ProtocolError("the snapshot says %d vertices, mesh.bin has %d"
+                                        % (self.snapshot.vertices, len(self.rest.positions)))
+        except BaseException:
+            self._socket.shutdown()
+            raise
+
+    def __enter__(self) -> "Viewer":
+        return self
+
+    def __exit__(self, kind: Any, value: Any, traceback: Any) -> None:
+        self.close()
+
+    def __iter__(self) -> Iterator[ViewerEvent]:
+        return self.events()
+
+    def recv(self, timeout: Optional[float] = None) -> Optional[ViewerEvent]:
+        """The next event, or None once the server has closed the socket. Raises
+        :class:`TimeoutError` when nothing arrives within ``timeout`` seconds (default: the
+        viewer's ``timeout``)."""
+        try:
+            message = self._socket.receive(self.timeout if timeout is None else timeout)
+        except ConnectionClosed as closed:
+            self.close_code = closed.code
+            return None
+        if isinstance(message, bytes):
+            frame = decode_fwf1(message)
+            if self.rest is not None:
+                frame.positions = frame.apply(self.rest.positions)
+            return frame
+        parsed = _server_message(message, self.url)
+        if parsed["type"] == "end":
+            return StreamEnd(str(parsed.get("reason", "")))
+        if parsed["type"] == "error":
+            return ServerError(str(parsed.get("code", "?")), str(parsed.get("message", "")),
+                               parsed.get("seq"), parsed.get("field"))
+        raise ProtocolError("unexpected message on a viewer socket: %r" % parsed)
+
+    def events(self, timeout: Optional[float] = None) -> Iterator[ViewerEvent]:
+        """Every event until the server closes the socket (see :meth:`recv`)."""
+        while True:
+            event = self.recv(timeout)
+            if event is None:
+                return
+            yield event
+
+    def close(self) -> None:
+        """Closes the socket."""
+        self._socket.shutdown()
+
+
+# ---------------------------------------------------------------------------------------
+# Command line
+
+
+def _add_server_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--url", default="http://127.0.0.1:8480",
+                        help="server base URL (default: %(default)s)")
+    parser.add_argument("--token", default=None,
+                        help="token sent as Authorization: Bearer (producer, viewer or admin)")
+    parser.add_argument("--timeout", type=float, default=30.0,
+                        help="seconds to wait for an answer (default: %(default)s)")
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="facewire_client.py",
+        description="Talk to a facewire server: push parameter frames, watch deformed heads, "
+                    "register heads. Protocol: proto/PROTOCOL.md.")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND")
+    commands.required = True
+
+    produce = commands.add_parser(
+        "produce", help="push a JSONL stream over the producer WebSocket",
+        description="Send every frame of a facewire JSONL file to a stream, one message per "
+                    "frame, at the frames' timestamps unless --fast; then end the stream.")
+    produce.add_argument("file", help="facewire JSONL file (docs/STREAMS.md)")
+    produce.add_argument("--head", required=True, help="head id")
+    produce.add_argument("--stream", default="main", help="stream name (default: %(default)s)")
+    produce.add_argument("--binary", action="store_true", help="send FWP1 binary frames, not JSON")
+    produce.add_argument("--fast", action="store_true",
+                         help="send as fast as acks and --max-fps allow, not at the timestamps")
+    produce.add_argument("--speed", type=float, default=1.0, help="playback speed factor (default: 1)")
+    produce.add_argument("--max-fps", type=float, default=DEFAULT_MAX_FPS,
+                         help="the server's max_fps (default: %(default)s)")
+    produce.add_argument("--max-message-bytes", type=int, default=DEFAULT_MAX_MESSAGE_BYTES,
+                         help="the server's max_message_bytes (default: %(default)s)")
+    produce.add_argument("--no-end", action="store_true", help="do not send {\"type\":\"end\"}")
+    produce.add_argument("--quiet", action="store_true", help="print only refusals and the summary")
+    _add_server_options(produce)
+
+    view = commands.add_parser(
+        "view", help="watch a stream and print one line per decoded frame",
+        description="Connect a viewer, download the rest mesh, decode every frame and print "
+                    "seq, time, label, moved vertices and latencies (or JSON lines).")
+    view.add_argument("--head", required=True, help="head id")
+    view.add_argument("--stream", default="main", help="stream name (default: %(default)s)")
+    view.add_argument("--algo", default=None, help="algorithm spec or letter (default: the server's)")
+    view.add_argument("--face", action="store_true", help="ask for per-vertex face roughness")
+    view.add_argument("--frames", type=int, default=None, help="stop after this many frames")
+    view.add_argument("--until-end", action="store_true", help="stop at the stream's end message")
+    view.add_argument("--json", action="store_true", help="print JSON lines")
+    view.add_argument("--positions", action="store_true",
+                      help="with --json, include every vertex position (large)")
+    _add_server_options(view)
+
+    register = commands.add_parser(
+        "register", help="register a head (OBJ plus fit or landmarks) and wait until ready")
+    register.add_argument("--id", required=True, help="head id: 1-64 of a-z 0-9 - _")
+    register.add_argument("--obj", required=True, help="OBJ file")
+    fit = register.add_mutually_exclusive_group(required=True)
+    fit.add_argument("--fit", help=".fit.toml file")
+    fit.add_argument("--landmarks", help=".landmarks.toml file (the server solves the fit)")
+    register.add_argument("--producer-token", default=None, help="this head's own producer token")
+    register.add_argument("--no-wait", action="store_true", help="do not wait until ready")
+    _add_server_options(register)
+
+    heads = commands.add_parser("heads", help="list registered heads")
+    _add_server_options(heads)
+
+    batch = commands.add_parser(
+        "batch", help="post a whole JSONL (or .fap) stream for the server to play")
+    batch.add_argument("file", help="facewire JSONL file, or an MPEG-4 .fap file")
+    batch.add_argument("--head", required=True, help="head id")
+    batch.add_argument("--stream", default="main", help="stream name (default: %(default)s)")
+    _add_server_options(batch)
+    return parser
+
+
+def _frame_summary(frame: ViewerFrame, received_us: int, positions: bool) -> Dict[str, Any]:
+    summary: Dict[str, Any] = {
+        "seq": frame.seq,
+        "t": frame.producer_time_s,
+        "label": frame.label,
+        "moved": len(frame.moved),
+        "lip_mean": frame.lip.mean,
+        "server_ms": (frame.server_send_us - frame.server_receive_us) / 1000.0,
+        "delivery_ms": (received_us - frame.server_send_us) / 1000.0,
+    }
+    if positions and frame.positions is not None:
+        summary["positions"] = frame.positions
+    return summary
+
+
+def _run(args: argparse.Namespace) -> int:
+    if args.command == "produce":
+        refused = sent = 0
+        with Producer(args.url, args.head, args.stream, token=args.token, binary=args.binary,
+                      timeout=args.timeout, max_fps=args.max_fps,
+                      max_message_bytes=args.max_message_bytes) as producer:
+            start: Optional[float] = None
+            first_t = 0.0
+            for frame in read_jsonl(args.file):
+                if not args.fast:
+                    t = _number(_frame_seq(frame), "t", frame.get("t"))
+                    if start is None:
+                        start, first_t = time.monotonic(), t
+                    wait = start + (t - first_t) / args.speed - time.monotonic()
+                    if wait > 0:
+                        time.sleep(wait)
+                try:
+                    ack = producer.send(frame)
+                    sent += 1
+                    if not args.quiet:
+                        print("ack seq %d" % ack.seq)
+                except Refused as e:
+                    refused += 1
+                    print(str(e), file=sys.stderr)
+                    if e.code in ("producer_busy", "idle"):
+                        return 1
+                except FrameError as e:  # not sent: the encoder cannot write this frame
+                    refused += 1
+                    print("not sent: %s" % e, file=sys.stderr)
+            if args.no_end:
+                producer.ended = True  # leave the stream running
+        print("%d frame(s) acknowledged, %d refused or not sent%s"
+              % (sent, refused, "" if args.no_end else "; stream ended"))
+        return 1 if refused else 0
+
+    if args.command == "view":
+        count = 0
+        with Viewer(args.url, args.head, args.stream, algo=args.algo, face=args.face,
+                    token=args.token, timeout=args.timeout) as viewer:
+            snap = viewer.snapshot
+            header = {"type": "snapshot", "algorithm": snap.algorithm, "vertices": snap.vertices,
+                      "mm_per_unit": snap.mm_per_unit, "step": snap.step}
+            print(json.dumps(header) if args.json else
+                  "snapshot: head %s stream %s algorithm %s, %d vertices, step %.3g head units"
+                  % (snap.head, snap.stream, snap.algorithm, snap.vertices, snap.step))
+            sys.stdout.flush()
+            while True:
+                try:
+                    event = viewer.recv(None)
+                except TimeoutError:
+                    continue  # an idle stream: keep waiting
+                if event is None:
+                    print("closed (code %s)" % viewer.close_code, file=sys.stderr)
+                    return 0
+                now_us = int(time.time() * 1e6)
+                if isinstance(event, ViewerFrame):
+                    count += 1
+                    s = _frame_summary(event, now_us, args.positions)
+                    print(json.dumps(s) if args.json else
+                          "seq %d t %.3f label %s moved %d lip %.4f server %.2f ms delivery %.2f ms"
+                          % (s["seq"], s["t"], s["label"], s["moved"], s["lip_mean"],
+                             s["server_ms"], s["delivery_ms"]))
+                    if args.frames is not None and count >= args.frames:
+                        return 0
+                elif isinstance(event, StreamEnd):
+                    print(json.dumps({"type": "end", "reason": event.reason}) if args.json
+                          else "end: %s" % event.reason)
+                    if args.until_end:
+                        return 0
+                else:
+                    print("error %s: %s" % (event.code, event.message), file=sys.stderr)
+                sys.stdout.flush()
+
+    client = Client(args.url, args.token, args.timeout)
+    if args.command == "register":
+        info = client.register_head_files(args.id, args.obj, fit_path=args.fit,
+                                          landmarks_path=args.landmarks,
+                                          producer_token=args.producer_token)
+        if not args.no_wait:
+            info = client.wait_ready(args.id, timeout=max(args.timeout, 300.0))
+        print(json.dumps(info))
+        return 0
+    if args.command == "heads":
+        for info in client.list_heads():
+            print(json.dumps(info))
+        return 0
+    if args.command == "batch":
+        with open(args.file, "rb") as f:
+            body = f.read()
+        print(json.dumps(client.post_batch(args.head, args.stream, body,
+                                           fap=args.file.lower().endswith(".fap"))))
+        return 0
+    raise AssertionError(args.command)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """The command line; returns the exit status."""
+    args = _parser().parse_args(argv)
+    try:
+        return _run(args)
+    except (FacewireError, OSError) as e:
+        print("facewire_client: error: %s" % e, file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,361 @@
+//! The Python client (`clients/python/facewire_client.py`) against a real server: a
+//! facewire server runs in this process on an ephemeral port, and
+//! `clients/python/selftest.py` registers the shipped MakeHuman head through the client,
+//! watches a stream with its `Viewer` while its `Producer` pushes frames of the recorded
+//! syllable stream (alternately as JSON text and binary FWP1, some with ARKit weights, FAPs
+//! and a head rotation), ends the stream and writes what it decoded. This test then holds
+//! the decoded positions to what the library computes for the same frames, within half a
+//! quantization step, so a decoding (or encoding) mistake in Python fails here.
+//!
+//! Needs `python3` with `websocket-client` (`pip install websocket-client`; `.ci/run`
+//! installs it): without them the test fails and says so.
+
+mod common;
+
+use std::fs::File;
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use facewire::deform::{bind, AlgoSpec};
+use facewire::mask::fap::FAPS;
+use facewire::mask::Mask;
+use facewire::server::{serve, AppState, Config, STEP_MM};
+use facewire::stream::{open_stream, ArkitBasis, Frame, FramePoser, JsonlWriter, ARKIT_BLENDSHAPES};
+use serde::Deserialize;
+
+fn repo(path: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
+}
+
+/// The Python interpreter and package the client needs, or a failure that says what to
+/// install.
+fn require_python() {
+    let probe = "import sys, websocket; sys.exit(0 if hasattr(websocket, 'create_connection') else 3)";
+    match Command::new("python3").args(["-c", probe]).output() {
+        Err(e) => panic!(
+            "cannot run `python3` ({e}): tests/python_client.rs runs clients/python/selftest.py and \
+             needs Python 3.8 or newer on PATH, with websocket-client (pip install websocket-client)"
+        ),
+        Ok(out) if !out.status.success() => panic!(
+            "python3 cannot import websocket-client, which clients/python/facewire_client.py needs: \
+             pip install websocket-client (.ci/run installs it)\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        ),
+        Ok(_) => {}
+    }
+}
+
+struct Server {
+    addr: SocketAddr,
+    state: AppState,
+    task: tokio::task::JoinHandle<std::io::Result<()>>,
+}
+
+impl Server {
+    /// A server on 127.0.0.1:0 keeping heads in memory only.
+    async fn start() -> Server {
+        let state = AppState::new(Config {
+            addr: "127.0.0.1:0".parse().unwrap(),
+            data_dir: None,
+            ..Config::default()
+        })
+        .unwrap();
+        let (tx, rx) = tokio::sync::oneshot::channel();
+        let task = tokio::spawn(serve(state.clone(), move |addr| {
+            let _ = tx.send(addr);
+        }));
+        let addr = rx.await.unwrap();
+        Server { addr, state, task }
+    }
+
+    async fn stop(self) {
+        self.state.shutdown.cancel();
+        tokio::time::timeout(Duration::from_secs(10), self.task)
+            .await
+            .unwrap()
+            .unwrap()
+            .unwrap();
+    }
+}
+
+/// The frames pushed: the first 20 of the recorded syllable stream (`pa`: the lips close,
+/// press, then the jaw opens for the vowel), some given ARKit weights, FAPs or a head
+/// rotation so that every list of the binary format is exercised.
+fn frames_to_push() -> Vec<Frame> {
+    let frames: Vec<Frame> = open_stream(&repo("data/streams/syllables.jsonl"), &Mask::candide3())
+        .unwrap()
+        .take(20)
+        .map(Result::unwrap)
+        .collect();
+    frames
+        .into_iter()
+        .map(|mut frame| {
+            match frame.seq % 5 {
+                2 => frame.arkit = vec![(17, 0.25), (23, 0.4)], // jawOpen, mouthSmileLeft
+                3 => frame.faps = vec![(3, 150.0), (12, -80.0)], // open_jaw, raise_l_cornerlip
+                4 => frame.head_rotation_rad = Some([0.02, -0.05, 0.01]),
+                _ => {}
+            }
+            frame
+        })
+        .collect()
+}
+
+fn write_jsonl(frames: &[Frame], path: &Path) {
+    let mask = Mask::candide3();
+    let mut writer = JsonlWriter::new(File::create(path).unwrap(), &mask);
+    for frame in frames {
+        writer.write_frame(frame).unwrap();
+    }
+    writer.into_inner().unwrap();
+}
+
+#[derive(Debug, Deserialize)]
+struct HeadInfo {
+    id: String,
+    vertices: u32,
+    status: String,
+}
+
+#[derive(Debug, Deserialize)]
+struct Snapshot {
+    algorithm: String,
+    vertices: u32,
+    mm_per_unit: f32,
+    step: f32,
+    lip_vertices: Vec<u32>,
+}
+
+#[derive(Debug, Deserialize)]
+struct Rest {
+    vertices: usize,
+    triangles: usize,
+}
+
+#[derive(Debug, Deserialize)]
+struct Sent {
+    seq: u64,
+    binary: bool,
+    ack_seq: u64,
+}
+
+#[derive(Debug, Deserialize)]
+struct Refusal {
+    code: String,
+    field: Option<String>,
+    seq: Option<u64>,
+    message: String,
+}
+
+#[derive(Debug, Deserialize)]
+struct Batch {
+    frames: usize,
+}
+
+#[derive(Debug, Deserialize)]
+struct Decoded {
+    seq: u64,
+    label: Option<String>,
+    step: f32,
+    vertex_count: u32,
+    lip_per_vertex: usize,
+    positions: Vec<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+struct Tables {
+    animation_units: Vec<Vec<String>>,
+    faps: Vec<String>,
+    arkit: Vec<String>,
+}
+
+#[derive(Debug, Deserialize)]
+struct Outcome {
+    ready: HeadInfo,
+    heads: Vec<String>,
+    snapshot: Snapshot,
+    rest: Rest,
+    sent: Vec<Sent>,
+    refusal: Option<Refusal>,
+    batch: Batch,
+    tables: Tables,
+    frames: Vec<Decoded>,
+    end: Option<String>,
+    viewer_errors: Vec<serde_json::Value>,
+}
+
+/// Runs the self-test script, its output going to files (no pipe to fill), and kills it if
+/// it runs longer than `limit`.
+fn run_selftest(args: &[String], dir: &Path, limit: Duration) -> Outcome {
+    let out_path = dir.join("outcome.json");
+    let stdout_path = dir.join("selftest.stdout");
+    let stderr_path = dir.join("selftest.stderr");
+    let mut child = Command::new("python3")
+        .arg(repo("clients/python/selftest.py"))
+        .args(args)
+        .arg("--out")
+        .arg(&out_path)
+        .stdin(Stdio::null())
+        .stdout(File::create(&stdout_path).unwrap())
+        .stderr(File::create(&stderr_path).unwrap())
+        .spawn()
+        .expect("python3 starts");
+    let started = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break Some(status);
+        }
+        if started.elapsed() > limit {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let printed = format!(
+        "{}{}",
+        std::fs::read_to_string(&stdout_path).unwrap_or_default(),
+        std::fs::read_to_string(&stderr_path).unwrap_or_default()
+    );
+    match status {
+        None => panic!("selftest.py ran longer than {limit:?} and was stopped:\n{printed}"),
+        Some(status) if !status.success() => panic!("selftest.py failed ({status}):\n{printed}"),
+        Some(_) => eprintln!("{printed}"),
+    }
+    let text = std::fs::read_to_string(&out_path).unwrap();
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("selftest.py wrote unreadable JSON: {e}"))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_python_client_decodes_what_the_library_computes() {
+    require_python();
+    let server = Server::start().await;
+    let dir = tempfile::tempdir().unwrap();
+    let frames = frames_to_push();
+    let frames_path = dir.path().join("frames.jsonl");
+    write_jsonl(&frames, &frames_path);
+
+    let args: Vec<String> = [
+        "--url".to_string(),
+        format!("http://{}", server.addr),
+        "--head".into(),
+        "mh".into(),
+        "--obj".into(),
+        repo("data/heads/makehuman_head.obj").display().to_string(),
+        "--fit".into(),
+        repo("data/heads/makehuman_head.fit.toml").display().to_string(),
+        "--frames".into(),
+        frames_path.display().to_string(),
+    ]
+    .into();
+    let dir_path = dir.path().to_path_buf();
+    let outcome =
+        tokio::task::spawn_blocking(move || run_selftest(&args, &dir_path, Duration::from_secs(300)))
+            .await
+            .unwrap();
+    server.stop().await;
+
+    // The client's name tables are the library's.
+    let mask = Mask::candide3();
+    let units: Vec<Vec<String>> = mask.animation_units.iter().map(|u| u.names()).collect();
+    assert_eq!(outcome.tables.animation_units, units, "ANIMATION_UNIT_NAMES");
+    let faps: Vec<&str> = FAPS.iter().map(|f| f.name).collect();
+    assert_eq!(outcome.tables.faps, faps, "FAP_NAMES");
+    assert_eq!(outcome.tables.arkit, ARKIT_BLENDSHAPES, "ARKIT_BLENDSHAPES");
+
+    // Registration through the client's HTTP helper.
+    assert_eq!(outcome.ready.id, "mh");
+    assert_eq!(outcome.ready.status, "ready");
+    assert_eq!(outcome.ready.vertices, 4352);
+    assert_eq!(outcome.heads, ["mh"]);
+
+    // Every frame acknowledged, in both encodings; the repeated one refused by name.
+    let pushed: Vec<u64> = frames.iter().map(|f| f.seq).collect();
+    assert_eq!(outcome.sent.iter().map(|s| s.seq).collect::<Vec<_>>(), pushed);
+    for sent in &outcome.sent {
+        assert_eq!(sent.ack_seq, sent.seq, "ack for seq {}", sent.seq);
+    }
+    assert_eq!(outcome.sent.iter().filter(|s| s.binary).count(), frames.len() / 2);
+    let refusal = outcome.refusal.as_ref().expect("repeating a frame is refused");
+    assert_eq!(refusal.code, "out_of_order", "{}", refusal.message);
+    assert_eq!(refusal.field.as_deref(), Some("seq"));
+    assert_eq!(refusal.seq, Some(pushed[pushed.len() / 2]));
+    assert_eq!(outcome.batch.frames, frames.len());
+
+    // The snapshot and the rest mesh.
+    let reg = common::register("makehuman_head");
+    let spec: AlgoSpec = Config::default().default_algorithm.parse().unwrap();
+    let step = STEP_MM / reg.mm_per_unit();
+    assert_eq!(outcome.snapshot.algorithm, spec.to_string());
+    assert_eq!(outcome.snapshot.vertices, 4352);
+    assert_eq!(outcome.snapshot.mm_per_unit, reg.mm_per_unit());
+    assert_eq!(outcome.snapshot.step, step);
+    assert_eq!(outcome.snapshot.lip_vertices.len(), 18);
+    assert_eq!(outcome.rest.vertices, reg.vertex_count());
+    assert_eq!(outcome.rest.triangles, reg.head.triangles.len());
+    assert!(outcome.viewer_errors.is_empty(), "{:?}", outcome.viewer_errors);
+
+    // Every decoded frame: increasing seqs, the pushed label, and the positions that
+    // pose + deform with the server's default algorithm give, within half a step.
+    assert!(!outcome.frames.is_empty(), "the viewer decoded no frame");
+    assert!(
+        outcome.frames.windows(2).all(|w| w[0].seq < w[1].seq),
+        "seqs do not increase: {:?}",
+        outcome.frames.iter().map(|f| f.seq).collect::<Vec<_>>()
+    );
+    let binding = bind(&reg, &spec);
+    let basis = ArkitBasis::shipped();
+    let mut poser = FramePoser::new(&reg.fitted, &basis);
+    let tolerance = 0.5 * f64::from(step) * 1.001 + 1e-6;
+    let mut moved_frames = 0;
+    for decoded in &outcome.frames {
+        let frame = frames
+            .iter()
+            .find(|f| f.seq == decoded.seq)
+            .unwrap_or_else(|| panic!("the viewer got seq {}, which was never pushed", decoded.seq));
+        assert_eq!(decoded.label, frame.label, "label of seq {}", decoded.seq);
+        assert_eq!(decoded.step, step, "step of seq {}", decoded.seq);
+        assert_eq!(decoded.vertex_count, 4352);
+        assert_eq!(decoded.lip_per_vertex, 18);
+        assert_eq!(decoded.positions.len(), 3 * reg.vertex_count());
+        let expected = common::deform_with(&reg, &binding, poser.pose(frame));
+        let (mut worst, mut worst_at, mut farthest) = (0.0f64, 0, 0.0f64);
+        for (v, (e, rest)) in expected.iter().zip(&reg.head.positions).enumerate() {
+            let got = &decoded.positions[v * 3..v * 3 + 3];
+            for k in 0..3 {
+                let off = (got[k] - f64::from(e[k])).abs();
+                if off > worst {
+                    (worst, worst_at) = (off, v);
+                }
+            }
+            farthest = farthest.max(f64::from((*e - *rest).abs().max_element()));
+        }
+        assert!(
+            worst <= tolerance,
+            "seq {}: vertex {worst_at} is off by {worst} head units ({} mm); half a step is {} ({} mm)",
+            decoded.seq,
+            worst * f64::from(reg.mm_per_unit()),
+            0.5 * step,
+            0.5 * STEP_MM
+        );
+        if farthest > 10.0 * f64::from(step) {
+            moved_frames += 1;
+        }
+    }
+    assert!(
+        moved_frames > 0,
+        "no decoded frame moved the head: nothing was compared"
+    );
+
+    // The stream's end, and its last frame (required even when `end` follows it at once).
+    assert!(outcome.end.is_some(), "the viewer never got `end`");
+    let last_seen = outcome.frames.last().map(|f| f.seq);
+    assert_eq!(
+        last_seen,
+        pushed.last().copied(),
+        "the viewer's last frame is not the last one pushed before `end` (seqs seen: {:?})",
+        outcome.frames.iter().map(|f| f.seq).collect::<Vec<_>>()
+    );
+}
