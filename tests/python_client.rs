@@ -18,10 +18,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+use facewire::animate::STEP_MM;
 use facewire::deform::{bind, AlgoSpec};
 use facewire::mask::fap::FAPS;
 use facewire::mask::Mask;
-use facewire::server::{serve, AppState, Config, STEP_MM};
+use facewire::server::{serve, AppState, Config};
 use facewire::stream::{open_stream, ArkitBasis, Frame, FramePoser, JsonlWriter, ARKIT_BLENDSHAPES};
 use serde::Deserialize;
 
@@ -307,7 +308,7 @@ async fn the_python_client_decodes_what_the_library_computes() {
     );
     let binding = bind(&reg, &spec);
     let basis = ArkitBasis::shipped();
-    let mut poser = FramePoser::new(&reg.fitted, &basis);
+    let mut poser = FramePoser::new(&reg.fitted);
     let tolerance = 0.5 * f64::from(step) * 1.001 + 1e-6;
     let mut moved_frames = 0;
     for decoded in &outcome.frames {
@@ -320,7 +321,7 @@ async fn the_python_client_decodes_what_the_library_computes() {
         assert_eq!(decoded.vertex_count, 4352);
         assert_eq!(decoded.lip_per_vertex, 18);
         assert_eq!(decoded.positions.len(), 3 * reg.vertex_count());
-        let expected = common::deform_with(&reg, &binding, poser.pose(frame));
+        let expected = common::deform_with(&reg, &binding, poser.pose(&reg.fitted, &basis, frame));
         let (mut worst, mut worst_at, mut farthest) = (0.0f64, 0, 0.0f64);
         for (v, (e, rest)) in expected.iter().zip(&reg.head.positions).enumerate() {
             let got = &decoded.positions[v * 3..v * 3 + 3];

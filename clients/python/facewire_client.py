@@ -1065,11 +1065,20 @@ class Producer:
             acks.append(self.send(frame))
         return acks
 
-    def end(self) -> None:
-        """Sends ``{"type":"end"}``: viewers get ``end``. The server does not answer it; the
-        socket stays usable for a new run of frames (with higher seq)."""
+    def end(self) -> "StreamEnd":
+        """Sends ``{"type":"end"}``: viewers get ``end`` after the last frame sent. The
+        server answers ``end`` (returned) and closes the socket with code 1000; connect
+        again to start a new run of frames."""
         self._socket.send_text('{"type":"end"}')
         self.ended = True
+        while True:
+            parsed = self._answer()
+            if parsed.get("type") == "end":
+                try:
+                    self._socket.receive(self.timeout)
+                except ConnectionClosed:
+                    pass
+                return StreamEnd(str(parsed.get("reason", "")), str(parsed.get("message", "")))
 
     def close(self) -> None:
         """Closes the socket (without ending the stream if :meth:`end` was not called)."""
@@ -1136,10 +1145,14 @@ class Snapshot:
 
 @dataclass
 class StreamEnd:
-    """The stream ended (producer finished, batch done, head deleted, server shutting
-    down). The socket stays open for the stream's next producer, except on shutdown."""
+    """The stream ended. ``reason`` is a code (``producer_ended``, ``batch_finished``,
+    ``producer_disconnected``, ``producer_idle``, ``producer_cancelled``, ``head_deleted``,
+    ``server_shutdown``); ``message`` says it for people. A viewer's socket stays open for
+    the stream's next producer, except when the head was deleted (close 4410) or the
+    server shuts down (close 1001)."""
 
     reason: str
+    message: str = ""
 
 
 @dataclass
@@ -1228,7 +1241,7 @@ class Viewer:
             return frame
         parsed = _server_message(message, self.url)
         if parsed["type"] == "end":
-            return StreamEnd(str(parsed.get("reason", "")))
+            return StreamEnd(str(parsed.get("reason", "")), str(parsed.get("message", "")))
         if parsed["type"] == "error":
             return ServerError(str(parsed.get("code", "?")), str(parsed.get("message", "")),
                                parsed.get("seq"), parsed.get("field"))

@@ -104,7 +104,9 @@ def main() -> int:
                     producer.send(frame, binary=False)
                 except fw.Refused as e:
                     refusal = {"code": e.code, "field": e.field, "seq": e.seq, "message": e.message}
-        producer.end()
+        ended = producer.end()
+        if ended.reason != "producer_ended":
+            raise SystemExit("the server answered end with %r" % ended)
     finally:
         producer.close()
     reader.join(60.0)
