@@ -139,6 +139,8 @@ async fn run(
     }
     *pipeline.retired.lock().expect("retired lock") = true;
     telemetry.pipelines.dec();
+    drop(job);
+    tokio::task::spawn_blocking(super::release_memory);
 }
 
 /// One frame through the job; `None` (logged and counted) when it cannot be shown.

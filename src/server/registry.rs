@@ -14,6 +14,7 @@ use super::error::ApiError;
 use super::head::{HeadEntry, HeadStatus, StreamLimits};
 use super::ids::valid_id;
 use super::registration::{register, RegistrationError, RegistrationInput};
+use super::release_memory;
 use super::store::{HeadMeta, HeadRecord, Store};
 use facewire_proto::codes::EndReason;
 
@@ -260,15 +261,5 @@ impl Registry {
                 }
             }
         }
-    }
-}
-
-/// Gives freed heap back to the system after a head's large buffers are dropped, so the
-/// process's resident memory returns to its baseline (glibc keeps freed memory otherwise).
-fn release_memory() {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: malloc_trim only releases free memory at the top of glibc's heaps.
-    unsafe {
-        libc::malloc_trim(0);
     }
 }

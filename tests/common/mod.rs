@@ -2,6 +2,8 @@
 //! a shipped head with its fit, posing the mask, deforming with a binding.
 #![allow(dead_code)] // each test file uses its own subset
 
+pub mod service;
+
 use std::path::{Path, PathBuf};
 
 use facewire::deform::{Binding, Registration};

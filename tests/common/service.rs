@@ -1,0 +1,178 @@
+//! A facewire server on an ephemeral loopback port, and the client side of its sockets:
+//! what every test of the service needs.
+
+use std::net::SocketAddr;
+use std::time::Duration;
+
+use facewire::server::{serve, AppState, Config};
+use facewire_proto::frame::{decode, ViewerFrame};
+use facewire_proto::messages::{HeadInfo, ServerMessage};
+use futures_util::StreamExt;
+use tokio_tungstenite::tungstenite::Message;
+
+use super::data;
+
+pub type Socket =
+    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+
+pub struct Server {
+    pub addr: SocketAddr,
+    pub state: AppState,
+    task: tokio::task::JoinHandle<std::io::Result<()>>,
+}
+
+/// The defaults with no data directory (heads in memory).
+pub fn memory_config() -> Config {
+    Config {
+        data_dir: None,
+        ..Config::default()
+    }
+}
+
+impl Server {
+    pub async fn start(config: Config) -> Server {
+        let state = AppState::new(Config {
+            addr: "127.0.0.1:0".parse().unwrap(),
+            ..config
+        })
+        .unwrap();
+        let (tx, rx) = tokio::sync::oneshot::channel();
+        let task = tokio::spawn(serve(state.clone(), move |addr| {
+            let _ = tx.send(addr);
+        }));
+        let addr = rx.await.unwrap();
+        Server { addr, state, task }
+    }
+
+    pub fn http(&self, path: &str) -> String {
+        format!("http://{}{path}", self.addr)
+    }
+
+    pub fn ws(&self, path: &str) -> String {
+        format!("ws://{}{path}", self.addr)
+    }
+
+    /// Shuts the server down and waits (at most 10 s) for `serve` to return.
+    pub async fn stop(self) {
+        self.state.shutdown.cancel();
+        tokio::time::timeout(Duration::from_secs(10), self.task)
+            .await
+            .expect("serve returns after shutdown")
+            .unwrap()
+            .unwrap();
+    }
+
+    /// Registers a shipped head under `id` (`query` carries a token) and waits until it
+    /// is ready.
+    pub async fn register(&self, id: &str, name: &str, query: &str) -> HeadInfo {
+        let body = serde_json::json!({
+            "id": id,
+            "obj": std::fs::read_to_string(data(&format!("heads/{name}.obj"))).unwrap(),
+            "fit": std::fs::read_to_string(data(&format!("heads/{name}.fit.toml"))).unwrap(),
+        });
+        let response = reqwest::Client::new()
+            .post(self.http(&format!("/v1/heads{query}")))
+            .json(&body)
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(response.status(), 202, "{}", response.text().await.unwrap());
+        self.wait_ready(id, query).await
+    }
+
+    /// Polls head info until the head is ready; panics if it fails or takes 30 s.
+    pub async fn wait_ready(&self, id: &str, query: &str) -> HeadInfo {
+        for _ in 0..600 {
+            let info = self.info(id, query).await;
+            match info.status.as_str() {
+                "ready" => return info,
+                "failed" => panic!("registration failed: {:?}", info.error),
+                _ => tokio::time::sleep(Duration::from_millis(50)).await,
+            }
+        }
+        panic!("head {id} did not become ready");
+    }
+
+    pub async fn info(&self, id: &str, query: &str) -> HeadInfo {
+        reqwest::get(self.http(&format!("/v1/heads/{id}{query}")))
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap()
+    }
+}
+
+pub async fn connect(url: &str) -> Socket {
+    tokio_tungstenite::connect_async(url).await.unwrap().0
+}
+
+/// Next message of any kind (10 s at most); `None` when the socket closed without a
+/// close frame.
+pub async fn next_message(socket: &mut Socket) -> Option<Message> {
+    tokio::time::timeout(Duration::from_secs(10), socket.next())
+        .await
+        .expect("a message in time")
+        .and_then(Result::ok)
+}
+
+/// Next JSON message, skipping binary frames.
+pub async fn next_json(socket: &mut Socket) -> ServerMessage {
+    loop {
+        match next_message(socket).await {
+            Some(Message::Text(text)) => return serde_json::from_str(text.as_str()).unwrap(),
+            Some(Message::Binary(_)) | Some(Message::Ping(_)) | Some(Message::Pong(_)) => {}
+            other => panic!("expected a JSON message, got {other:?}"),
+        }
+    }
+}
+
+/// Next binary frame, skipping JSON messages.
+pub async fn next_frame(socket: &mut Socket) -> ViewerFrame {
+    loop {
+        match next_message(socket).await {
+            Some(Message::Binary(bytes)) => return decode(&bytes).unwrap(),
+            Some(Message::Text(_)) | Some(Message::Ping(_)) | Some(Message::Pong(_)) => {}
+            other => panic!("expected a frame, got {other:?}"),
+        }
+    }
+}
+
+/// Everything a viewer receives until (and including) the next `end`: the frames' seqs
+/// and the end's reason.
+pub async fn until_end(socket: &mut Socket) -> (Vec<u64>, String) {
+    let mut seqs = Vec::new();
+    loop {
+        match next_message(socket).await {
+            Some(Message::Binary(bytes)) => seqs.push(decode(&bytes).unwrap().header.seq),
+            Some(Message::Text(text)) => match serde_json::from_str(text.as_str()).unwrap() {
+                ServerMessage::End { reason, .. } => return (seqs, reason.to_string()),
+                other => panic!("expected a frame or end, got {other:?}"),
+            },
+            other => panic!("expected a frame or end, got {other:?} after {seqs:?}"),
+        }
+    }
+}
+
+/// The close code the server sends next (skipping other messages).
+pub async fn close_code(socket: &mut Socket) -> u16 {
+    loop {
+        match next_message(socket).await {
+            Some(Message::Close(Some(frame))) => return u16::from(frame.code),
+            Some(Message::Close(None)) | None => panic!("closed with no close frame"),
+            Some(_) => {}
+        }
+    }
+}
+
+/// A JSONL frame line moving the jaw.
+pub fn jaw_line(seq: u64, t: f64) -> String {
+    format!(r#"{{"seq":{seq},"t":{t},"au":{{"jaw_drop":0.3}}}}"#)
+}
+
+/// This process's resident memory, KiB.
+pub fn resident_kib() -> u64 {
+    let statm = std::fs::read_to_string("/proc/self/statm").unwrap();
+    let pages: u64 = statm.split_whitespace().nth(1).unwrap().parse().unwrap();
+    pages * 4
+}
