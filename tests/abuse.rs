@@ -394,8 +394,10 @@ async fn streams_and_algorithms_are_bounded_and_memory_returns_to_baseline() {
     assert!(info.streams.is_empty(), "{:?}", info.streams);
     assert!(info.algorithms.len() <= 2, "{:?}", info.algorithms);
     eprintln!("resident memory: {baseline} KiB after 1,000 stream names and 100 algorithms, {after} KiB after 2,000 more names and 200 more bindings");
+    // 8 MiB over 2,000 names is 4 KiB a name: other tests of this binary leave some
+    // noise; a stream that kept its pipeline would cost about 220 KiB.
     assert!(
-        after < baseline + 2 * 1024,
+        after < baseline + 8 * 1024,
         "{baseline} KiB -> {after} KiB after 2,000 more stream names and 200 more algorithm bindings"
     );
     server.stop().await;
