@@ -1,0 +1,195 @@
+//! The routes without a socket (`facewire::server::app`): the whole token table (every
+//! endpoint with every kind of token), and JSON errors for what no handler answers.
+
+mod common;
+
+use std::time::Duration;
+
+use axum::body::Body;
+use axum::http::{Method, Request, StatusCode};
+use axum::Router;
+use facewire::server::config::Auth;
+use facewire::server::{app, AppState, Config};
+use tower::ServiceExt;
+
+use common::data;
+use common::service::memory_config;
+
+async fn call(
+    router: &Router,
+    method: Method,
+    uri: &str,
+    token: Option<&str>,
+    body: Body,
+) -> (StatusCode, Vec<u8>) {
+    let mut request = Request::builder().method(method).uri(uri);
+    if let Some(token) = token {
+        request = request.header("authorization", format!("Bearer {token}"));
+    }
+    let response = router.clone().oneshot(request.body(body).unwrap()).await.unwrap();
+    let status = response.status();
+    let bytes = axum::body::to_bytes(response.into_body(), 64 << 20)
+        .await
+        .unwrap();
+    (status, bytes.to_vec())
+}
+
+/// A server state with every token set and two ready heads: `own` (with its own producer
+/// token) and `plain` (without).
+async fn guarded() -> Router {
+    let state = AppState::new(Config {
+        auth: Auth {
+            producer_token: Some("producer".into()),
+            viewer_token: Some("viewer".into()),
+            admin_token: Some("admin".into()),
+        },
+        ..memory_config()
+    })
+    .unwrap();
+    let router = app(state);
+    for (id, own) in [("own", Some("own")), ("plain", None)] {
+        let body = serde_json::json!({
+            "id": id,
+            "obj": std::fs::read_to_string(data("heads/makehuman_head.obj")).unwrap(),
+            "fit": std::fs::read_to_string(data("heads/makehuman_head.fit.toml")).unwrap(),
+            "producer_token": own,
+        });
+        let (status, answer) = call(
+            &router,
+            Method::POST,
+            "/v1/heads",
+            Some("admin"),
+            Body::from(body.to_string()),
+        )
+        .await;
+        assert_eq!(
+            status,
+            StatusCode::ACCEPTED,
+            "{}",
+            String::from_utf8_lossy(&answer)
+        );
+        for _ in 0..400 {
+            let (_, info) = call(
+                &router,
+                Method::GET,
+                &format!("/v1/heads/{id}"),
+                Some("admin"),
+                Body::empty(),
+            )
+            .await;
+            let info: serde_json::Value = serde_json::from_slice(&info).unwrap();
+            if info["status"] == "ready" {
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    }
+    router
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_endpoint_takes_exactly_the_tokens_of_the_table() {
+    let router = guarded().await;
+    let tokens = [
+        None,
+        Some("wrong"),
+        Some("viewer"),
+        Some("producer"),
+        Some("own"),
+        Some("admin"),
+    ];
+    // (method, path, which of `tokens` are let in); the WebSocket routes answer a request
+    // that is not an upgrade with 4xx, anything but 401 means the token was let in.
+    let open = [true; 6];
+    let viewer = [false, false, true, false, false, true];
+    let admin = [false, false, false, false, false, true];
+    let producer_plain = [false, false, false, true, false, true];
+    let producer_own = [false, false, false, false, true, true];
+    let table: [(Method, &str, [bool; 6]); 19] = [
+        (Method::GET, "/healthz", open),
+        (Method::GET, "/", open),
+        (Method::GET, "/app.js", open),
+        (Method::GET, "/metrics", admin),
+        (Method::GET, "/v1/algorithms", viewer),
+        (Method::GET, "/v1/heads", viewer),
+        (Method::GET, "/v1/heads/own", viewer),
+        (Method::GET, "/v1/heads/own/mesh.bin", viewer),
+        (Method::GET, "/v1/heads/own/mesh.obj", viewer),
+        (Method::GET, "/v1/heads/own/streams/s/view", viewer),
+        (Method::POST, "/v1/heads", admin),
+        (Method::DELETE, "/v1/heads/nosuch", admin),
+        (Method::GET, "/v1/heads/own/streams/s/produce", producer_own),
+        (Method::POST, "/v1/heads/own/streams/s/batch", producer_own),
+        (Method::DELETE, "/v1/heads/own/streams/s/producer", producer_own),
+        (Method::GET, "/v1/heads/plain/streams/s/produce", producer_plain),
+        (Method::POST, "/v1/heads/plain/streams/s/batch", producer_plain),
+        (
+            Method::DELETE,
+            "/v1/heads/plain/streams/s/producer",
+            producer_plain,
+        ),
+        (Method::GET, "/v1/heads/plain", viewer),
+    ];
+    for (method, path, allowed) in &table {
+        for (token, allowed) in tokens.iter().zip(allowed) {
+            let (status, body) = call(&router, method.clone(), path, *token, Body::empty()).await;
+            let let_in = status != StatusCode::UNAUTHORIZED;
+            assert_eq!(
+                let_in,
+                *allowed,
+                "{method} {path} with token {token:?}: {status} {}",
+                String::from_utf8_lossy(&body)
+            );
+            if !let_in {
+                let error: serde_json::Value = serde_json::from_slice(&body).unwrap();
+                assert_eq!(error["error"], "unauthorized");
+            }
+        }
+    }
+    // The query parameter works as the header does.
+    let (status, _) = call(
+        &router,
+        Method::GET,
+        "/v1/heads?token=viewer",
+        None,
+        Body::empty(),
+    )
+    .await;
+    assert_eq!(status, StatusCode::OK);
+}
+
+#[tokio::test]
+async fn what_no_route_answers_is_a_json_error() {
+    let router = app(AppState::new(memory_config()).unwrap());
+    let (status, body) = call(&router, Method::GET, "/v2/nothing", None, Body::empty()).await;
+    assert_eq!(status, StatusCode::NOT_FOUND);
+    let body: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(body["error"], "not_found");
+    let (status, body) = call(&router, Method::PUT, "/v1/heads", None, Body::empty()).await;
+    assert_eq!(status, StatusCode::METHOD_NOT_ALLOWED);
+    let body: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(body["error"], "not_found");
+    let (status, body) = call(&router, Method::POST, "/v1/heads", None, Body::from("{")).await;
+    assert_eq!(status, StatusCode::BAD_REQUEST);
+    let body: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(body["error"], "bad_request");
+    let landmarks = serde_json::json!({
+        "id": "x",
+        "obj": std::fs::read_to_string(data("heads/makehuman_head.obj")).unwrap(),
+        "landmarks": "mm_per_unit = nan\\n",
+    });
+    let (status, body) = call(
+        &router,
+        Method::POST,
+        "/v1/heads",
+        None,
+        Body::from(landmarks.to_string()),
+    )
+    .await;
+    let body: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(
+        (status, body["error"].as_str()),
+        (StatusCode::BAD_REQUEST, Some("bad_landmarks")),
+        "{body}"
+    );
+}
