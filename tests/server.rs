@@ -1,145 +1,29 @@
 //! The service through real sockets on ephemeral ports: registration over HTTP, producers
 //! and viewers over WebSocket, malformed input, slow viewers, restarts and tokens.
 
-use std::net::SocketAddr;
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::data;
+use common::service::{connect, memory_config, next_frame, next_json, resident_kib, Server, Socket};
+
 use std::time::Duration;
 
 use facewire::deform::{bind, AlgoSpec, Registration};
 use facewire::fit::{FitFile, FittedMask};
 use facewire::head::Head;
 use facewire::mask::Mask;
-use facewire::server::{serve, AppState, Config};
+use facewire::server::Config;
 use facewire::stream::{open_stream, Frame, JsonlWriter};
-use facewire_proto::frame::{decode, ViewerFrame};
+use facewire_proto::frame::ViewerFrame;
 use facewire_proto::messages::{HeadInfo, ServerMessage};
 use facewire_proto::params::ParamFrame;
 use futures_util::{SinkExt, StreamExt};
 use glam::Vec3;
 use tokio_tungstenite::tungstenite::Message;
 
-type Socket = tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
-
-fn data(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path)
-}
-
-struct Server {
-    addr: SocketAddr,
-    state: AppState,
-    task: tokio::task::JoinHandle<std::io::Result<()>>,
-}
-
-impl Server {
-    async fn start(config: Config) -> Server {
-        let state = AppState::new(Config {
-            addr: "127.0.0.1:0".parse().unwrap(),
-            ..config
-        })
-        .unwrap();
-        let (tx, rx) = tokio::sync::oneshot::channel();
-        let task = tokio::spawn(serve(state.clone(), move |addr| {
-            let _ = tx.send(addr);
-        }));
-        let addr = rx.await.unwrap();
-        Server { addr, state, task }
-    }
-
-    fn http(&self, path: &str) -> String {
-        format!("http://{}{path}", self.addr)
-    }
-
-    fn ws(&self, path: &str) -> String {
-        format!("ws://{}{path}", self.addr)
-    }
-
-    async fn stop(self) {
-        self.state.shutdown.cancel();
-        tokio::time::timeout(Duration::from_secs(10), self.task)
-            .await
-            .unwrap()
-            .unwrap()
-            .unwrap();
-    }
-
-    /// Registers a shipped head under `id` and waits until it is ready.
-    async fn register(&self, id: &str, name: &str, query: &str) {
-        let body = serde_json::json!({
-            "id": id,
-            "obj": std::fs::read_to_string(data(&format!("heads/{name}.obj"))).unwrap(),
-            "fit": std::fs::read_to_string(data(&format!("heads/{name}.fit.toml"))).unwrap(),
-        });
-        let client = reqwest::Client::new();
-        let response = client
-            .post(self.http(&format!("/v1/heads{query}")))
-            .json(&body)
-            .send()
-            .await
-            .unwrap();
-        assert_eq!(response.status(), 202, "{}", response.text().await.unwrap());
-        self.wait_ready(id, query).await;
-    }
-
-    async fn wait_ready(&self, id: &str, query: &str) -> HeadInfo {
-        for _ in 0..600 {
-            let info: HeadInfo = reqwest::get(self.http(&format!("/v1/heads/{id}{query}")))
-                .await
-                .unwrap()
-                .json()
-                .await
-                .unwrap();
-            match info.status.as_str() {
-                "ready" => return info,
-                "failed" => panic!("registration failed: {:?}", info.error),
-                _ => tokio::time::sleep(Duration::from_millis(50)).await,
-            }
-        }
-        panic!("head {id} did not become ready");
-    }
-}
-
 /// The tests of this file run one at a time: the slow-viewer test measures the process's
 /// memory, which other tests' heads would disturb.
 static SERIAL: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
-
-fn memory_config() -> Config {
-    Config {
-        data_dir: None,
-        ..Config::default()
-    }
-}
-
-async fn connect(url: &str) -> Socket {
-    tokio_tungstenite::connect_async(url).await.unwrap().0
-}
-
-/// Next JSON message, skipping binary frames.
-async fn next_json(socket: &mut Socket) -> ServerMessage {
-    loop {
-        let message = tokio::time::timeout(Duration::from_secs(10), socket.next())
-            .await
-            .expect("a message in time")
-            .expect("socket open")
-            .unwrap();
-        if let Message::Text(text) = message {
-            return serde_json::from_str(text.as_str()).unwrap();
-        }
-    }
-}
-
-/// Next binary frame, skipping JSON messages.
-async fn next_frame(socket: &mut Socket) -> ViewerFrame {
-    loop {
-        let message = tokio::time::timeout(Duration::from_secs(10), socket.next())
-            .await
-            .expect("a frame in time")
-            .expect("socket open")
-            .unwrap();
-        if let Message::Binary(bytes) = message {
-            return decode(&bytes).unwrap();
-        }
-    }
-}
 
 fn json_line(frame: &Frame, mask: &Mask) -> String {
     let mut writer = JsonlWriter::new(Vec::new(), mask);
@@ -273,15 +157,6 @@ async fn viewers_see_what_facewire_deform_computes() {
     server.stop().await;
 }
 
-fn resident_kib() -> u64 {
-    let statm = std::fs::read_to_string("/proc/self/statm").unwrap_or_default();
-    statm
-        .split_whitespace()
-        .nth(1)
-        .and_then(|p| p.parse::<u64>().ok())
-        .unwrap_or(0)
-        * 4
-}
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_slow_viewer_skips_frames_and_holds_nobody_up() {

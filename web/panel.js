@@ -6,6 +6,7 @@
 
 import { applyFrame, decodeFrame, readFrameHeader } from "./decode.js";
 import { HeadRenderer } from "./render.js";
+import { CLOSE } from "./codes.js";
 import { ViewerSocket } from "./stream.js";
 
 /** Raw frames kept while waiting to be drawn; older ones are dropped. */
@@ -278,8 +279,8 @@ export class Panel {
     }
     status.textContent = text;
     if (state === "error") {
-      const what = detail.code === 4404 ? "Not found" : "Refused";
-      this.showMessage(`${what}: ${detail.message}.${detail.code === 4404 ? " Pick a registered head above." : ""}`);
+      const missing = detail.code === CLOSE.unknown_head;
+      this.showMessage(`${missing ? "Not found" : "Refused"}: ${detail.message}.${missing ? " Pick a registered head above." : ""}`);
     } else if (state === "reconnecting") {
       this.showMessage(`Connection lost (${detail.message}); trying again.`);
     } else if (state === "ended") {

@@ -2,10 +2,12 @@
 // no frame yet); live; ended (the server sent `end`); reconnecting (exponential backoff
 // after a lost connection: the server sends the newest frame right after its snapshot, so
 // a reconnect resumes where the stream is now, with no replay); and error, for refusals
-// that retrying cannot fix (close 4404 unknown head, 4400 bad algorithm, 4409 failed
-// registration), which keep the server's `error` message.
+// that retrying cannot fix (codes.js: unknown head, bad algorithm, failed registration),
+// which keep the server's `error` message. A deleted head (close 4410) is reconnected to,
+// so a head registered again under the same id shows up.
 
-const FINAL_CLOSE_CODES = new Set([4400, 4404, 4409]);
+import { END_REASONS, FINAL_CLOSE_CODES } from "./codes.js";
+
 const FIRST_RETRY_MS = 500;
 const MAX_RETRY_MS = 15_000;
 
@@ -72,7 +74,7 @@ export class ViewerSocket {
         this.handlers.onSnapshot(message);
         this.setState("waiting");
       } else if (message.type === "end") {
-        this.setState("ended", { message: message.reason });
+        this.setState("ended", { message: END_REASONS[message.reason] || message.message || message.reason });
       } else if (message.type === "error") {
         refusal = message;
       }

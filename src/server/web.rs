@@ -12,12 +12,13 @@ const JS: &str = "text/javascript; charset=utf-8";
 
 /// `(path, content type, body)` of every embedded file. `web/decode.test.mjs` and
 /// `web/package.json` are for the decoder test (`tests/web_decode.rs`), not served.
-const ASSETS: [(&str, &str, &str); 9] = [
+const ASSETS: [(&str, &str, &str); 10] = [
     ("/", HTML, include_str!("../../web/index.html")),
     ("/style.css", CSS, include_str!("../../web/style.css")),
     ("/app.js", JS, include_str!("../../web/app.js")),
     ("/camera.js", JS, include_str!("../../web/camera.js")),
     ("/chart.js", JS, include_str!("../../web/chart.js")),
+    ("/codes.js", JS, include_str!("../../web/codes.js")),
     ("/decode.js", JS, include_str!("../../web/decode.js")),
     ("/panel.js", JS, include_str!("../../web/panel.js")),
     ("/render.js", JS, include_str!("../../web/render.js")),
@@ -42,4 +43,33 @@ pub fn routes<S: Clone + Send + Sync + 'static>() -> Router<S> {
         );
     }
     router
+}
+
+#[cfg(test)]
+mod tests {
+    use facewire_proto::codes::{CloseCode, EndReason};
+
+    const CODES_JS: &str = include_str!("../../web/codes.js");
+
+    #[test]
+    fn the_page_knows_every_close_code_and_end_reason_as_the_protocol_defines_them() {
+        for code in CloseCode::ALL {
+            let entry = format!("  {}: {},", code.name(), code.code());
+            assert!(CODES_JS.contains(&entry), "web/codes.js lacks {entry:?}");
+        }
+        assert_eq!(CODES_JS.matches(": 1").count() + CODES_JS.matches(": 4").count(), CloseCode::ALL.len());
+        let finals: Vec<String> = CloseCode::ALL
+            .iter()
+            .filter(|c| c.is_final())
+            .map(|c| format!("CLOSE.{}", c.name()))
+            .collect();
+        let line = CODES_JS.lines().find(|l| l.contains("FINAL_CLOSE_CODES =")).unwrap();
+        assert_eq!(line.matches("CLOSE.").count(), finals.len(), "{line}");
+        for name in finals {
+            assert!(line.contains(&name), "{line} lacks {name}");
+        }
+        for reason in EndReason::ALL {
+            assert!(CODES_JS.contains(&format!("  {}: \"", reason.as_str())), "web/codes.js lacks {reason}");
+        }
+    }
 }
