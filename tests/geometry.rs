@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use facewire::fit::{anchor_mask, residuals, FitFile, FittedMask};
+use facewire::fit::{anchor_mask, residuals, FitFile, FittedMask, Landmarks};
 use facewire::head::{Head, HeadError, ObjError, SurfaceDistance};
 use facewire::mask::{Fapu, Mask, MaskPose, WfmError, INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
 use glam::Vec3;
@@ -292,4 +292,41 @@ fn expression_targets_index_the_head_in_file_order() {
         assert!(a.abs_diff_eq(*b, 2e-4), "vertex {v}: {a} vs {b}");
     }
     assert_eq!(neutral.triangles, open.triangles);
+}
+
+/// MPEG-4 feature point -> CANDIDE-3 vertex, from `data/candide3/NOTES.md` section 6.1
+/// (single-vertex entries only).
+fn fdp_table() -> std::collections::HashMap<String, u32> {
+    let notes = std::fs::read_to_string(data("candide3/NOTES.md")).unwrap();
+    let section = notes
+        .split("### 6.1")
+        .nth(1)
+        .and_then(|rest| rest.split("###").next())
+        .unwrap();
+    section
+        .lines()
+        .filter(|l| l.starts_with("- **") && l.contains('→'))
+        .flat_map(|l| l.split([':', ',']).skip(1))
+        .filter_map(|pair| {
+            let (point, vertex) = pair.trim().trim_start_matches("**").trim().split_once('→')?;
+            Some((point.trim().to_string(), vertex.trim().parse().ok()?))
+        })
+        .collect()
+}
+
+#[test]
+fn landmark_names_agree_with_the_fdp_table() {
+    let table = fdp_table();
+    assert_eq!(table["3.7"], 20, "left eye, outer corner");
+    assert_eq!(table["3.12"], 53, "right eye, outer corner (x = -0.47)");
+    for name in ["makehuman_head", "lee_perry_smith_head"] {
+        let landmarks = Landmarks::load(&data(&format!("heads/{name}.landmarks.toml"))).unwrap();
+        for l in &landmarks.landmarks {
+            let label = l.name.as_deref().unwrap_or("");
+            let Some(point) = label.split("(FP ").nth(1).map(|p| p.trim_end_matches(')')) else {
+                continue;
+            };
+            assert_eq!(table.get(point), Some(&l.mask_vertex), "{name}: {label}");
+        }
+    }
 }
