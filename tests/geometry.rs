@@ -5,7 +5,9 @@ use std::path::{Path, PathBuf};
 
 use facewire::fit::{anchor_mask, residuals, FitFile, FittedMask, Landmarks};
 use facewire::head::{Head, HeadError, ObjError, SurfaceDistance};
+use facewire::input::ReadError;
 use facewire::mask::{Fapu, Mask, MaskPose, WfmError, INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
+use facewire::quote::quote;
 use glam::Vec3;
 
 fn data(path: &str) -> PathBuf {
@@ -72,10 +74,19 @@ fn malformed_models_name_the_line() {
         WfmError::NotANumber {
             line: 40,
             field: "vertex 0 y".into(),
-            found: "abc".into()
+            found: quote("abc")
         }
     );
     assert_eq!(err.to_string(), "line 40: vertex 0 y \"abc\" is not a number");
+    // A 6 MB token is quoted short, with its length.
+    let token = "7".repeat(3_000_000) + &"x".repeat(3_000_000);
+    for line in [format!("0.0 {token} 0.0"), format!("0.0 0.0 0.0 {token}")] {
+        let err = Mask::from_wfm_bytes(with_line(40, &line).as_bytes())
+            .unwrap_err()
+            .to_string();
+        assert!(err.len() < 200, "{} bytes", err.len());
+        assert!(err.contains("\"… (6000"), "{err}");
+    }
     let err = Mask::from_wfm_bytes(with_line(156, "0 1 113").as_bytes()).unwrap_err();
     assert!(
         matches!(
@@ -257,7 +268,7 @@ fn fitted_mask_controls_are_zero_at_rest_and_follow_the_pose() {
 #[test]
 fn bad_obj_input_gives_clear_errors() {
     let missing = Head::load(Path::new("/nonexistent/head.obj")).unwrap_err();
-    assert!(matches!(missing, HeadError::Io { .. }));
+    assert!(matches!(missing, HeadError::Read(ReadError::Io { .. })));
     assert!(missing.to_string().contains("/nonexistent/head.obj"), "{missing}");
     let garbage = Head::from_obj_bytes("g.obj", &[0xff, 0x00, 0x13, 0x37]).unwrap_err();
     assert_eq!(garbage, ObjError::NoTriangles);
