@@ -5,6 +5,8 @@
 
 use glam::Vec3;
 
+use crate::quote::quote;
+
 /// One data line: its 1-based number and its fields.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Row<'a> {
@@ -27,6 +29,7 @@ pub fn rows(text: &str) -> impl Iterator<Item = Row<'_>> {
 #[derive(Debug, Clone, PartialEq)]
 pub struct FieldProblem {
     pub field: &'static str,
+    /// The text as found, quoted and cut by [`quote`].
     pub found: String,
     pub problem: &'static str,
 }
@@ -35,7 +38,7 @@ impl FieldProblem {
     fn new(field: &'static str, found: &str, problem: &'static str) -> FieldProblem {
         FieldProblem {
             field,
-            found: found.to_string(),
+            found: quote(found),
             problem,
         }
     }

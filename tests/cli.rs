@@ -272,3 +272,138 @@ fn every_preset_deforms_both_heads_from_both_shipped_streams() {
         }
     }
 }
+
+/// Runs `facewire inspect FILE` expecting it to fail; returns stderr.
+fn inspect_error(file: &Path) -> String {
+    let out = facewire(&["inspect", file.to_str().unwrap()]);
+    assert!(!out.status.success(), "{} was accepted", file.display());
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+#[test]
+fn inspect_counts_32000_duplicate_faces_and_refuses_a_huge_polygon() {
+    let dir = tempfile::tempdir().unwrap();
+    let duplicates = dir.path().join("dup.obj");
+    let text = format!("v 0 0 0\nv 1 0 0\nv 0 1 0\n{}", "f 1 2 3\n".repeat(32_000));
+    std::fs::write(&duplicates, text).unwrap();
+    let report = json(&["inspect", duplicates.to_str().unwrap(), "--json"]);
+    let problems = report["problems"].as_array().unwrap();
+    let count = |kind: &str| {
+        problems
+            .iter()
+            .find(|p| p["kind"] == kind)
+            .map(|p| p["count"].clone())
+    };
+    assert_eq!(count("duplicate_triangles"), Some(31_999.into()));
+    assert_eq!(count("non_manifold_edges"), Some(3.into()));
+
+    let polygon = dir.path().join("poly.obj");
+    let corners: Vec<String> = (1..=80_000).map(|i| i.to_string()).collect();
+    std::fs::write(
+        &polygon,
+        format!("{}f {}\n", "v 0 0 0\n".repeat(80_000), corners.join(" ")),
+    )
+    .unwrap();
+    let err = inspect_error(&polygon);
+    assert!(
+        err.contains("poly.obj: line 80001: a face with 80000 corners; at most 64"),
+        "{err}"
+    );
+}
+
+#[test]
+fn inspect_validates_landmarks_as_the_service_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let shipped = std::fs::read_to_string(data("heads/makehuman_head.landmarks.toml")).unwrap();
+    let bad = dir.path().join("bad.landmarks.toml");
+    std::fs::write(&bad, shipped.replace("mask_vertex = 20\n", "mask_vertex = 999\n")).unwrap();
+    let err = inspect_error(&bad);
+    assert!(
+        err.contains("bad.landmarks.toml: landmark[0].mask_vertex = 999 is out of range (must be below 113)"),
+        "{err}"
+    );
+    // With the head at hand, head vertices are checked too.
+    let far = dir.path().join("far.landmarks.toml");
+    std::fs::write(
+        &far,
+        shipped.replace("head_vertex = 15\n", "head_vertex = 999999\n"),
+    )
+    .unwrap();
+    let head = data("heads/makehuman_head.obj");
+    let out = facewire(&["inspect", far.to_str().unwrap(), "--head", head.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("landmark[1].head_vertex = 999999 is out of range"),
+        "{err}"
+    );
+    for bad_scale in ["nan", "0.0", "-5.0", "inf"] {
+        let file = dir.path().join("scale.landmarks.toml");
+        std::fs::write(
+            &file,
+            shipped.replace("mm_per_unit = 100.0", &format!("mm_per_unit = {bad_scale}")),
+        )
+        .unwrap();
+        let err = inspect_error(&file);
+        assert!(
+            err.contains("scale.landmarks.toml: field mm_per_unit: "),
+            "{bad_scale}: {err}"
+        );
+    }
+}
+
+#[test]
+fn inspect_reads_only_regular_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let shipped = std::fs::read_to_string(data("heads/makehuman_head.fit.toml")).unwrap();
+    let fit = dir.path().join("zero.fit.toml");
+    std::fs::write(
+        &fit,
+        shipped.replace("head = \"makehuman_head.obj\"", "head = \"/dev/zero\""),
+    )
+    .unwrap();
+    let err = inspect_error(&fit);
+    assert!(
+        err.contains("cannot read /dev/zero: it is a character device, not a regular file"),
+        "{err}"
+    );
+    let folder = dir.path().join("folder.obj");
+    std::fs::create_dir(&folder).unwrap();
+    assert!(inspect_error(&folder).contains("it is a directory, not a regular file"));
+}
+
+#[test]
+fn errors_cut_a_six_megabyte_token() {
+    let dir = tempfile::tempdir().unwrap();
+    let token = "1".repeat(3_000_000) + &"e".repeat(3_000_000);
+    // Stream lines stop at 1 MiB; a 600 kB token fits in one.
+    let stream_token = &token[2_700_000..3_300_000];
+    let files = [
+        ("token.obj", format!("v 0 0 0\nv 0 {token} 0\n")),
+        ("token.fit.toml", format!("{token} = 1\n")),
+        (
+            "token.jsonl",
+            format!("{{\"seq\":0,\"t\":0,\"au\":{{\"{stream_token}\":1}}}}\n"),
+        ),
+        ("token.fap", format!("2.1 token {stream_token} 1\n")),
+    ];
+    for (name, text) in files {
+        let file = dir.path().join(name);
+        std::fs::write(&file, text).unwrap();
+        let err = inspect_error(&file);
+        assert!(err.len() < 2_000, "{name}: {} bytes on stderr", err.len());
+        assert!(err.contains("… (600000"), "{name}: {err}");
+    }
+}
+
+#[test]
+fn bad_utf8_in_toml_names_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let landmarks = dir.path().join("l.landmarks.toml");
+    std::fs::write(&landmarks, b"head = \"h.obj\"\n# na\xefve\n").unwrap();
+    let err = inspect_error(&landmarks);
+    assert!(
+        err.contains("l.landmarks.toml: line 2, column 5: not valid UTF-8 (byte 19)"),
+        "{err}"
+    );
+}

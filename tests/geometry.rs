@@ -3,9 +3,11 @@
 
 use std::path::{Path, PathBuf};
 
-use facewire::fit::{anchor_mask, residuals, FitFile, FittedMask};
+use facewire::fit::{anchor_mask, residuals, FitFile, FittedMask, Landmarks};
 use facewire::head::{Head, HeadError, ObjError, SurfaceDistance};
+use facewire::input::ReadError;
 use facewire::mask::{Fapu, Mask, MaskPose, WfmError, INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
+use facewire::quote::quote;
 use glam::Vec3;
 
 fn data(path: &str) -> PathBuf {
@@ -72,10 +74,19 @@ fn malformed_models_name_the_line() {
         WfmError::NotANumber {
             line: 40,
             field: "vertex 0 y".into(),
-            found: "abc".into()
+            found: quote("abc")
         }
     );
     assert_eq!(err.to_string(), "line 40: vertex 0 y \"abc\" is not a number");
+    // A 6 MB token is quoted short, with its length.
+    let token = "7".repeat(3_000_000) + &"x".repeat(3_000_000);
+    for line in [format!("0.0 {token} 0.0"), format!("0.0 0.0 0.0 {token}")] {
+        let err = Mask::from_wfm_bytes(with_line(40, &line).as_bytes())
+            .unwrap_err()
+            .to_string();
+        assert!(err.len() < 200, "{} bytes", err.len());
+        assert!(err.contains("\"… (6000"), "{err}");
+    }
     let err = Mask::from_wfm_bytes(with_line(156, "0 1 113").as_bytes()).unwrap_err();
     assert!(
         matches!(
@@ -257,7 +268,7 @@ fn fitted_mask_controls_are_zero_at_rest_and_follow_the_pose() {
 #[test]
 fn bad_obj_input_gives_clear_errors() {
     let missing = Head::load(Path::new("/nonexistent/head.obj")).unwrap_err();
-    assert!(matches!(missing, HeadError::Io { .. }));
+    assert!(matches!(missing, HeadError::Read(ReadError::Io { .. })));
     assert!(missing.to_string().contains("/nonexistent/head.obj"), "{missing}");
     let garbage = Head::from_obj_bytes("g.obj", &[0xff, 0x00, 0x13, 0x37]).unwrap_err();
     assert_eq!(garbage, ObjError::NoTriangles);
@@ -292,4 +303,41 @@ fn expression_targets_index_the_head_in_file_order() {
         assert!(a.abs_diff_eq(*b, 2e-4), "vertex {v}: {a} vs {b}");
     }
     assert_eq!(neutral.triangles, open.triangles);
+}
+
+/// MPEG-4 feature point -> CANDIDE-3 vertex, from `data/candide3/NOTES.md` section 6.1
+/// (single-vertex entries only).
+fn fdp_table() -> std::collections::HashMap<String, u32> {
+    let notes = std::fs::read_to_string(data("candide3/NOTES.md")).unwrap();
+    let section = notes
+        .split("### 6.1")
+        .nth(1)
+        .and_then(|rest| rest.split("###").next())
+        .unwrap();
+    section
+        .lines()
+        .filter(|l| l.starts_with("- **") && l.contains('→'))
+        .flat_map(|l| l.split([':', ',']).skip(1))
+        .filter_map(|pair| {
+            let (point, vertex) = pair.trim().trim_start_matches("**").trim().split_once('→')?;
+            Some((point.trim().to_string(), vertex.trim().parse().ok()?))
+        })
+        .collect()
+}
+
+#[test]
+fn landmark_names_agree_with_the_fdp_table() {
+    let table = fdp_table();
+    assert_eq!(table["3.7"], 20, "left eye, outer corner");
+    assert_eq!(table["3.12"], 53, "right eye, outer corner (x = -0.47)");
+    for name in ["makehuman_head", "lee_perry_smith_head"] {
+        let landmarks = Landmarks::load(&data(&format!("heads/{name}.landmarks.toml"))).unwrap();
+        for l in &landmarks.landmarks {
+            let label = l.name.as_deref().unwrap_or("");
+            let Some(point) = label.split("(FP ").nth(1).map(|p| p.trim_end_matches(')')) else {
+                continue;
+            };
+            assert_eq!(table.get(point), Some(&l.mask_vertex), "{name}: {label}");
+        }
+    }
 }

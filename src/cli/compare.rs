@@ -60,7 +60,7 @@ pub fn run(args: Args) -> CliResult {
     // Fail before the slow part when the stream cannot be opened.
     drop(open_stream(&args.stream, &mask)?);
     let targets = load_targets(&args, head.positions.len())?;
-    let registration = Registration::new(head, FittedMask::new(mask, fit));
+    let registration = Registration::try_new(head, FittedMask::new(mask, fit))?;
 
     let basis = ArkitBasis::shipped();
     let input = CompareInput {

@@ -74,7 +74,7 @@ pub fn run(args: Args) -> CliResult {
     let fit = load_fit(&args.fit, &mask)?;
     let head = load_head(&args.head)?;
     let started = Instant::now();
-    let registration = Registration::new(head, FittedMask::new(mask.clone(), fit));
+    let registration = Registration::try_new(head, FittedMask::new(mask.clone(), fit))?;
     let registered = started.elapsed();
     let binding = bind(&registration, &spec);
     eprintln!(

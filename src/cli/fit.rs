@@ -5,7 +5,10 @@ use serde::Serialize;
 
 use super::{load_head, load_mask, print_json, CliResult, FilePath};
 use crate::atomic::write_atomic;
-use crate::fit::{residuals, solve_fit, Fit, FitFile, FittedMask, Landmarks, Residuals, SolveOptions};
+use crate::fit::limits::{in_range, MM_PER_UNIT_RANGE};
+use crate::fit::{
+    fit_from_landmarks, residuals, solve_fit, Fit, FitFile, FittedMask, Landmarks, Residuals, SolveOptions,
+};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -43,41 +46,32 @@ struct Report {
 pub fn run(args: Args) -> CliResult {
     let mask = load_mask(args.mask.as_deref())?;
     let head = load_head(&args.head)?;
-    let landmarks = Landmarks::load(&args.landmarks)?;
-    landmarks.validate(
-        &args.landmarks.display().to_string(),
-        mask.vertices.len(),
-        head.positions.len(),
-    )?;
-    let pairs: Vec<(u32, glam::DVec3)> = landmarks
-        .landmarks
-        .iter()
-        .map(|l| (l.mask_vertex, head.positions[l.head_vertex as usize].as_dvec3()))
-        .collect();
+    let mut landmarks = Landmarks::load(&args.landmarks)?;
+    let source = match (args.mm_per_unit, landmarks.mm_per_unit) {
+        (Some(mm), _) => {
+            landmarks.mm_per_unit = Some(in_range("--mm-per-unit", mm, MM_PER_UNIT_RANGE)?);
+            "command line"
+        }
+        (None, Some(_)) => "landmarks file",
+        (None, None) => "63 mm pupil separation",
+    };
+    let origin = args.landmarks.display().to_string();
+    let solved = fit_from_landmarks(&head, &landmarks, &origin, &mask)?;
+    let after = &solved.fit;
+    let mm_per_unit = after.mm_per_unit;
+    // The similarity alone, for comparison: how much the shape units add.
+    let pairs = landmarks.targets(&head);
+    let similarity_only = SolveOptions {
+        solve_shape: false,
+        ..SolveOptions::default()
+    };
+    let before = solve_fit(&mask, &pairs, &[], &similarity_only)?;
     let index_pairs: Vec<(u32, u32)> = landmarks
         .landmarks
         .iter()
         .map(|l| (l.mask_vertex, l.head_vertex))
         .collect();
 
-    let similarity_only = SolveOptions {
-        solve_shape: false,
-        ..SolveOptions::default()
-    };
-    let before = solve_fit(&mask, &pairs, &[], &similarity_only)?;
-    let after = solve_fit(&mask, &pairs, &[], &SolveOptions::default())?;
-
-    let (mm_per_unit, source) = match (args.mm_per_unit, landmarks.mm_per_unit) {
-        (Some(mm), _) => (mm, "command line"),
-        (None, Some(mm)) => (mm, "landmarks file"),
-        (None, None) => (
-            Fit::mm_per_unit_from_pupils(&mask, &after.shape, &after.pose),
-            "63 mm pupil separation",
-        ),
-    };
-    if !(mm_per_unit.is_finite() && mm_per_unit > 0.0) {
-        return Err(format!("mm_per_unit {mm_per_unit} must be a positive number").into());
-    }
     let used = mask.used_vertices();
     let measure = |shape: &[f32], pose| {
         let fit = Fit {
@@ -104,7 +98,7 @@ pub fn run(args: Args) -> CliResult {
         return print_json(&Report {
             fit: file,
             mm_per_unit_source: source,
-            iterations: after.iterations,
+            iterations: solved.iterations,
             before: before_residuals,
             after: after_residuals,
         });
@@ -114,7 +108,7 @@ pub fn run(args: Args) -> CliResult {
         mask_name(&args.mask),
         args.head.display(),
         pairs.len(),
-        after.iterations
+        solved.iterations
     );
     println!(
         "mm per head unit: {mm_per_unit:.4} ({source}); scale {:.5} head units per mask unit",

@@ -4,6 +4,7 @@
 use serde::Serialize;
 
 use super::{has_suffix, load_head, load_mask, print_json, CliResult, FilePath};
+use crate::deform::Registration;
 use crate::fit::{anchor_mask, residuals, FitFile, FittedMask, Landmarks};
 use crate::head::{Bounds, Problem};
 use crate::mask::{FapuValues, Mask, UnitKind};
@@ -15,8 +16,8 @@ pub struct Args {
     /// A .wfm, .obj, .fit.toml or .landmarks.toml file, or a parameter stream (.jsonl, .fap,
     /// .fau, .txt).
     file: FilePath,
-    /// With a .fit.toml: the head it fits, to report residuals (default: the `head` named
-    /// in the fit, next to it).
+    /// With a .fit.toml or .landmarks.toml: the head it belongs to, to report residuals or
+    /// check head vertices (default: the `head` named in the file, next to it).
     #[arg(long)]
     head: Option<FilePath>,
     /// Print JSON instead of text.
@@ -33,20 +34,7 @@ pub fn run(args: Args) -> CliResult {
     } else if has_suffix(path, ".fit.toml") {
         fit_report(path, args.head.as_ref(), args.json)
     } else if has_suffix(path, ".landmarks.toml") {
-        let landmarks = Landmarks::load(path)?;
-        if args.json {
-            return print_json(&landmarks);
-        }
-        println!("{}: {} landmarks", path.display(), landmarks.landmarks.len());
-        for l in &landmarks.landmarks {
-            println!(
-                "  mask vertex {:>3} -> head vertex {:>6}  {}",
-                l.mask_vertex,
-                l.head_vertex,
-                l.name.as_deref().unwrap_or("")
-            );
-        }
-        Ok(())
+        landmarks_report(path, args.head.as_ref(), args.json)
     } else if StreamFormat::from_path(path).is_ok() {
         stream_report(path, args.json)
     } else {
@@ -218,6 +206,52 @@ fn head_report(path: &std::path::Path, json: bool) -> CliResult {
     Ok(())
 }
 
+/// The head a fit or landmarks file belongs to: `--head`, else its `head` field resolved
+/// next to the file.
+fn head_path(path: &std::path::Path, head_arg: Option<&FilePath>, named: Option<&str>) -> Option<FilePath> {
+    head_arg.cloned().or_else(|| {
+        let name = named?;
+        Some(path.parent().unwrap_or(std::path::Path::new(".")).join(name))
+    })
+}
+
+/// A landmarks file, validated as `facewire fit` and the service validate it: against the
+/// CANDIDE-3 mask, and against its head when that is at hand.
+fn landmarks_report(path: &std::path::Path, head_arg: Option<&FilePath>, json: bool) -> CliResult {
+    let mask = load_mask(None)?;
+    let landmarks = Landmarks::load(path)?;
+    let origin = path.display().to_string();
+    let head_path = head_path(path, head_arg, landmarks.head.as_deref());
+    let checked_against = match &head_path {
+        Some(hp) if hp.exists() => {
+            let head = load_head(hp)?;
+            landmarks.validate(&origin, mask.vertices.len(), head.positions.len())?;
+            Some(hp.display().to_string())
+        }
+        _ => {
+            landmarks.validate_without_head(&origin, mask.vertices.len())?;
+            None
+        }
+    };
+    if json {
+        return print_json(&landmarks);
+    }
+    println!("{}: {} landmarks", path.display(), landmarks.landmarks.len());
+    match checked_against {
+        Some(head) => println!("  valid for the CANDIDE-3 mask and {head}"),
+        None => println!("  valid for the CANDIDE-3 mask; head vertices not checked (no head found)"),
+    }
+    for l in &landmarks.landmarks {
+        println!(
+            "  mask vertex {:>3} -> head vertex {:>6}  {}",
+            l.mask_vertex,
+            l.head_vertex,
+            l.name.as_deref().unwrap_or("")
+        );
+    }
+    Ok(())
+}
+
 #[derive(Serialize)]
 struct FitSummary {
     fit: FitFile,
@@ -236,13 +270,12 @@ fn fit_report(path: &std::path::Path, head_arg: Option<&FilePath>, json: bool) -
     let file = FitFile::load(path)?;
     let fit = file.resolve(&path.display().to_string(), &mask)?;
     let fitted = FittedMask::new(mask.clone(), fit.clone());
-    let head_path = head_arg.cloned().or_else(|| {
-        let name = file.head.as_ref()?;
-        Some(path.parent().unwrap_or(std::path::Path::new(".")).join(name))
-    });
+    let head_path = head_path(path, head_arg, file.head.as_deref());
     let (residuals, gap) = match &head_path {
         Some(hp) if hp.exists() => {
             let head = load_head(hp)?;
+            // Refused here as the service refuses it: the same checks.
+            Registration::check(&head, &fitted)?;
             let r = residuals::measure(
                 &head,
                 &fitted.neutral,

@@ -24,7 +24,7 @@ mod weights;
 
 pub use binding::{Binding, Csr, DeformScratch, FrameTerm, LinearTerm, SourceMap, TriangleFrame};
 pub use projection::Projection;
-pub use registration::Registration;
+pub use registration::{Registration, RegistrationError, HEAD_SIZE_MM, MASK_TO_HEAD_SIZE};
 pub use spec::{AlgoSpec, Kernel, Metric, RbfParams, SpecError, Weights};
 pub use weights::triangle_weights;
 

@@ -4,13 +4,63 @@
 //!
 //! The distance table is dense (controls x head vertices, f32): 104 x 8,838 is 3.7 MB,
 //! 104 x 100k is 42 MB. Its rows are computed in parallel, one Dijkstra per control.
+//!
+//! [`Registration::try_new`] first refuses what cannot be animated (docs/FITTING.md, "What
+//! a fit may hold"): a degenerate head, fit numbers out of range, a head of implausible
+//! physical size, a mask that misses the head.
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 use super::projection::{project, Projection};
-use crate::fit::{anchor_mask, Anchors, FittedMask};
-use crate::head::{Head, SurfaceDistance};
+use crate::fit::{anchor_mask, Anchors, FittedMask, RangeError};
+use crate::head::{check_animatable, AnimatableError, Bounds, Head, SurfaceDistance};
+
+/// Bounding-box diagonal of a head in mm (the shipped ones: 400 and 643), a doll's head to a
+/// statue's. Every radius and tolerance of the deformers is in mm, so a head outside this
+/// has a wrong `mm_per_unit`.
+pub const HEAD_SIZE_MM: [f32; 2] = [10.0, 10_000.0];
+
+/// Bounding-box diagonal of the fitted neutral mask over the head's: the face is a part
+/// of the head (0.36 and 0.58 on the shipped heads), neither a speck on it nor many times it.
+pub const MASK_TO_HEAD_SIZE: [f32; 2] = [0.02, 5.0];
+
+/// Why a head and its fit cannot be registered.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RegistrationError {
+    #[error(transparent)]
+    Head(#[from] AnimatableError),
+    #[error("fit: {0}")]
+    Fit(#[from] RangeError),
+    #[error("fit: the fitted mask has a non-finite vertex ({vertex})")]
+    MaskNotFinite { vertex: usize },
+    #[error(
+        "{name}: {size_mm} mm across at {mm_per_unit} mm per head unit; a head is {} to {} mm (check mm_per_unit)",
+        HEAD_SIZE_MM[0],
+        HEAD_SIZE_MM[1]
+    )]
+    HeadSize {
+        name: String,
+        size_mm: f32,
+        mm_per_unit: f32,
+    },
+    #[error(
+        "{name}: the fitted mask (bounds {mask_min:?} to {mask_max:?}) does not touch the head (bounds {head_min:?} to {head_max:?}), head units"
+    )]
+    MaskOffHead {
+        name: String,
+        mask_min: [f32; 3],
+        mask_max: [f32; 3],
+        head_min: [f32; 3],
+        head_max: [f32; 3],
+    },
+    #[error(
+        "{name}: the fitted mask is {ratio} times the head's size; it must be {} to {} (check scale)",
+        MASK_TO_HEAD_SIZE[0],
+        MASK_TO_HEAD_SIZE[1]
+    )]
+    MaskSize { name: String, ratio: f32 },
+}
 
 /// A head with a fitted mask, ready to bind any algorithm to.
 #[derive(Debug, Clone)]
@@ -31,6 +81,55 @@ pub struct Registration {
 }
 
 impl Registration {
+    /// Checks that `head` with `fitted` can be animated, then registers it: the entry
+    /// point for heads and fits from outside (files, uploads). Refuses a head that
+    /// [`check_animatable`] refuses, fit numbers out of range, a head whose size in mm is
+    /// outside [`HEAD_SIZE_MM`], and a fitted mask that misses the head's bounding box or
+    /// whose size relative to the head is outside [`MASK_TO_HEAD_SIZE`].
+    pub fn try_new(head: Head, fitted: FittedMask) -> Result<Registration, RegistrationError> {
+        Registration::check(&head, &fitted)?;
+        Ok(Registration::new(head, fitted))
+    }
+
+    /// The checks of [`Registration::try_new`] alone (milliseconds; registering takes
+    /// seconds): for `facewire inspect` and for refusing a request before queueing it.
+    pub fn check(head: &Head, fitted: &FittedMask) -> Result<(), RegistrationError> {
+        check_animatable(head)?;
+        fitted.fit.check_ranges()?;
+        if let Some(vertex) = fitted.neutral.iter().position(|p| !p.is_finite()) {
+            return Err(RegistrationError::MaskNotFinite { vertex });
+        }
+        let name = || head.name.clone();
+        let head_box = head.bounds();
+        let mm_per_unit = fitted.fit.mm_per_unit;
+        let size_mm = head_box.size().length() * mm_per_unit;
+        if !(HEAD_SIZE_MM[0]..=HEAD_SIZE_MM[1]).contains(&size_mm) {
+            return Err(RegistrationError::HeadSize {
+                name: name(),
+                size_mm,
+                mm_per_unit,
+            });
+        }
+        let mask_box = Bounds::of(&fitted.neutral);
+        let overlaps = mask_box.min.cmple(head_box.max).all() && head_box.min.cmple(mask_box.max).all();
+        if !overlaps {
+            return Err(RegistrationError::MaskOffHead {
+                name: name(),
+                mask_min: mask_box.min.to_array(),
+                mask_max: mask_box.max.to_array(),
+                head_min: head_box.min.to_array(),
+                head_max: head_box.max.to_array(),
+            });
+        }
+        let ratio = mask_box.size().length() / head_box.size().length();
+        if !(MASK_TO_HEAD_SIZE[0]..=MASK_TO_HEAD_SIZE[1]).contains(&ratio) {
+            return Err(RegistrationError::MaskSize { name: name(), ratio });
+        }
+        Ok(())
+    }
+
+    /// Registers without the checks of [`Registration::try_new`]: for heads and fits
+    /// already checked, and synthetic ones in tests.
     pub fn new(head: Head, fitted: FittedMask) -> Registration {
         let mm = fitted.fit.mm_per_unit;
         let anchors = anchor_mask(&head, &fitted.neutral, mm);
@@ -114,5 +213,81 @@ impl Registration {
 
     pub fn mask_triangles(&self) -> &[[u32; 3]] {
         &self.fitted.mask.triangles
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+    use crate::fit::{Fit, FitFile};
+    use crate::mask::{Mask, MaskPose};
+
+    fn shipped(name: &str) -> (Head, Fit) {
+        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/heads");
+        let head = Head::load(&data.join(format!("{name}.obj"))).unwrap();
+        let fit = FitFile::load(&data.join(format!("{name}.fit.toml")))
+            .unwrap()
+            .resolve(name, &Mask::candide3())
+            .unwrap();
+        (head, fit)
+    }
+
+    fn check(head: &Head, fit: Fit) -> Result<(), RegistrationError> {
+        Registration::check(head, &FittedMask::new(Mask::candide3(), fit))
+    }
+
+    #[test]
+    fn shipped_heads_pass_and_wild_fits_are_refused() {
+        let (head, fit) = shipped("lee_perry_smith_head");
+        assert_eq!(check(&head, fit.clone()), Ok(()));
+        let (makehuman, makehuman_fit) = shipped("makehuman_head");
+        assert_eq!(check(&makehuman, makehuman_fit), Ok(()));
+
+        let with_pose = |scale: f32, translation: Vec3| Fit {
+            pose: MaskPose::similarity(fit.pose.rotation_rad, scale, translation),
+            ..fit.clone()
+        };
+        let err = check(&head, with_pose(1e30, fit.pose.translation)).unwrap_err();
+        assert!(
+            matches!(&err, RegistrationError::Fit(e) if e.field == "scale"),
+            "{err}"
+        );
+        let err = check(
+            &head,
+            Fit {
+                mm_per_unit: 1e-30,
+                ..fit.clone()
+            },
+        )
+        .unwrap_err();
+        assert!(
+            matches!(&err, RegistrationError::Fit(e) if e.field == "mm_per_unit"),
+            "{err}"
+        );
+        let err = check(
+            &head,
+            Fit {
+                mm_per_unit: 1e-3,
+                ..fit.clone()
+            },
+        )
+        .unwrap_err();
+        assert!(matches!(err, RegistrationError::HeadSize { .. }), "{err}");
+        let err = check(&head, with_pose(fit.pose.scale.x, Vec3::new(1e4, 0.0, 0.0))).unwrap_err();
+        assert!(matches!(err, RegistrationError::MaskOffHead { .. }), "{err}");
+        let err = check(&head, with_pose(1e-4, fit.pose.translation)).unwrap_err();
+        assert!(matches!(err, RegistrationError::MaskSize { .. }), "{err}");
+        let err = check(&head, with_pose(1e3, fit.pose.translation)).unwrap_err();
+        assert!(matches!(err, RegistrationError::MaskSize { .. }), "{err}");
+    }
+
+    #[test]
+    fn a_lone_triangle_is_not_registered() {
+        let (_, fit) = shipped("lee_perry_smith_head");
+        let head = Head::new("one.obj", vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]);
+        let err = Registration::try_new(head, FittedMask::new(Mask::candide3(), fit)).unwrap_err();
+        assert_eq!(err.to_string(), "one.obj: 3 vertices; a face needs at least 100");
     }
 }

@@ -18,11 +18,13 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use super::limits::{finite3, in_range, RangeError, MM_PER_UNIT_RANGE, SCALE_RANGE};
 use super::Fit;
+use crate::input::{read_file, toml_error, utf8, ReadError, MAX_TEXT_BYTES};
 use crate::mask::{Mask, MaskPose};
+use crate::quote::clip;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -50,8 +52,8 @@ pub struct Nudge {
 
 #[derive(Debug, thiserror::Error)]
 pub enum FitFileError {
-    #[error("cannot read {path}: {source}")]
-    Io { path: String, source: std::io::Error },
+    #[error(transparent)]
+    Read(#[from] ReadError),
     #[error("{path}: {message}")]
     Toml { path: String, message: String },
     #[error("{path}: field {field}: {message}")]
@@ -63,19 +65,19 @@ pub enum FitFileError {
 }
 
 impl FitFile {
+    /// Reads a `.fit.toml`: a regular file of at most [`MAX_TEXT_BYTES`], UTF-8.
     pub fn load(path: &Path) -> Result<FitFile, FitFileError> {
-        let text = std::fs::read_to_string(path).map_err(|source| FitFileError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
-        FitFile::parse(&path.display().to_string(), &text)
+        let origin = path.display().to_string();
+        let bytes = read_file(path, MAX_TEXT_BYTES)?;
+        FitFile::parse(&origin, utf8(&origin, &bytes)?)
     }
 
-    /// Parses TOML text; `origin` names the source in errors.
+    /// Parses TOML text; `origin` names the source in errors, which give the line and
+    /// column and quote at most a few dozen characters of the input.
     pub fn parse(origin: &str, text: &str) -> Result<FitFile, FitFileError> {
         toml::from_str(text).map_err(|e| FitFileError::Toml {
             path: origin.to_string(),
-            message: e.to_string(),
+            message: toml_error(text, &e),
         })
     }
 
@@ -117,32 +119,22 @@ impl FitFile {
         out
     }
 
-    /// Resolves unit names against `mask` and checks every value. `origin` names the
-    /// file in errors.
+    /// Resolves unit names against `mask` and checks every value: scale and
+    /// `mm_per_unit` within [`SCALE_RANGE`] and [`MM_PER_UNIT_RANGE`], the rest finite.
+    /// `origin` names the file in errors.
     pub fn resolve(&self, origin: &str, mask: &Mask) -> Result<Fit, FitFileError> {
         let invalid = |field: &str, message: String| FitFileError::Invalid {
             path: origin.to_string(),
             field: field.to_string(),
             message,
         };
-        let finite3 = |field: &str, v: [f32; 3]| {
-            if v.iter().all(|x| x.is_finite()) {
-                Ok(Vec3::from_array(v))
-            } else {
-                Err(invalid(field, format!("{v:?} is not finite")))
-            }
-        };
-        let rotation = finite3("rotation_deg", self.rotation_deg)?;
-        let translation = finite3("translation", self.translation)?;
-        if !(self.scale.is_finite() && self.scale > 0.0) {
-            return Err(invalid(
-                "scale",
-                format!("{} must be a positive number", self.scale),
-            ));
-        }
+        let out_of_range = |e: RangeError| invalid(&e.field, e.reason);
+        let rotation = finite3("rotation_deg", self.rotation_deg).map_err(out_of_range)?;
+        let translation = finite3("translation", self.translation).map_err(out_of_range)?;
+        let scale = in_range("scale", self.scale, SCALE_RANGE).map_err(out_of_range)?;
         let mut shape = vec![0.0; mask.shape_units.len()];
         for (name, &value) in &self.shape_units {
-            let field = format!("shape_units.{name}");
+            let field = format!("shape_units.{}", clip(name));
             let index = mask
                 .shape_unit(name)
                 .map_err(|e| invalid(&field, e.to_string()))?;
@@ -163,14 +155,19 @@ impl FitFile {
                     ),
                 ));
             }
-            nudges.push((n.vertex, finite3(&format!("nudge[{i}].offset"), n.offset)?));
+            let offset = finite3(&format!("nudge[{i}].offset"), n.offset).map_err(out_of_range)?;
+            nudges.push((n.vertex, offset));
         }
-        let pose = MaskPose::similarity(rotation * (std::f32::consts::PI / 180.0), self.scale, translation);
+        let pose = MaskPose::similarity(rotation * (std::f32::consts::PI / 180.0), scale, translation);
         let mm_per_unit = match self.mm_per_unit {
-            Some(mm) if mm.is_finite() && mm > 0.0 => mm,
-            Some(mm) => return Err(invalid("mm_per_unit", format!("{mm} must be a positive number"))),
-            None => Fit::mm_per_unit_from_pupils(mask, &shape, &pose),
-        };
+            Some(mm) => in_range("mm_per_unit", mm, MM_PER_UNIT_RANGE),
+            None => in_range(
+                "mm_per_unit (from 63 mm pupils)",
+                Fit::mm_per_unit_from_pupils(mask, &shape, &pose),
+                MM_PER_UNIT_RANGE,
+            ),
+        }
+        .map_err(out_of_range)?;
         Ok(Fit {
             pose,
             shape,
@@ -226,6 +223,8 @@ fn trim_float(x: f32, digits: usize) -> String {
 
 #[cfg(test)]
 mod tests {
+    use glam::Vec3;
+
     use super::*;
 
     const SAMPLE: &str = r#"
@@ -298,5 +297,66 @@ offset = [0.0, 0.01, 0.0]
         assert!(err.to_string().contains("field scale"), "{err}");
         let err = FitFile::parse("f", "scale = 1\nrotation = 3").unwrap_err();
         assert!(err.to_string().starts_with("f: "), "{err}");
+    }
+
+    #[test]
+    fn extreme_scales_are_refused() {
+        let mask = Mask::candide3();
+        for (from, to, field) in [
+            ("scale = 0.5", "scale = 1e30", "scale"),
+            ("scale = 0.5", "scale = 1e-30", "scale"),
+            ("scale = 0.5", "scale = nan", "scale"),
+            ("mm_per_unit = 100.0", "mm_per_unit = 1e-30", "mm_per_unit"),
+            ("mm_per_unit = 100.0", "mm_per_unit = 0.0", "mm_per_unit"),
+            ("mm_per_unit = 100.0", "mm_per_unit = inf", "mm_per_unit"),
+        ] {
+            let err = FitFile::parse("f", &SAMPLE.replace(from, to))
+                .unwrap()
+                .resolve("f", &mask)
+                .unwrap_err()
+                .to_string();
+            assert!(err.starts_with(&format!("f: field {field}: ")), "{to}: {err}");
+            assert!(err.ends_with("is not a number in [1e-6, 1e6]"), "{to}: {err}");
+        }
+    }
+
+    #[test]
+    fn toml_errors_give_the_line_and_cut_long_values() {
+        let token = "x".repeat(6_000_000);
+        let err = FitFile::parse("f", &format!("scale = 0.5\nhead = {token}\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.len() < 200, "{} bytes", err.len());
+        assert!(err.starts_with("f: line 2, column 8: "), "{err}");
+        let err = FitFile::parse("f", &format!("scale = 0.5\n{token} = 1\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.len() < 500, "{} bytes", err.len());
+        let mask = Mask::candide3();
+        let long_unit = SAMPLE.replace(
+            "head_height = 0.25",
+            &format!("head_height = 0.25\n{token} = 0.1"),
+        );
+        let err = FitFile::parse("f", &long_unit)
+            .unwrap()
+            .resolve("f", &mask)
+            .unwrap_err()
+            .to_string();
+        assert!(err.len() < 2_000, "{} bytes", err.len());
+        assert!(err.contains("(6000000 bytes)"), "{err}");
+    }
+
+    #[test]
+    fn bad_utf8_names_the_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("h.fit.toml");
+        std::fs::write(&path, b"scale = 0.5\n# caf\xe9\n").unwrap();
+        let err = FitFile::load(&path).unwrap_err().to_string();
+        assert!(
+            err.ends_with("h.fit.toml: line 2, column 6: not valid UTF-8 (byte 17)"),
+            "{err}"
+        );
+        let err = FitFile::load(Path::new("/dev/zero")).unwrap_err().to_string();
+        assert!(err.ends_with("not a regular file"), "{err}");
     }
 }

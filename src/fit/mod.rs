@@ -7,7 +7,9 @@
 
 mod anchors;
 mod file;
+mod from_landmarks;
 mod landmarks;
+pub mod limits;
 pub mod residuals;
 mod solve;
 pub mod umeyama;
@@ -18,7 +20,9 @@ use crate::mask::{fap, FapuValues, Mask, MaskPose};
 
 pub use anchors::{anchor_mask, Anchors};
 pub use file::{FitFile, FitFileError, Nudge};
+pub use from_landmarks::{fit_from_landmarks, FitError, LandmarkFit};
 pub use landmarks::{Landmark, LandmarkError, Landmarks};
+pub use limits::RangeError;
 pub use residuals::{DistanceStats, Residuals};
 pub use solve::{solve_fit, FitSolution, SolveError, SolveOptions};
 

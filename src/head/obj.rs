@@ -8,12 +8,20 @@
 
 use glam::Vec3;
 
+use crate::quote::quote;
+
 /// Refuses files with more vertices or triangles than this (bounded memory on uploads).
 pub const MAX_ELEMENTS: usize = 5_000_000;
 
+/// Most corners one `f` line may have. Scanners and modellers write triangles and quads
+/// (n-gons of a dozen corners at most); a polygon of thousands of corners fans into
+/// thousands of thin triangles around one vertex, which no face mesh needs.
+pub const MAX_FACE_CORNERS: usize = 64;
+
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum ObjError {
-    #[error("line {line}: {field} {found:?} is not a number")]
+    /// `found` is quoted and cut by [`quote`].
+    #[error("line {line}: {field} {found} is not a number")]
     NotANumber {
         line: usize,
         field: &'static str,
@@ -25,6 +33,12 @@ pub enum ObjError {
     ShortVertex { line: usize, found: usize },
     #[error("line {line}: face needs at least 3 corners, found {found}")]
     ShortFace { line: usize, found: usize },
+    #[error("line {line}: a face with {corners} corners; at most {limit}")]
+    FaceTooLarge {
+        line: usize,
+        corners: usize,
+        limit: usize,
+    },
     #[error("line {line}: face corner {index} is out of range (the file has {count} vertices so far)")]
     IndexOutOfRange { line: usize, index: i64, count: usize },
     #[error("line {line}: more than {limit} vertices or triangles")]
@@ -61,7 +75,7 @@ pub fn parse(text: &str) -> Result<ObjMesh, ObjError> {
                     let value: f32 = text.parse().map_err(|_| ObjError::NotANumber {
                         line,
                         field: ["x", "y", "z"][k],
-                        found: text.to_string(),
+                        found: quote(text),
                     })?;
                     if !value.is_finite() {
                         return Err(ObjError::NotFinite {
@@ -80,8 +94,15 @@ pub fn parse(text: &str) -> Result<ObjMesh, ObjError> {
             }
             Some("f") => {
                 corners.clear();
-                for corner in fields {
+                for corner in fields.by_ref().take(MAX_FACE_CORNERS + 1) {
                     corners.push(parse_corner(line, corner, positions.len())?);
+                }
+                if corners.len() > MAX_FACE_CORNERS {
+                    return Err(ObjError::FaceTooLarge {
+                        line,
+                        corners: corners.len() + fields.count(),
+                        limit: MAX_FACE_CORNERS,
+                    });
                 }
                 if corners.len() < 3 {
                     return Err(ObjError::ShortFace {
@@ -114,7 +135,7 @@ fn parse_corner(line: usize, text: &str, count: usize) -> Result<u32, ObjError> 
     let index: i64 = vertex.parse().map_err(|_| ObjError::NotANumber {
         line,
         field: "face corner",
-        found: text.to_string(),
+        found: quote(text),
     })?;
     let resolved = if index > 0 {
         index - 1
@@ -174,8 +195,12 @@ mod tests {
             Err(ObjError::NotANumber {
                 line: 2,
                 field: "y",
-                found: "x".into()
+                found: quote("x")
             })
+        );
+        assert_eq!(
+            parse("v 0 0 0\nv 1 x 0\n").unwrap_err().to_string(),
+            "line 2: y \"x\" is not a number"
         );
         match parse("v 0 0 0\nv 1 nan 0\n") {
             Err(ObjError::NotFinite {
@@ -199,5 +224,41 @@ mod tests {
             Err(ObjError::ShortFace { line: 2, found: 2 })
         );
         assert_eq!(parse("garbage\n"), Err(ObjError::NoTriangles));
+    }
+
+    #[test]
+    fn a_huge_polygon_is_refused_with_its_size() {
+        let corners: Vec<String> = (1..=80_000).map(|i| i.to_string()).collect();
+        let text = format!(
+            "{}# the polygon\nf {}\n",
+            "v 0 0 0\n".repeat(80_000),
+            corners.join(" ")
+        );
+        assert_eq!(
+            parse(&text).unwrap_err().to_string(),
+            "line 80002: a face with 80000 corners; at most 64"
+        );
+        let ring: Vec<String> = (1..=MAX_FACE_CORNERS).map(|i| i.to_string()).collect();
+        let text = format!("{}f {}\n", "v 0 0 0\n".repeat(MAX_FACE_CORNERS), ring.join(" "));
+        assert_eq!(parse(&text).unwrap().triangles.len(), MAX_FACE_CORNERS - 2);
+    }
+
+    #[test]
+    fn a_six_megabyte_token_is_quoted_short() {
+        let token = "9".repeat(3_000_000) + &"x".repeat(3_000_000);
+        let err = parse(&format!("v 0 0 0\nv 1 {token} 0\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.len() < 120,
+            "{} bytes: {}",
+            err.len(),
+            &err[..200.min(err.len())]
+        );
+        assert!(err.ends_with("… (6000000 bytes) is not a number"), "{err}");
+        let err = parse(&format!("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 {token}\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.len() < 120, "{} bytes", err.len());
     }
 }

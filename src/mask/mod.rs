@@ -13,6 +13,8 @@ use std::path::Path;
 
 use glam::Vec3;
 
+use crate::input::{read_file, ReadError, MAX_TEXT_BYTES};
+
 pub use fap::{Fapu, FapuValues};
 pub use pose::MaskPose;
 pub use wfm::WfmError;
@@ -178,9 +180,10 @@ impl Unit {
 
 /// A unit name or index that the mask does not have.
 #[derive(Debug, thiserror::Error, PartialEq)]
-#[error("unknown {what} {name:?}; valid: an index 0..{count} or one of {valid}")]
+#[error("unknown {what} {name}; valid: an index 0..{count} or one of {valid}")]
 pub struct UnknownUnit {
     pub what: &'static str,
+    /// The name as given, quoted and cut by [`crate::quote::quote`].
     pub name: String,
     pub count: usize,
     pub valid: String,
@@ -189,8 +192,8 @@ pub struct UnknownUnit {
 /// Errors from loading a mask file.
 #[derive(Debug, thiserror::Error)]
 pub enum MaskLoadError {
-    #[error("cannot read {path}: {source}")]
-    Io { path: String, source: std::io::Error },
+    #[error(transparent)]
+    Read(#[from] ReadError),
     #[error("{path}: {source}")]
     Parse { path: String, source: WfmError },
 }
@@ -207,11 +210,9 @@ impl Mask {
         wfm::parse(&text)
     }
 
+    /// Loads a `.wfm` file: a regular file of at most [`MAX_TEXT_BYTES`].
     pub fn load(path: &Path) -> Result<Mask, MaskLoadError> {
-        let bytes = std::fs::read(path).map_err(|source| MaskLoadError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let bytes = read_file(path, MAX_TEXT_BYTES)?;
         Mask::from_wfm_bytes(&bytes).map_err(|source| MaskLoadError::Parse {
             path: path.display().to_string(),
             source,
@@ -290,7 +291,7 @@ fn find_unit(units: &[Unit], name: &str, what: &'static str) -> Result<usize, Un
     }
     Err(UnknownUnit {
         what,
-        name: name.to_string(),
+        name: crate::quote::quote(name),
         count: units.len(),
         valid: units
             .iter()

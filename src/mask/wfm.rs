@@ -7,19 +7,22 @@
 use glam::Vec3;
 
 use super::{GlobalMotion, Mask, Unit, UnitKind};
+use crate::quote::quote;
 
 /// What went wrong while reading a `.wfm` file, always with the 1-based line number.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum WfmError {
     #[error("line {line}: expected {expected}, found end of file")]
     Truncated { line: usize, expected: String },
-    #[error("line {line}: expected {expected}, found {found:?}")]
+    /// `found` is quoted and cut by [`quote`].
+    #[error("line {line}: expected {expected}, found {found}")]
     Expected {
         line: usize,
         expected: String,
         found: String,
     },
-    #[error("line {line}: {field} {found:?} is not a number")]
+    /// `found` is quoted and cut by [`quote`].
+    #[error("line {line}: {field} {found} is not a number")]
     NotANumber {
         line: usize,
         field: String,
@@ -203,7 +206,7 @@ impl<'a> Reader<'a> {
             return Err(WfmError::Expected {
                 line: self.next,
                 expected: format!("section \"# {title}:\""),
-                found: line.to_string(),
+                found: quote(line),
             });
         }
         Err(WfmError::Truncated {
@@ -251,7 +254,7 @@ impl<'a> Reader<'a> {
         let value: usize = fields[0].parse().map_err(|_| WfmError::NotANumber {
             line,
             field: field.to_string(),
-            found: fields[0].to_string(),
+            found: quote(fields[0]),
         })?;
         if value > MAX_COUNT {
             return Err(WfmError::CountTooLarge {
@@ -271,7 +274,7 @@ fn expect_field_count(line: usize, fields: &[&str], count: usize, field: &str) -
         Err(WfmError::Expected {
             line,
             expected: format!("{count} number(s) for {field}"),
-            found: fields.join(" "),
+            found: quote(&fields.join(" ")),
         })
     }
 }
@@ -280,7 +283,7 @@ fn parse_f32(line: usize, text: &str, field: &str) -> Result<f32, WfmError> {
     let value: f32 = text.parse().map_err(|_| WfmError::NotANumber {
         line,
         field: field.to_string(),
-        found: text.to_string(),
+        found: quote(text),
     })?;
     if !value.is_finite() {
         return Err(WfmError::NotFinite {
@@ -298,7 +301,7 @@ fn parse_vec3(line: usize, fields: &[&str], first: usize, field: &str) -> Result
         let text = fields.get(first + k).ok_or_else(|| WfmError::Expected {
             line,
             expected: format!("{} numbers for {field}", first + 3),
-            found: fields.join(" "),
+            found: quote(&fields.join(" ")),
         })?;
         xyz[k] = parse_f32(line, text, &format!("{field} {axis}"))?;
     }
@@ -309,7 +312,7 @@ fn parse_index(line: usize, text: &str, field: &str, limit: usize) -> Result<u32
     let value: usize = text.parse().map_err(|_| WfmError::NotANumber {
         line,
         field: field.to_string(),
-        found: text.to_string(),
+        found: quote(text),
     })?;
     if value >= limit {
         return Err(WfmError::OutOfRange {

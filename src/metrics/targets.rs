@@ -9,12 +9,15 @@ use std::path::Path;
 use glam::Vec3;
 
 use crate::fit::Anchors;
+use crate::input::{read_text, ReadError, MAX_TEXT_BYTES};
 use crate::text_table::{self, FieldProblem, Row};
 
 /// A malformed target file, or inputs that do not fit the target.
 #[derive(Debug, thiserror::Error)]
 pub enum TargetError {
-    #[error("cannot read {path}: {source}")]
+    #[error(transparent)]
+    Read(#[from] ReadError),
+    #[error("cannot list {path}: {source}")]
     Io { path: String, source: std::io::Error },
     #[error("{origin}: line {line}: expected 4 fields `vertex dx dy dz`, found {found}")]
     FieldCount {
@@ -22,7 +25,8 @@ pub enum TargetError {
         line: usize,
         found: usize,
     },
-    #[error("{origin}: line {line}: field {field}: {found:?} {problem}")]
+    /// `found` is quoted and cut (see [`text_table::FieldProblem`]).
+    #[error("{origin}: line {line}: field {field}: {found} {problem}")]
     Field {
         origin: String,
         line: usize,
@@ -68,10 +72,7 @@ impl ExpressionTarget {
     /// Reads a `.target` file for a head of `vertex_count` vertices.
     pub fn load(path: &Path, vertex_count: usize) -> Result<ExpressionTarget, TargetError> {
         let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| TargetError::Io {
-            path: origin.clone(),
-            source,
-        })?;
+        let text = read_text(path, MAX_TEXT_BYTES)?;
         let name = path
             .file_stem()
             .map_or_else(|| origin.clone(), |s| s.to_string_lossy().into_owned());

@@ -20,7 +20,9 @@ use glam::Vec3;
 
 use super::frame::{arkit_index, ARKIT_BLENDSHAPES};
 use crate::fit::{Anchors, FittedMask};
+use crate::input::{read_text, ReadError, MAX_TEXT_BYTES};
 use crate::metrics::{ExpressionTarget, TargetError};
+use crate::quote::quote;
 use crate::text_table::{self, FieldProblem, Row};
 
 /// The shipped basis (`data/arkit/basis.tsv`), derived from the MakeHuman head's targets.
@@ -40,22 +42,24 @@ const COLUMNS: [&str; 5] = ["arkit_name", "mask_vertex", "dx", "dy", "dz"];
 /// A basis file that cannot be read, or inputs a basis cannot be derived from.
 #[derive(Debug, thiserror::Error)]
 pub enum ArkitBasisError {
-    #[error("cannot read {path}: {source}")]
-    Io { path: String, source: std::io::Error },
+    #[error(transparent)]
+    Read(#[from] ReadError),
     #[error("{origin}: line {line}: expected 5 fields `arkit_name mask_vertex dx dy dz`, found {found}")]
     FieldCount {
         origin: String,
         line: usize,
         found: usize,
     },
-    #[error("{origin}: line {line}: arkit_name: unknown ARKit blendshape {name:?}; valid: {valid}")]
+    /// `name` is quoted and cut by [`quote`].
+    #[error("{origin}: line {line}: arkit_name: unknown ARKit blendshape {name}; valid: {valid}")]
     UnknownBlendshape {
         origin: String,
         line: usize,
         name: String,
         valid: String,
     },
-    #[error("{origin}: line {line}: {field}: {found:?} {problem}")]
+    /// `found` is quoted and cut (see [`text_table::FieldProblem`]).
+    #[error("{origin}: line {line}: {field}: {found} {problem}")]
     Field {
         origin: String,
         line: usize,
@@ -104,10 +108,7 @@ impl ArkitBasis {
     /// Reads a basis file.
     pub fn load(path: &Path) -> Result<ArkitBasis, ArkitBasisError> {
         let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ArkitBasisError::Io {
-            path: origin.clone(),
-            source,
-        })?;
+        let text = read_text(path, MAX_TEXT_BYTES)?;
         ArkitBasis::parse(&origin, &text)
     }
 
@@ -130,7 +131,7 @@ impl ArkitBasis {
             let shape = arkit_index(name).ok_or_else(|| ArkitBasisError::UnknownBlendshape {
                 origin: origin.to_string(),
                 line,
-                name: name.to_string(),
+                name: quote(name),
                 valid: ARKIT_BLENDSHAPES.join(", "),
             })?;
             let field_error = |p: FieldProblem| ArkitBasisError::Field {

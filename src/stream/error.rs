@@ -1,11 +1,15 @@
 //! Errors of the stream readers and writers. A reader error always says where it happened
 //! (file when known, 1-based line) and which field was wrong, so that a producer can fix
 //! its file from the message alone; a writer error names the frame and the field.
+//!
+//! Fields that repeat input (a key in a field path, a value found, a name) are cut when
+//! displayed ([`clip_message`]): every reader builds them, and one place cuts them all.
 
 use std::fmt;
 use std::sync::Arc;
 
 use crate::mask::UnknownUnit;
+use crate::quote::clip_message as cut;
 
 /// A position in a stream: the file (when known) and the 1-based line.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -38,52 +42,52 @@ pub enum StreamError {
     LineTooLong { at: Location, limit: usize },
     #[error("{at}: line is not valid UTF-8 (byte {offset})")]
     NotUtf8 { at: Location, offset: usize },
-    #[error("{at}: {field}: file ends early, expected {expected}")]
+    #[error("{at}: {}: file ends early, expected {expected}", cut(.field))]
     Truncated {
         at: Location,
         field: String,
         expected: String,
     },
-    #[error("{at}: {field}: {message}")]
+    #[error("{at}: {}: {}", cut(.field), cut(.message))]
     Syntax {
         at: Location,
         field: String,
         message: String,
     },
-    #[error("{at}: {field}: {found} is not {expected}")]
+    #[error("{at}: {}: {} is not {expected}", cut(.field), cut(.found))]
     NotANumber {
         at: Location,
         field: String,
         found: String,
         expected: &'static str,
     },
-    #[error("{at}: {field}: {found} is not a finite number")]
+    #[error("{at}: {}: {} is not a finite number", cut(.field), cut(.found))]
     NotFinite {
         at: Location,
         field: String,
         found: String,
     },
-    #[error("{at}: {field}: {found} is out of range (expected {expected})")]
+    #[error("{at}: {}: {} is out of range (expected {expected})", cut(.field), cut(.found))]
     OutOfRange {
         at: Location,
         field: String,
         found: String,
         expected: String,
     },
-    #[error("{at}: {field}: has {found} entries, expected {expected}")]
+    #[error("{at}: {}: has {found} entries, expected {expected}", cut(.field))]
     WrongLength {
         at: Location,
         field: String,
         found: usize,
         expected: String,
     },
-    #[error("{at}: {field}: {source}")]
+    #[error("{at}: {}: {source}", cut(.field))]
     UnknownUnit {
         at: Location,
         field: String,
         source: Box<UnknownUnit>,
     },
-    #[error("{at}: {field}: unknown {what} {name:?}; valid: {valid}")]
+    #[error("{at}: {}: unknown {what} {}; valid: {valid}", cut(.field), cut(&format!("{:?}", .name)))]
     UnknownName {
         at: Location,
         field: String,
@@ -91,21 +95,21 @@ pub enum StreamError {
         name: String,
         valid: String,
     },
-    #[error("{at}: {field}: names the same {what} as {other:?}")]
+    #[error("{at}: {}: names the same {what} as {}", cut(.field), cut(&format!("{:?}", .other)))]
     Duplicate {
         at: Location,
         field: String,
         what: &'static str,
         other: String,
     },
-    #[error("{at}: {field}: time {time} s is before the previous frame's {previous} s")]
+    #[error("{at}: {}: time {time} s is before the previous frame's {previous} s", cut(.field))]
     TimeBackwards {
         at: Location,
         field: String,
         time: f64,
         previous: f64,
     },
-    #[error("{at}: {field}: {seq} does not increase on the previous frame's {previous}")]
+    #[error("{at}: {}: {seq} does not increase on the previous frame's {previous}", cut(.field))]
     SeqNotIncreasing {
         at: Location,
         field: String,
