@@ -193,3 +193,77 @@ async fn what_no_route_answers_is_a_json_error() {
         "{body}"
     );
 }
+
+/// Registers `obj` with `fit` and waits for the registration to end; its head info.
+async fn register_and_wait(router: &Router, id: &str, obj: String, fit: String) -> serde_json::Value {
+    let body = serde_json::json!({"id": id, "obj": obj, "fit": fit});
+    let (status, answer) = call(
+        router,
+        Method::POST,
+        "/v1/heads",
+        None,
+        Body::from(body.to_string()),
+    )
+    .await;
+    assert_eq!(
+        status,
+        StatusCode::ACCEPTED,
+        "{}",
+        String::from_utf8_lossy(&answer)
+    );
+    for _ in 0..400 {
+        let (_, info) = call(
+            router,
+            Method::GET,
+            &format!("/v1/heads/{id}"),
+            None,
+            Body::empty(),
+        )
+        .await;
+        let info: serde_json::Value = serde_json::from_slice(&info).unwrap();
+        if info["status"] != "registering" {
+            return info;
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    panic!("{id} still registering");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn heads_that_cannot_be_animated_fail_with_the_reason() {
+    let router = app(AppState::new(memory_config()).unwrap());
+    let fit = std::fs::read_to_string(data("heads/makehuman_head.fit.toml")).unwrap();
+    let obj = std::fs::read_to_string(data("heads/makehuman_head.obj")).unwrap();
+    let one_triangle = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".to_string();
+    let mut same_point = "v 1 2 3\n".repeat(5000);
+    same_point.push_str(&"f 1 2 3\n".repeat(100));
+    let huge_scale = fit
+        .lines()
+        .map(|l| match l.starts_with("scale") {
+            true => "scale = 1e30".to_string(),
+            false => l.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    for (id, obj, fit, says) in [
+        ("one", one_triangle, fit.clone(), "vertices"),
+        ("same", same_point, fit.clone(), "extent"),
+        ("scaled", obj, huge_scale, "scale"),
+    ] {
+        let info = register_and_wait(&router, id, obj, fit).await;
+        assert_eq!(info["status"], "failed", "{info}");
+        let error = info["error"].as_str().unwrap();
+        assert!(error.contains(says), "{id}: {error}");
+        let (status, body) = call(
+            &router,
+            Method::GET,
+            &format!("/v1/heads/{id}/mesh.bin"),
+            None,
+            Body::empty(),
+        )
+        .await;
+        assert_eq!(status, StatusCode::CONFLICT);
+        let body: serde_json::Value = serde_json::from_slice(&body).unwrap();
+        assert_eq!(body["error"], "registration_failed");
+    }
+}

@@ -157,7 +157,6 @@ async fn viewers_see_what_facewire_deform_computes() {
     server.stop().await;
 }
 
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_slow_viewer_skips_frames_and_holds_nobody_up() {
     let _serial = SERIAL.lock().await;

@@ -12,7 +12,7 @@ use super::bindings::BindingCache;
 use super::head::ReadyHead;
 use crate::animate::{AnimatedHead, AnimatedHeadError};
 use crate::deform::Registration;
-use crate::fit::{FitFile, FitFileError, FittedMask, Landmarks, SolveOptions};
+use crate::fit::{FitError, FitFile, FitFileError, FittedMask, Landmarks};
 use crate::head::{Head, ObjError};
 use crate::mask::Mask;
 use facewire_proto::mesh::RestMesh;
@@ -29,16 +29,18 @@ pub enum RegistrationError {
     Fit(#[from] FitFileError),
     #[error("{0}")]
     Head(#[from] AnimatedHeadError),
+    #[error("{0}")]
+    Unanimatable(#[from] crate::deform::RegistrationError),
 }
 
 #[derive(Debug, thiserror::Error)]
 pub enum LandmarkError {
     #[error("head.obj: {0}")]
     Obj(#[from] ObjError),
-    #[error("landmarks: {0}")]
-    Toml(String),
-    #[error("{0}")]
-    Invalid(String),
+    #[error(transparent)]
+    Landmarks(#[from] crate::fit::LandmarkError),
+    #[error(transparent)]
+    Fit(#[from] FitError),
 }
 
 /// What a registration works from.
@@ -75,7 +77,7 @@ pub fn register(
     let mask = Mask::candide3();
     let fit = FitFile::parse("fit.toml", &input.fit_toml)?.resolve("fit.toml", &mask)?;
     stage(0.3)?;
-    let registration = Registration::new(head, FittedMask::new(mask, fit));
+    let registration = Registration::try_new(head, FittedMask::new(mask, fit))?;
     stage(0.9)?;
     let animated = AnimatedHead::new(registration)?;
     let reg = &animated.registration;
@@ -105,27 +107,8 @@ pub fn register(
 /// Solves a fit from a `.landmarks.toml` text for a registration request (blocking).
 pub fn fit_from_landmarks(obj: &[u8], landmarks_toml: &str) -> Result<String, LandmarkError> {
     let head = Head::from_obj_bytes("head.obj", obj)?;
-    let landmarks: Landmarks =
-        toml::from_str(landmarks_toml).map_err(|e| LandmarkError::Toml(e.to_string()))?;
+    let landmarks = Landmarks::parse("landmarks", landmarks_toml)?;
     let mask = Mask::candide3();
-    landmarks
-        .validate("landmarks", mask.vertices.len(), head.positions.len())
-        .map_err(|e| LandmarkError::Invalid(e.to_string()))?;
-    let pairs: Vec<(u32, glam::DVec3)> = landmarks
-        .landmarks
-        .iter()
-        .map(|l| (l.mask_vertex, head.positions[l.head_vertex as usize].as_dvec3()))
-        .collect();
-    let solution = crate::fit::solve_fit(&mask, &pairs, &[], &SolveOptions::default())
-        .map_err(|e| LandmarkError::Invalid(e.to_string()))?;
-    let mm_per_unit = landmarks
-        .mm_per_unit
-        .unwrap_or_else(|| crate::fit::Fit::mm_per_unit_from_pupils(&mask, &solution.shape, &solution.pose));
-    let fit = crate::fit::Fit {
-        pose: solution.pose,
-        shape: solution.shape,
-        nudges: Vec::new(),
-        mm_per_unit,
-    };
-    Ok(FitFile::from_fit(&fit, &mask, None).to_toml())
+    let solved = crate::fit::fit_from_landmarks(&head, &landmarks, "landmarks", &mask)?;
+    Ok(FitFile::from_fit(&solved.fit, &mask, None).to_toml())
 }

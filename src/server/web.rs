@@ -57,19 +57,28 @@ mod tests {
             let entry = format!("  {}: {},", code.name(), code.code());
             assert!(CODES_JS.contains(&entry), "web/codes.js lacks {entry:?}");
         }
-        assert_eq!(CODES_JS.matches(": 1").count() + CODES_JS.matches(": 4").count(), CloseCode::ALL.len());
+        assert_eq!(
+            CODES_JS.matches(": 1").count() + CODES_JS.matches(": 4").count(),
+            CloseCode::ALL.len()
+        );
         let finals: Vec<String> = CloseCode::ALL
             .iter()
             .filter(|c| c.is_final())
             .map(|c| format!("CLOSE.{}", c.name()))
             .collect();
-        let line = CODES_JS.lines().find(|l| l.contains("FINAL_CLOSE_CODES =")).unwrap();
+        let line = CODES_JS
+            .lines()
+            .find(|l| l.contains("FINAL_CLOSE_CODES ="))
+            .unwrap();
         assert_eq!(line.matches("CLOSE.").count(), finals.len(), "{line}");
         for name in finals {
             assert!(line.contains(&name), "{line} lacks {name}");
         }
         for reason in EndReason::ALL {
-            assert!(CODES_JS.contains(&format!("  {}: \"", reason.as_str())), "web/codes.js lacks {reason}");
+            assert!(
+                CODES_JS.contains(&format!("  {}: \"", reason.as_str())),
+                "web/codes.js lacks {reason}"
+            );
         }
     }
 }
