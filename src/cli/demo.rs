@@ -4,7 +4,7 @@
 
 use std::net::SocketAddr;
 
-use super::serve::{init_logging, runtime};
+use super::serve::{init_logging, runtime, ABANDON_AFTER};
 use super::CliResult;
 use crate::server::demo::{loop_syllables, register_heads, DEMO_HEADS};
 use crate::server::{serve, AppState, Config};
@@ -29,7 +29,7 @@ pub fn run(args: Args) -> CliResult {
     };
     let state = AppState::new(config)?;
     let rt = runtime()?;
-    rt.block_on(async {
+    let served = rt.block_on(async {
         register_heads(&state).await?;
         tokio::spawn(loop_syllables(
             state.clone(),
@@ -42,5 +42,7 @@ pub fn run(args: Args) -> CliResult {
         })
         .await?;
         Ok::<(), Box<dyn std::error::Error + Send + Sync>>(())
-    })
+    });
+    rt.shutdown_timeout(ABANDON_AFTER);
+    served
 }

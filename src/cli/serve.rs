@@ -39,6 +39,10 @@ pub(super) fn init_logging(json: bool) {
     }
 }
 
+/// Once `serve` has returned (every socket closed, or `shutdown_grace_s` passed), work still
+/// running on the blocking pool (a registration between its stages) is abandoned after this.
+pub(super) const ABANDON_AFTER: std::time::Duration = std::time::Duration::from_millis(500);
+
 pub(super) fn runtime() -> std::io::Result<tokio::runtime::Runtime> {
     tokio::runtime::Builder::new_multi_thread().enable_all().build()
 }
@@ -60,8 +64,10 @@ pub fn run(args: Args) -> CliResult {
     }
     init_logging(args.log_json);
     let state = AppState::new(config)?;
-    runtime()?.block_on(serve(state, |addr| {
+    let rt = runtime()?;
+    let served = rt.block_on(serve(state, |addr| {
         println!("facewire listening on http://{addr}/");
-    }))?;
-    Ok(())
+    }));
+    rt.shutdown_timeout(ABANDON_AFTER);
+    Ok(served?)
 }
