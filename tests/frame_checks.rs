@@ -199,7 +199,7 @@ fn jsonl_and_fwp1_refuse_the_same_content_the_same_way() {
 #[test]
 fn jsonl_and_fwp1_accept_the_same_frame_alike() {
     let mask = Mask::candide3();
-    let json = r#"{"seq":3,"t":0.25,"label":"pa","au":{"jaw_drop":0.3,"0":-10},"fap":{"open_jaw":100000,"head_yaw":-628318},"arkit":{"jawOpen":0.5,"eyeBlinkLeft":2},"head_rotation_rad":[0,0,6.28]}"#;
+    let json = r#"{"seq":3,"t":0.25,"label":"pa","au":{"jaw_drop":0.3,"0":-10},"fap":{"open_jaw":100000,"head_yaw":-628318},"arkit":{"jawOpen":0.5,"eyeBlinkLeft":2},"head_rotation_rad":[0,0,6.25]}"#;
     let binary = ParamFrame {
         seq: 3,
         time_s: 0.25,
@@ -207,7 +207,7 @@ fn jsonl_and_fwp1_accept_the_same_frame_alike() {
         animation: vec![(1, 0.3), (0, -10.0)],
         faps: vec![(49, -628_318.0), (3, 100_000.0)],
         arkit: vec![(17, 0.5), (0, 2.0)],
-        head_rotation_rad: Some([0.0, 0.0, 6.28]),
+        head_rotation_rad: Some([0.0, 0.0, 6.25]),
         label: Some("pa".into()),
     };
     let frame = from_json(json, &mask).unwrap();
