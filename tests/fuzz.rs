@@ -3,9 +3,12 @@
 //! corpus of small valid inputs (`tests/fuzz/corpus/<target>/`), mutates them with a seeded
 //! generator (bit flips, byte inserts and deletes, splices between seeds, truncation,
 //! repeated or dropped lines, numbers swapped for extreme ones such as `1e300`, `NaN`,
-//! `-0` or 2^64, and extreme little-endian integers and floats in the binary formats) and
+//! `-0` or 2^64, pieces of each format's syntax spliced in, and extreme little-endian
+//! integers, floats and varints in the binary formats) and
 //! asks one thing of every input: the parser returns `Ok` or `Err`. It must not panic, must
-//! not allocate far beyond the input's size and must not take long.
+//! not allocate far beyond the input's size and must not take long. Accepted stream frames
+//! must also pose the fitted mask to finite positions, and accepted JSONL and FWP1 frames
+//! must write back to text or bytes that read back equal.
 //!
 //! A failing input is written to `tests/fuzz/crashes/<target>/` and reported in hex;
 //! once fixed it moves to the corpus as `crash-*`, a permanent regression input. Corpus
@@ -27,7 +30,8 @@ use facewire::fit::{FitFile, FittedMask, Landmarks};
 use facewire::head::Head;
 use facewire::mask::{FapuValues, Mask};
 use facewire::stream::{
-    ArkitBasis, AuTextOptions, AuTextReader, FapReader, Frame, FramePoser, JsonlReader, StreamError,
+    ArkitBasis, AuTextOptions, AuTextReader, FapReader, Frame, FramePoser, JsonlReader, JsonlWriter,
+    StreamError,
 };
 use facewire_proto::params::ParamFrame;
 
@@ -161,6 +165,41 @@ const NUMBERS: [&str; 34] = [
     "",
 ];
 
+/// Pieces of the text formats' syntax, spliced in whole: JSON values and keys, TOML
+/// tables, OBJ records, `.fap` and AU text headers.
+const TOKENS: [&str; 30] = [
+    "{}",
+    "[]",
+    "null",
+    "true",
+    "\"\"",
+    "[[[[",
+    "}}}}",
+    "\"seq\":1,",
+    "\"t\":0,",
+    "\"au\":{\"jaw_drop\":",
+    "\"fap\":{\"1\":",
+    "\"arkit\":{\"52\":",
+    "\"controls\":[",
+    "\"viseme\":",
+    "\"label\":",
+    "\\u0000",
+    "\\ud800",
+    "# columns: time ",
+    "# VERTEX LIST:\n",
+    "# ANIMATION UNITS LIST:\n",
+    "[[nudge]]\n",
+    "[[landmark]]\n",
+    " = ",
+    "v 0 0 0\n",
+    "f 1 2 3\n",
+    "f -1 -2 -3\n",
+    "1 ",
+    "0 ",
+    "\r\n",
+    "2.1 x 25 1\n",
+];
+
 /// Little-endian values of every width that hit the edges of binary fields.
 fn binary_value(rng: &mut Rng) -> Vec<u8> {
     match rng.below(6) {
@@ -251,7 +290,7 @@ fn range(rng: &mut Rng, len: usize) -> (usize, usize) {
 fn mutate(rng: &mut Rng, input: &mut Vec<u8>, seeds: &[Vec<u8>], binary: bool, max_len: usize) {
     for _ in 0..1 + rng.below(4) {
         let len = input.len();
-        match rng.below(12) {
+        match rng.below(13) {
             0 if len > 0 => {
                 let at = rng.below(len);
                 input[at] ^= 1 << rng.below(8);
@@ -285,6 +324,11 @@ fn mutate(rng: &mut Rng, input: &mut Vec<u8>, seeds: &[Vec<u8>], binary: bool, m
                 input.splice(start..end, other[from..to].iter().copied());
             }
             6 => input.truncate(rng.below(len + 1)),
+            12 if !binary => {
+                let (start, end) = range(rng, len);
+                let end = if rng.chance(2) { start } else { end };
+                input.splice(start..end, TOKENS[rng.below(TOKENS.len())].bytes());
+            }
             7 if binary => {
                 let value = binary_value(rng);
                 let at = rng.below(len + 1);
@@ -538,6 +582,33 @@ fn pose(frame: &Frame) {
     );
 }
 
+/// An accepted JSONL frame is written back by `JsonlWriter` and reads back equal.
+fn jsonl_round_trip(frame: &Frame) {
+    let mask = candide3();
+    let mut writer = JsonlWriter::new(Vec::new(), mask);
+    writer
+        .write_frame(frame)
+        .expect("the writer takes what the reader accepts");
+    let line = String::from_utf8(writer.into_inner().unwrap()).unwrap();
+    let back = facewire::stream::jsonl::parse_message("written", line.trim_end(), mask).unwrap();
+    assert_eq!(&back, frame, "{line}");
+}
+
+/// An accepted FWP1 frame encodes back to a message that is accepted as the same frame.
+fn fwp1_round_trip(frame: &Frame) {
+    let p = ParamFrame {
+        seq: frame.seq,
+        time_s: frame.time_s,
+        animation: frame.animation.clone(),
+        faps: frame.faps.clone(),
+        arkit: frame.arkit.clone(),
+        head_rotation_rad: frame.head_rotation_rad,
+        label: frame.label.clone(),
+    };
+    let back = ParamFrame::decode(&p.encode()).unwrap();
+    assert_eq!(&Frame::from_param_frame(back, candide3()).unwrap(), frame);
+}
+
 /// Reads a whole stream, posing every frame; returns whether every frame was read.
 fn drain(frames: impl Iterator<Item = Result<Frame, StreamError>>) -> bool {
     let mut ok = true;
@@ -598,6 +669,7 @@ fn jsonl() {
             .all(|line| {
                 facewire::stream::jsonl::parse_message("fuzz", line, mask)
                     .inspect(pose)
+                    .inspect(jsonl_round_trip)
                     .is_ok()
             });
         drain(JsonlReader::new(bytes, mask)) && lines_ok
@@ -626,7 +698,12 @@ fn au_text() {
 #[test]
 fn fwp1() {
     fuzz("fwp1", 4 << 10, true, |bytes| {
-        ParamFrame::decode(bytes).is_ok_and(|p| Frame::from_param_frame(p, candide3()).inspect(pose).is_ok())
+        ParamFrame::decode(bytes).is_ok_and(|p| {
+            Frame::from_param_frame(p, candide3())
+                .inspect(pose)
+                .inspect(fwp1_round_trip)
+                .is_ok()
+        })
     });
 }
 
