@@ -15,7 +15,7 @@
 use std::io::{BufRead, Write};
 use std::sync::Arc;
 
-use super::check::check_fps;
+use super::check::{fps_in_range, FPS_EXPECTED};
 use super::error::{check_order, parse_finite, Location, StreamError};
 use super::frame::Frame;
 use super::lines::{Decoding, LineReader};
@@ -68,10 +68,10 @@ pub struct AuTextReader<'m, R> {
 impl<'m, R: BufRead> AuTextReader<'m, R> {
     /// Fails if `options.fps` is outside [`crate::stream::MIN_FPS`]..=[`crate::stream::MAX_FPS`].
     pub fn new(input: R, mask: &'m Mask, options: AuTextOptions) -> Result<Self, StreamError> {
-        if check_fps(options.fps).is_err() {
+        if !fps_in_range(options.fps) {
             return Err(StreamError::InvalidOption {
                 option: "AU text fps",
-                expected: "a frame rate from 0.01 to 1000 frames per second",
+                expected: FPS_EXPECTED,
                 found: options.fps.to_string(),
             });
         }

@@ -43,19 +43,17 @@ pub const MAX_TRANSLATION: f32 = 100.0;
 /// Largest |control displacement| along each axis, mask units (about 1 m; the mask is
 /// about 2 units tall).
 pub const MAX_CONTROL: f32 = 10.0;
-/// Frame rates a `.fap` header or an AU text reader may use, frames per second.
+/// Lowest frame rate of a `.fap` header or an AU text reader, frames per second: a frame
+/// every 100 s (`1e-300` would put frame 1 past any time).
 pub const MIN_FPS: f64 = 0.01;
+/// Highest frame rate of a `.fap` header or an AU text reader, frames per second.
 pub const MAX_FPS: f64 = 1000.0;
+/// What a frame rate must be, as error messages say it.
+pub(crate) const FPS_EXPECTED: &str = "a frame rate from 0.01 to 1000 frames per second";
 
-/// Checks a frame rate against [`MIN_FPS`]..=[`MAX_FPS`]; `Err` carries the expectation.
-pub(crate) fn check_fps(fps: f64) -> Result<(), String> {
-    if (MIN_FPS..=MAX_FPS).contains(&fps) {
-        Ok(())
-    } else {
-        Err(format!(
-            "a frame rate from {MIN_FPS} to {MAX_FPS} frames per second"
-        ))
-    }
+/// Whether `fps` is within [`MIN_FPS`]..=[`MAX_FPS`] (NaN is not).
+pub(crate) fn fps_in_range(fps: f64) -> bool {
+    (MIN_FPS..=MAX_FPS).contains(&fps)
 }
 
 /// What a list entry's value must be within, for the error message.
@@ -103,8 +101,9 @@ impl Frame {
     }
 
     /// [`Frame::check`] with errors located at `at`. Without a mask (the `.fap` reader,
-    /// whose frames have no animation units or controls), unit indices and the length of
-    /// `controls` are not checked.
+    /// whose frames have no animation units or controls, and the `.fap` and AU text
+    /// writers, which check units their own way), animation units are named by index and
+    /// not looked up, and the length of `controls` is not checked.
     pub(crate) fn check_at(&self, at: &Location, mask: Option<&Mask>) -> Result<(), StreamError> {
         let out_of_range = |field: String, found: String, expected: String| StreamError::OutOfRange {
             at: at.clone(),
@@ -381,8 +380,12 @@ mod tests {
     fn bounds_are_what_the_docs_say() {
         assert_eq!(MAX_SEQ, 9_007_199_254_740_991);
         assert!((MAX_FAP_ANGLE_COUNT - 628_318.5).abs() < 0.1);
-        assert_eq!(check_fps(25.0), Ok(()));
-        assert!(check_fps(1e-300).is_err() && check_fps(f64::NAN).is_err() && check_fps(1e4).is_err());
+        assert_eq!(
+            FPS_EXPECTED,
+            format!("a frame rate from {MIN_FPS} to {MAX_FPS} frames per second")
+        );
+        assert!(fps_in_range(25.0) && fps_in_range(MIN_FPS) && fps_in_range(MAX_FPS));
+        assert!(!fps_in_range(1e-300) && !fps_in_range(f64::NAN) && !fps_in_range(1e4));
     }
 
     #[test]

@@ -15,7 +15,7 @@
 use std::io::{BufRead, Write};
 use std::sync::Arc;
 
-use super::check::check_fps;
+use super::check::{fps_in_range, FPS_EXPECTED};
 use super::error::{check_order, parse_finite, Location, StreamError};
 use super::frame::{ExpressionFap, Frame, VisemeFap, HEAD_ROTATION_FAPS, RADIANS_PER_ANGLE_COUNT};
 use super::lines::{Decoding, LineReader};
@@ -97,12 +97,12 @@ impl<R: BufRead> FapReader<R> {
         }
         let fps_text = tokens[tokens.len() - 2];
         let fps: f64 = parse_finite(&at, fps_text, "header fps")?;
-        if let Err(expected) = check_fps(fps) {
+        if !fps_in_range(fps) {
             return Err(StreamError::OutOfRange {
                 at,
                 field: "header fps".to_string(),
                 found: fps_text.to_string(),
-                expected,
+                expected: FPS_EXPECTED.to_string(),
             });
         }
         let count_text = tokens[tokens.len() - 1];
@@ -337,10 +337,10 @@ impl<W: Write> FapWriter<W> {
                 found: format!("{:?}", header.name),
             });
         }
-        if check_fps(header.fps).is_err() {
+        if !fps_in_range(header.fps) {
             return Err(StreamError::InvalidOption {
                 option: "FAP header fps",
-                expected: "a frame rate from 0.01 to 1000 frames per second",
+                expected: FPS_EXPECTED,
                 found: header.fps.to_string(),
             });
         }
