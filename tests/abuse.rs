@@ -487,3 +487,62 @@ async fn oversized_and_malformed_producer_messages_close_with_the_right_code() {
     );
     server.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn extreme_values_are_refused_in_both_formats_with_field_and_seq() {
+    let _serial = SERIAL.lock().await;
+    let server = Server::start(memory_config()).await;
+    server.register("mh", "makehuman_head", "").await;
+    let mut producer = connect(&server.ws("/v1/heads/mh/streams/x/produce")).await;
+    let refused = async |producer: &mut common::service::Socket, message: Message| {
+        producer.send(message).await.unwrap();
+        match next_json(producer).await {
+            ServerMessage::Error { code, field, seq, .. } => (code.as_str().to_string(), field, seq),
+            other => panic!("expected a refusal, got {other:?}"),
+        }
+    };
+    let huge_au = facewire_proto::params::ParamFrame {
+        seq: 3,
+        time_s: 0.1,
+        animation: vec![(1, 3.4e38)],
+        ..Default::default()
+    };
+    for message in [
+        Message::Text(r#"{"seq":3,"t":0.1,"au":{"jaw_drop":3.4e38}}"#.into()),
+        Message::Binary(huge_au.encode().into()),
+    ] {
+        assert_eq!(
+            refused(&mut producer, message).await,
+            ("bad_frame".to_string(), Some("au".to_string()), Some(3))
+        );
+    }
+    let controls = format!(
+        r#"{{"seq":4,"t":0.2,"controls":[{}]}}"#,
+        vec!["[3.4e38,-3.4e38,0]"; 113].join(",")
+    );
+    assert_eq!(
+        refused(&mut producer, Message::Text(controls.into())).await,
+        ("bad_frame".to_string(), Some("controls".to_string()), Some(4))
+    );
+    let twice = r#"{"seq":5,"t":0.3,"t":0.4}"#;
+    let (code, field, _) = refused(&mut producer, Message::Text(twice.into())).await;
+    assert_eq!((code.as_str(), field.as_deref()), ("bad_frame", Some("t")));
+    let mut flags = facewire_proto::params::ParamFrame {
+        seq: 6,
+        ..Default::default()
+    }
+    .encode();
+    flags[20] = 0x80;
+    let (code, field, _) = refused(&mut producer, Message::Binary(flags.into())).await;
+    assert_eq!((code.as_str(), field.as_deref()), ("bad_frame", Some("flags")));
+    // The stream still runs, and what reaches the viewer is finite.
+    producer
+        .send(Message::Text(jaw_line(7, 0.5).into()))
+        .await
+        .unwrap();
+    assert!(matches!(
+        next_json(&mut producer).await,
+        ServerMessage::Ack { seq: 7, .. }
+    ));
+    server.stop().await;
+}

@@ -277,7 +277,7 @@ fn fap_errors_name_the_line_and_field() {
     );
     assert_eq!(
         fap_error("2.1 t 0 1\n"),
-        "line 1: header fps: 0 is out of range (expected a positive number)"
+        "line 1: header fps: 0 is out of range (expected a frame rate from 0.01 to 1000 frames per second)"
     );
     let viseme = mask68(&[1]);
     assert_eq!(
@@ -458,8 +458,8 @@ fn jsonl_errors_name_the_line_and_field() {
         ),
         (
             r#"{"seq":0,"t":0,"fap":{"viseme":5}}"#.to_string(),
-            "line 1: fap.viseme: FAPs 1 and 2 are the top-level \"viseme\" and \"expression\" \
-             objects",
+            "line 1: fap.viseme: FAP 1 is out of range (expected a FAP 3..=68: FAPs 1 and 2 are \
+             the top-level \"viseme\" and \"expression\")",
         ),
         (
             r#"{"seq":0,"t":0,"arkit":{"smile":1}}"#.to_string(),

@@ -148,7 +148,8 @@ impl FrameEncoder {
         let mut previous: i64 = -1;
         let mut previous_q = [0i64; 3];
         for (v, d) in content.deltas.iter().enumerate() {
-            let q = d.map(|x| (x * inverse).round() as i64);
+            // Counts saturate at the i32 range the decoder accepts (NaN counts as 0).
+            let q = d.map(|x| ((x * inverse).round() as i64).clamp(i32::MIN.into(), i32::MAX.into()));
             if q == [0, 0, 0] {
                 continue;
             }
@@ -309,18 +310,21 @@ pub fn decode(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
     }
     let mut entries = Reader::new(block);
     let mut moved = Vec::with_capacity(moved_count as usize);
-    let mut previous: i64 = -1;
+    // The lowest index the next entry may have: one past the previous entry's.
+    let mut next: u32 = 0;
     let mut previous_q = [0i64; 3];
     for _ in 0..moved_count {
         let at = block_at + entries.position();
-        let index = previous + 1 + entries.varint("index gap")? as i64;
-        if index >= i64::from(vertex_count) {
-            return Err(DecodeError::Invalid {
+        let gap = entries.varint("index gap")?;
+        let index = u64::from(next)
+            .checked_add(gap)
+            .and_then(|index| u32::try_from(index).ok())
+            .filter(|&index| index < vertex_count)
+            .ok_or_else(|| DecodeError::Invalid {
                 field: "index gap",
                 at,
-                problem: format!("vertex {index} is out of range ({vertex_count} vertices)"),
-            });
-        }
+                problem: format!("gap {gap} after vertex {next} passes the {vertex_count} vertices"),
+            })?;
         let mut q = [0i32; 3];
         for k in 0..3 {
             let at = block_at + entries.position();
@@ -332,8 +336,8 @@ pub fn decode(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
             })?;
             previous_q[k] = value;
         }
-        moved.push((index as u32, q));
-        previous = index;
+        moved.push((index, q));
+        next = index + 1;
     }
     if entries.remaining() != 0 {
         return Err(DecodeError::Invalid {
@@ -467,6 +471,65 @@ mod tests {
         let packed = encoder.encode(&header(), &content(&deltas, &lip, true)).to_vec();
         assert!(packed.len() * 20 < plain, "{} vs {plain}", packed.len());
         assert_eq!(decode(&packed).unwrap().moved.len(), 5000);
+    }
+
+    /// A frame with `gaps` as its delta block (counts all zero), for `vertex_count` vertices.
+    fn frame_with_gaps(gaps: &[u64], vertex_count: u32) -> Vec<u8> {
+        let lip = LipRoughness::default();
+        let mut bytes = FrameEncoder::default()
+            .encode(&header(), &content(&[], &lip, false))
+            .to_vec();
+        bytes[44..48].copy_from_slice(&vertex_count.to_le_bytes());
+        bytes[48..52].copy_from_slice(&(gaps.len() as u32).to_le_bytes());
+        let mut block = Vec::new();
+        for &gap in gaps {
+            encode(gap, &mut block);
+            block.extend_from_slice(&[0, 0, 0]);
+        }
+        bytes.truncate(65);
+        bytes.extend_from_slice(&(block.len() as u32).to_le_bytes());
+        bytes.extend_from_slice(&block);
+        bytes
+    }
+
+    #[test]
+    fn index_gaps_past_the_vertex_count_are_refused_not_wrapped() {
+        assert_eq!(decode(&frame_with_gaps(&[0, 2], 4)).unwrap().moved.len(), 2);
+        for gaps in [
+            vec![5, i64::MAX as u64],
+            vec![1 << 63],
+            vec![u64::MAX],
+            vec![3, u64::MAX],
+            vec![u64::from(u32::MAX)],
+        ] {
+            assert!(
+                matches!(
+                    decode(&frame_with_gaps(&gaps, 10)),
+                    Err(DecodeError::Invalid {
+                        field: "index gap",
+                        ..
+                    })
+                ),
+                "{gaps:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn deltas_beyond_the_count_range_saturate_and_decode() {
+        let lip = LipRoughness::default();
+        let deltas = [[1e30, -1e30, 0.0], [-1e30, 1e30, f32::NAN], [0.5, 0.0, 0.0]];
+        let mut encoder = FrameEncoder::default();
+        let bytes = encoder.encode(&header(), &content(&deltas, &lip, false)).to_vec();
+        let frame = decode(&bytes).unwrap();
+        assert_eq!(
+            frame.moved,
+            [
+                (0, [i32::MAX, i32::MIN, 0]),
+                (1, [i32::MIN, i32::MAX, 0]),
+                (2, [1, 0, 0])
+            ]
+        );
     }
 
     #[test]

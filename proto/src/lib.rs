@@ -41,6 +41,17 @@ pub enum DecodeError {
     Trailing { extra: usize },
 }
 
+impl DecodeError {
+    /// The field of the layout that is wrong (`flags`, `au weight`, `delta block`), as
+    /// PROTOCOL.md names it; `None` for a bad magic or bytes after the message.
+    pub fn field(&self) -> Option<&'static str> {
+        match self {
+            DecodeError::Truncated { field, .. } | DecodeError::Invalid { field, .. } => Some(field),
+            DecodeError::Magic { .. } | DecodeError::Trailing { .. } => None,
+        }
+    }
+}
+
 /// Little-endian reader over a byte slice that names the field on every short read.
 pub(crate) struct Reader<'a> {
     bytes: &'a [u8],

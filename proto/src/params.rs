@@ -13,6 +13,11 @@
 //!      .    12  if head rotation: rx, ry, rz (3 x f32, radians)
 //!      .     .  if label: u8 length, then that many UTF-8 bytes
 //! ```
+//!
+//! [`ParamFrame::decode`] checks the layout: magic, lengths, no flag bit other than 0 and
+//! 1, a UTF-8 label, no byte after the frame. What the values mean (unit, FAP and
+//! blendshape indices, each at most once, and their ranges) is checked where the frame is
+//! used, by the same check as a JSONL frame's (`facewire::stream::Frame::from_param_frame`).
 
 use crate::{DecodeError, Reader};
 
@@ -80,6 +85,14 @@ impl ParamFrame {
         let seq = r.u64("seq")?;
         let time_s = r.f64("time_s")?;
         let flags = r.u8("flags")?;
+        let undefined = flags & !(FLAG_ROTATION | FLAG_LABEL);
+        if undefined != 0 {
+            return Err(DecodeError::Invalid {
+                field: "flags",
+                at: 20,
+                problem: format!("undefined bits {undefined:#04x} are set (bit 0 rotation, bit 1 label)"),
+            });
+        }
         let au_count = r.u16("au_count")?;
         let mut animation = Vec::with_capacity(usize::from(au_count).min(r.remaining() / 6));
         for _ in 0..au_count {
@@ -145,6 +158,19 @@ mod tests {
                 ..
             })
         ));
+        for undefined in [4u8, 8, 0x80] {
+            let mut flagged = bytes.clone();
+            flagged[20] |= undefined;
+            assert_eq!(
+                ParamFrame::decode(&flagged),
+                Err(DecodeError::Invalid {
+                    field: "flags",
+                    at: 20,
+                    problem: format!("undefined bits {undefined:#04x} are set (bit 0 rotation, bit 1 label)"),
+                })
+            );
+            assert_eq!(ParamFrame::decode(&flagged).unwrap_err().field(), Some("flags"));
+        }
         let mut extra = bytes.clone();
         extra.push(1);
         assert_eq!(

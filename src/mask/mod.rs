@@ -41,6 +41,10 @@ pub const LOWER_LIP_INNER: [usize; 3] = [83, 40, 84];
 /// Inner-lip midpoints: upper (MPEG-4 2.2) and lower (2.3).
 pub const INNER_LIP_MID_UPPER: usize = 87;
 pub const INNER_LIP_MID_LOWER: usize = 40;
+/// Every vertex facewire addresses by number (the lips above, the pupils and FAPU
+/// measures of [`fap::FapuValues::measure`]) is below this: the `.wfm` reader refuses a
+/// mask with fewer vertices rather than let a fit index past its end.
+pub const MIN_VERTICES: usize = 90;
 
 /// A CANDIDE-3 wireframe with its deformation units.
 #[derive(Debug, Clone)]
@@ -304,6 +308,22 @@ fn find_unit(units: &[Unit], name: &str, what: &'static str) -> Result<usize, Un
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn masks_too_small_for_the_named_vertices_are_refused() {
+        let named = LIP_VERTICES
+            .iter()
+            .chain(&fap::LEFT_PUPIL)
+            .chain(&fap::RIGHT_PUPIL)
+            .chain(&[6, 31, 64, 87]);
+        assert_eq!(named.max(), Some(&(MIN_VERTICES - 1)));
+        let text = "# VERTEX LIST:\n3\n0 0 0\n1 0 0\n0 1 0\n";
+        assert_eq!(
+            wfm::parse(text).unwrap_err().to_string(),
+            "line 2: 3 vertices; facewire addresses CANDIDE-3 vertices up to 89 by number (lips, \
+             pupils, FAPU), so a mask needs at least 90"
+        );
+    }
 
     #[test]
     fn keys_are_stable_names() {

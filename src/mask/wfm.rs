@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 
-use super::{GlobalMotion, Mask, Unit, UnitKind};
+use super::{GlobalMotion, Mask, Unit, UnitKind, MIN_VERTICES};
 use crate::quote::quote;
 
 /// What went wrong while reading a `.wfm` file, always with the 1-based line number.
@@ -39,6 +39,12 @@ pub enum WfmError {
     NotFinite { line: usize, field: String, value: f32 },
     #[error("line {line}: count {value} is too large (at most {limit})")]
     CountTooLarge { line: usize, value: usize, limit: usize },
+    #[error("line {line}: {value} vertices; facewire addresses CANDIDE-3 vertices up to {} by number (lips, pupils, FAPU), so a mask needs at least {needed}", needed - 1)]
+    TooFewVertices {
+        line: usize,
+        value: usize,
+        needed: usize,
+    },
 }
 
 /// Upper bound for any count in a `.wfm` file: far above CANDIDE's sizes, far below what
@@ -51,6 +57,13 @@ pub fn parse(text: &str) -> Result<Mask, WfmError> {
 
     reader.expect_section("VERTEX LIST")?;
     let vertex_count = reader.count("vertex count")?;
+    if vertex_count < MIN_VERTICES {
+        return Err(WfmError::TooFewVertices {
+            line: reader.next,
+            value: vertex_count,
+            needed: MIN_VERTICES,
+        });
+    }
     let mut vertices = Vec::with_capacity(vertex_count);
     for i in 0..vertex_count {
         let field = format!("vertex {i}");

@@ -52,7 +52,7 @@ pub enum Incoming {
 }
 
 fn bad_frame(e: &StreamError) -> Refusal {
-    Refusal::new(ErrorCode::BadFrame, None, e.to_string())
+    Refusal::new(ErrorCode::BadFrame, e.field(), e.to_string())
 }
 
 /// A text message: `{"type":"end"}` or one JSONL frame. `number` counts the producer's
@@ -81,68 +81,12 @@ fn seq_of(text: &str) -> Option<u64> {
     serde_json::from_str::<Seq>(text).ok()?.seq
 }
 
-/// A binary `FWP1` message.
+/// A binary `FWP1` message, checked as a JSON frame is.
 pub fn parse_binary(bytes: &[u8], mask: &Mask) -> Result<Incoming, Refusal> {
-    frame_from_binary(bytes, mask.animation_units.len()).map(|f| Incoming::Frame(Box::new(f)))
-}
-
-fn frame_from_binary(bytes: &[u8], units: usize) -> Result<Frame, Refusal> {
-    let p = ParamFrame::decode(bytes).map_err(|e| Refusal::new(ErrorCode::BadFrame, None, e.to_string()))?;
-    let finite = |field: &str, values: &[f32]| {
-        if values.iter().all(|v| v.is_finite()) {
-            Ok(())
-        } else {
-            Err(Refusal::new(
-                ErrorCode::BadFrame,
-                Some(field),
-                format!("{field}: values must be finite numbers"),
-            ))
-        }
-    };
-    finite("au", &p.animation.iter().map(|a| a.1).collect::<Vec<_>>())?;
-    finite("fap", &p.faps.iter().map(|a| a.1).collect::<Vec<_>>())?;
-    finite("arkit", &p.arkit.iter().map(|a| a.1).collect::<Vec<_>>())?;
-    finite(
-        "head_rotation_rad",
-        p.head_rotation_rad.as_ref().map_or(&[][..], |r| &r[..]),
-    )?;
-    if !p.time_s.is_finite() {
-        return Err(Refusal::new(
-            ErrorCode::BadFrame,
-            Some("t"),
-            "t must be a finite number",
-        ));
-    }
-    if let Some((u, _)) = p.animation.iter().find(|(u, _)| usize::from(*u) >= units) {
-        return Err(Refusal::new(
-            ErrorCode::BadFrame,
-            Some("au"),
-            format!("animation unit {u} is out of range (0..{units})"),
-        ));
-    }
-    if let Some((f, _)) = p.faps.iter().find(|(f, _)| !(1..=68).contains(f)) {
-        return Err(Refusal::new(
-            ErrorCode::BadFrame,
-            Some("fap"),
-            format!("FAP {f} is out of range (1..=68)"),
-        ));
-    }
-    if let Some((a, _)) = p
-        .arkit
-        .iter()
-        .find(|(a, _)| usize::from(*a) >= crate::stream::ARKIT_BLENDSHAPES.len())
-    {
-        return Err(Refusal::new(
-            ErrorCode::BadFrame,
-            Some("arkit"),
-            format!("ARKit index {a} is out of range (0..52)"),
-        ));
-    }
-    let mut frame = Frame::at(p.seq, p.time_s);
-    frame.label = p.label;
-    frame.animation = p.animation;
-    frame.faps = p.faps;
-    frame.arkit = p.arkit;
-    frame.head_rotation_rad = p.head_rotation_rad;
-    Ok(frame)
+    let params =
+        ParamFrame::decode(bytes).map_err(|e| Refusal::new(ErrorCode::BadFrame, e.field(), e.to_string()))?;
+    let seq = params.seq;
+    Frame::from_param_frame(params, mask)
+        .map(|f| Incoming::Frame(Box::new(f)))
+        .map_err(|e| bad_frame(&e).with_seq(seq))
 }

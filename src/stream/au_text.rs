@@ -15,6 +15,7 @@
 use std::io::{BufRead, Write};
 use std::sync::Arc;
 
+use super::check::{fps_in_range, FPS_EXPECTED};
 use super::error::{check_order, parse_finite, Location, StreamError};
 use super::frame::Frame;
 use super::lines::{Decoding, LineReader};
@@ -65,12 +66,12 @@ pub struct AuTextReader<'m, R> {
 }
 
 impl<'m, R: BufRead> AuTextReader<'m, R> {
-    /// Fails if `options.fps` is not a positive number.
+    /// Fails if `options.fps` is outside [`crate::stream::MIN_FPS`]..=[`crate::stream::MAX_FPS`].
     pub fn new(input: R, mask: &'m Mask, options: AuTextOptions) -> Result<Self, StreamError> {
-        if !(options.fps.is_finite() && options.fps > 0.0) {
+        if !fps_in_range(options.fps) {
             return Err(StreamError::InvalidOption {
                 option: "AU text fps",
-                expected: "a positive number",
+                expected: FPS_EXPECTED,
                 found: options.fps.to_string(),
             });
         }
@@ -162,6 +163,7 @@ impl<'m, R: BufRead> AuTextReader<'m, R> {
             }
         }
         frame.animation.sort_by_key(|&(unit, _)| unit);
+        frame.check_at(&at, Some(self.mask))?;
         check_order(&at, self.previous, seq, time_s, "line", "column 1 (time)")?;
         self.previous = Some((seq, time_s));
         self.frames_read += 1;
@@ -225,7 +227,7 @@ fn parse_columns_header(at: &Location, names: &str, mask: &Mask) -> Result<Colum
                 at: at.clone(),
                 field,
                 what: "animation unit",
-                other: format!("columns[{}]", first + 1 + usize::from(time)),
+                other: format!("\"columns[{}]\"", first + 1 + usize::from(time)),
             });
         }
         units.push(unit);
@@ -315,6 +317,7 @@ impl<W: Write> AuTextWriter<W> {
                 format: "AU text",
             });
         }
+        frame.check_at(&Location::Frame { seq }, None)?;
         let invalid = |field: String, reason: String| StreamError::InvalidFrame { seq, field, reason };
         self.weights.fill(0.0);
         for &(unit, weight) in &frame.animation {

@@ -11,18 +11,32 @@ use std::sync::Arc;
 use crate::mask::UnknownUnit;
 use crate::quote::clip_message as cut;
 
-/// A position in a stream: the file (when known) and the 1-based line.
+/// Where a reader or [`crate::stream::Frame::check`] found a problem.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Location {
-    pub file: Option<Arc<str>>,
-    pub line: u64,
+pub enum Location {
+    /// A line of a text stream: the file or message when known, and the 1-based line.
+    Line { file: Option<Arc<str>>, line: u64 },
+    /// A frame that is not a line of text (a binary `FWP1` message, a frame built in
+    /// code), named by its sequence number.
+    Frame { seq: u64 },
+}
+
+impl Location {
+    /// Line `line` of `file`.
+    pub fn line(file: Option<Arc<str>>, line: u64) -> Location {
+        Location::Line { file, line }
+    }
 }
 
 impl fmt::Display for Location {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match &self.file {
-            Some(file) => write!(f, "{file}: line {}", self.line),
-            None => write!(f, "line {}", self.line),
+        match self {
+            Location::Line {
+                file: Some(file),
+                line,
+            } => write!(f, "{file}: line {line}"),
+            Location::Line { file: None, line } => write!(f, "line {line}"),
+            Location::Frame { seq } => write!(f, "frame {seq}"),
         }
     }
 }
@@ -136,6 +150,42 @@ pub enum StreamError {
         expected: &'static str,
         found: String,
     },
+}
+
+impl StreamError {
+    /// The field that is wrong, as a producer names it: the frame's top-level JSONL key
+    /// (`au` for an error in `au.jaw_drop`, `controls` for `controls[3][1]`, `t`, `seq`,
+    /// `json` for text that is not JSON) or, in `.fap` and AU text files, the part of
+    /// the file (`header fps`, `mask`, `values`, `column 2 (jaw_drop)`). The message
+    /// ([`std::fmt::Display`]) names the member or index too. `None` when no field is at
+    /// fault (the file cannot be read, a line is too long).
+    pub fn field(&self) -> Option<&str> {
+        let field = match self {
+            StreamError::Truncated { field, .. }
+            | StreamError::Syntax { field, .. }
+            | StreamError::NotANumber { field, .. }
+            | StreamError::NotFinite { field, .. }
+            | StreamError::OutOfRange { field, .. }
+            | StreamError::WrongLength { field, .. }
+            | StreamError::UnknownUnit { field, .. }
+            | StreamError::UnknownName { field, .. }
+            | StreamError::Duplicate { field, .. }
+            | StreamError::TimeBackwards { field, .. }
+            | StreamError::SeqNotIncreasing { field, .. }
+            | StreamError::InvalidFrame { field, .. }
+            | StreamError::Unrepresentable { field, .. } => field.as_str(),
+            StreamError::InvalidOption { option, .. } => option,
+            StreamError::Open { .. }
+            | StreamError::UnknownFormat { .. }
+            | StreamError::Read { .. }
+            | StreamError::LineTooLong { .. }
+            | StreamError::NotUtf8 { .. }
+            | StreamError::TrailingData { .. }
+            | StreamError::FrameCountMismatch { .. }
+            | StreamError::Write { .. } => return None,
+        };
+        field.split(['.', '[']).next()
+    }
 }
 
 impl From<std::io::Error> for StreamError {

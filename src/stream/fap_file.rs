@@ -15,6 +15,7 @@
 use std::io::{BufRead, Write};
 use std::sync::Arc;
 
+use super::check::{fps_in_range, FPS_EXPECTED};
 use super::error::{check_order, parse_finite, Location, StreamError};
 use super::frame::{ExpressionFap, Frame, VisemeFap, HEAD_ROTATION_FAPS, RADIANS_PER_ANGLE_COUNT};
 use super::lines::{Decoding, LineReader};
@@ -96,12 +97,12 @@ impl<R: BufRead> FapReader<R> {
         }
         let fps_text = tokens[tokens.len() - 2];
         let fps: f64 = parse_finite(&at, fps_text, "header fps")?;
-        if fps <= 0.0 {
+        if !fps_in_range(fps) {
             return Err(StreamError::OutOfRange {
                 at,
                 field: "header fps".to_string(),
                 found: fps_text.to_string(),
-                expected: "a positive number".to_string(),
+                expected: FPS_EXPECTED.to_string(),
             });
         }
         let count_text = tokens[tokens.len() - 1];
@@ -154,6 +155,7 @@ impl<R: BufRead> FapReader<R> {
         }
         let at = self.lines.location();
         let frame = parse_values(&at, &self.line, &mask, fps)?;
+        frame.check_at(&at, None)?;
         check_order(
             &at,
             self.previous,
@@ -335,10 +337,10 @@ impl<W: Write> FapWriter<W> {
                 found: format!("{:?}", header.name),
             });
         }
-        if !(header.fps.is_finite() && header.fps > 0.0) {
+        if !fps_in_range(header.fps) {
             return Err(StreamError::InvalidOption {
                 option: "FAP header fps",
-                expected: "a positive number",
+                expected: FPS_EXPECTED,
                 found: header.fps.to_string(),
             });
         }
@@ -371,6 +373,7 @@ impl<W: Write> FapWriter<W> {
                 format: ".fap",
             });
         }
+        frame.check_at(&Location::Frame { seq }, None)?;
         let invalid = |field: String, reason: String| StreamError::InvalidFrame { seq, field, reason };
         if self.written == self.announced {
             return Err(invalid(

@@ -12,6 +12,7 @@ use serde_json::{Map, Value};
 use super::error::{check_order, Location, StreamError};
 use super::frame::{arkit_index, ExpressionFap, Frame, VisemeFap, ARKIT_BLENDSHAPES};
 use super::lines::{Decoding, LineReader};
+use super::strict_json::{self, StrictJsonError};
 use crate::mask::fap::{fap_by_name, fap_info, FAPS};
 use crate::mask::Mask;
 
@@ -101,19 +102,19 @@ fn syntax(at: &Location, field: &str, message: impl Into<String>) -> StreamError
 }
 
 /// Parses one frame that arrives on its own (a WebSocket text message) rather than as a
-/// line of a file; `origin` names it in errors (`message 17`). Sequence and time order
-/// across messages are the caller's to check.
+/// line of a file, checked like every frame ([`Frame::check`]); `origin` names it in
+/// errors (`message 17`). Sequence and time order across messages are the caller's to
+/// check.
 pub fn parse_message(origin: &str, text: &str, mask: &Mask) -> Result<Frame, StreamError> {
-    let at = Location {
-        file: Some(origin.into()),
-        line: 1,
-    };
+    let at = Location::line(Some(origin.into()), 1);
     parse_frame(&at, text, mask)
 }
 
 fn parse_frame(at: &Location, text: &str, mask: &Mask) -> Result<Frame, StreamError> {
-    let value: Value =
-        serde_json::from_str(text).map_err(|e| syntax(at, "json", format!("invalid JSON: {e}")))?;
+    let value = strict_json::parse(text).map_err(|e| match e {
+        StrictJsonError::Syntax(e) => syntax(at, "json", format!("invalid JSON: {e}")),
+        StrictJsonError::RepeatedKey(path) => syntax(at, &path, "the key appears twice; name it once"),
+    })?;
     let Value::Object(object) = value else {
         return Err(syntax(at, "frame", "expected a JSON object"));
     };
@@ -149,6 +150,7 @@ fn parse_frame(at: &Location, text: &str, mask: &Mask) -> Result<Frame, StreamEr
     }
     frame.seq = seq.ok_or_else(|| syntax(at, "seq", "missing (every frame needs one)"))?;
     frame.time_s = time.ok_or_else(|| syntax(at, "t", "missing (every frame needs one)"))?;
+    frame.check_at(at, Some(mask))?;
     Ok(frame)
 }
 
@@ -248,7 +250,7 @@ fn sort_unique<I: Ord + Copy, V>(
                 at: at.clone(),
                 field: format!("{map_field}.{}", pair[1].2),
                 what,
-                other: pair[0].2.clone(),
+                other: format!("{:?}", pair[0].2),
             });
         }
     }
@@ -309,13 +311,6 @@ fn parse_faps(at: &Location, value: &Value) -> Result<Vec<(u8, f32)>, StreamErro
             valid: "a FAP number 3..=68 or a name: ".to_string()
                 + &FAPS[2..].iter().map(|f| f.name).collect::<Vec<_>>().join(", "),
         })?;
-        if number <= 2 {
-            return Err(syntax(
-                at,
-                &field,
-                "FAPs 1 and 2 are the top-level \"viseme\" and \"expression\" objects",
-            ));
-        }
         entries.push((number, parse_f32(at, count, &field)?, key.clone()));
     }
     sort_unique(at, "fap", "FAP", entries)
@@ -504,13 +499,6 @@ fn invalid(seq: u64, field: impl Into<String>, reason: impl Into<String>) -> Str
     }
 }
 
-fn check_finite(seq: u64, field: &str, values: &[f32]) -> Result<(), StreamError> {
-    match values.iter().find(|v| !v.is_finite()) {
-        Some(v) => Err(invalid(seq, field, format!("{v} is not finite"))),
-        None => Ok(()),
-    }
-}
-
 impl<'m, W: Write> JsonlWriter<'m, W> {
     /// `mask` names the animation units and sizes `controls`.
     pub fn new(out: W, mask: &'m Mask) -> Self {
@@ -521,14 +509,11 @@ impl<'m, W: Write> JsonlWriter<'m, W> {
         }
     }
 
-    /// Writes one frame as one line. Fails, writing nothing, on values that are not
-    /// finite, indices the mask or the tables do not have, or `controls` of the wrong
-    /// length.
+    /// Writes one frame as one line. Fails, writing nothing, on a frame that
+    /// [`Frame::check`] refuses (what is written always reads back).
     pub fn write_frame(&mut self, frame: &Frame) -> Result<(), StreamError> {
+        frame.check(self.mask)?;
         let seq = frame.seq;
-        if !frame.time_s.is_finite() {
-            return Err(invalid(seq, "t", format!("{} is not finite", frame.time_s)));
-        }
         let mut au = Vec::with_capacity(frame.animation.len());
         for &(unit, weight) in &frame.animation {
             let key = self
@@ -537,16 +522,13 @@ impl<'m, W: Write> JsonlWriter<'m, W> {
                 .get(usize::from(unit))
                 .map(|u| u.key.as_str())
                 .ok_or_else(|| invalid(seq, format!("au[{unit}]"), "the mask has no such unit"))?;
-            check_finite(seq, &format!("au.{key}"), &[weight])?;
             au.push((key, weight));
         }
         let mut fap = Vec::with_capacity(frame.faps.len());
         for &(number, count) in &frame.faps {
             let name = fap_info(number)
-                .filter(|info| info.number > 2)
                 .map(|info| info.name)
                 .ok_or_else(|| invalid(seq, format!("fap[{number}]"), "not a FAP 3..=68"))?;
-            check_finite(seq, &format!("fap.{name}"), &[count])?;
             fap.push((name, count));
         }
         let mut arkit = Vec::with_capacity(frame.arkit.len());
@@ -554,30 +536,7 @@ impl<'m, W: Write> JsonlWriter<'m, W> {
             let name = ARKIT_BLENDSHAPES
                 .get(usize::from(index))
                 .ok_or_else(|| invalid(seq, format!("arkit[{index}]"), "not an index 0..52"))?;
-            check_finite(seq, &format!("arkit.{name}"), &[weight])?;
             arkit.push((*name, weight));
-        }
-        for (field, vector) in [
-            ("head_rotation_rad", frame.head_rotation_rad),
-            ("head_translation", frame.head_translation),
-        ] {
-            if let Some(v) = vector {
-                check_finite(seq, field, &v)?;
-            }
-        }
-        if let Some(controls) = &frame.controls {
-            if controls.len() != self.mask.vertices.len() {
-                return Err(invalid(
-                    seq,
-                    "controls",
-                    format!(
-                        "has {} entries, the mask has {} vertices",
-                        controls.len(),
-                        self.mask.vertices.len()
-                    ),
-                ));
-            }
-            check_finite(seq, "controls", controls.as_flattened())?;
         }
         let json = JsonFrame {
             seq,
@@ -683,17 +642,18 @@ mod tests {
             animation: vec![(65, 0.1)],
             ..Frame::at(3, 0.0)
         };
-        assert_eq!(
-            writer.write_frame(&bad_unit).unwrap_err().to_string(),
-            "frame 3: au[65]: the mask has no such unit"
-        );
+        assert!(writer
+            .write_frame(&bad_unit)
+            .unwrap_err()
+            .to_string()
+            .starts_with("frame 3: au.65: unknown animation unit \"65\"; valid: an index 0..65"));
         let nan = Frame {
             faps: vec![(3, f32::NAN)],
             ..Frame::at(4, 0.0)
         };
         assert_eq!(
             writer.write_frame(&nan).unwrap_err().to_string(),
-            "frame 4: fap.open_jaw: NaN is not finite"
+            "frame 4: fap.open_jaw: NaN is not a finite number"
         );
         assert!(writer.into_inner().unwrap().is_empty());
     }

@@ -46,10 +46,7 @@ impl<R: BufRead> LineReader<R> {
 
     /// The line last read; after the end of the input, the line the end was found on.
     pub(crate) fn location(&self) -> Location {
-        Location {
-            file: self.file.clone(),
-            line: self.line,
-        }
+        Location::line(self.file.clone(), self.line)
     }
 
     /// Reads the next line into `out` (cleared first). Returns `false` at the end of the
@@ -180,7 +177,7 @@ mod tests {
         let mut line = String::new();
         assert!(reader.read_data_line(&mut line, true).unwrap());
         assert_eq!(line, " x");
-        assert_eq!(reader.location().line, 4);
+        assert_eq!(reader.location(), Location::line(None, 4));
         assert!(!reader.read_data_line(&mut line, true).unwrap());
     }
 }

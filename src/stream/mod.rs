@@ -3,19 +3,22 @@
 //! facewire's JSONL, MPEG-4 `.fap` files, the legacy tool's AU text, and the generated
 //! syllable stream. Readers are iterators over any `BufRead` that read one line at a time
 //! (an hour-long file is never loaded whole) and stop at the first error, which names the
-//! file, line and field. ARKit blendshape weights reach the mask through a retarget basis
+//! file, line and field. Every reader, and the binary `FWP1` path, runs the same check on
+//! what a frame's values mean and how large they may be ([`Frame::check`]). ARKit blendshape weights reach the mask through a retarget basis
 //! ([`arkit`]). The formats are specified in `docs/STREAMS.md`.
 //!
 //! Plain synchronous Rust: the service wraps these in its own tasks.
 
 pub mod arkit;
 pub mod au_text;
+mod check;
 mod error;
 pub mod fap_file;
 mod frame;
 pub mod jsonl;
 mod lines;
 mod poser;
+mod strict_json;
 pub mod summary;
 pub mod syllables;
 
@@ -26,6 +29,10 @@ use std::sync::Arc;
 
 pub use arkit::{ArkitBasis, ArkitBasisError};
 pub use au_text::{AuTextOptions, AuTextReader, AuTextWriter};
+pub use check::{
+    MAX_CONTROL, MAX_FAP_ANGLE_COUNT, MAX_FAP_COUNT, MAX_FPS, MAX_LABEL_BYTES, MAX_ROTATION_RAD, MAX_SEQ,
+    MAX_TIME_S, MAX_TRANSLATION, MAX_WEIGHT, MIN_FPS,
+};
 pub use error::{Location, StreamError};
 pub use fap_file::{FapHeader, FapReader, FapWriter};
 pub use frame::{
