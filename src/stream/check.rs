@@ -151,7 +151,7 @@ impl Frame {
                     field: format!("au.{unit}"),
                     source: Box::new(UnknownUnit {
                         what: "animation unit",
-                        name: unit.to_string(),
+                        name: crate::quote::quote(&unit.to_string()),
                         count: mask.animation_units.len(),
                         valid: mask
                             .animation_units

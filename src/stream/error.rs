@@ -109,7 +109,7 @@ pub enum StreamError {
         name: String,
         valid: String,
     },
-    #[error("{at}: {}: names the same {what} as {}", cut(.field), cut(&format!("{:?}", .other)))]
+    #[error("{at}: {}: names the same {what} as {}", cut(.field), cut(.other))]
     Duplicate {
         at: Location,
         field: String,
