@@ -7,6 +7,7 @@
 
 pub mod animate;
 pub mod atomic;
+#[cfg(feature = "cli")]
 pub mod cli;
 pub mod deform;
 pub mod fit;
@@ -16,7 +17,9 @@ pub mod mask;
 pub mod metrics;
 pub mod quote;
 pub mod render;
+#[cfg(feature = "reports")]
 pub mod report;
+#[cfg(feature = "server")]
 pub mod server;
 pub mod stream;
 pub mod text_table;

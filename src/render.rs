@@ -8,7 +8,8 @@ use std::io::Write;
 use glam::{Mat3, Vec3};
 
 /// Where the camera looks from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum View {
     /// Looking at the face (down -z).
     Front,
