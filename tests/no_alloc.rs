@@ -1,17 +1,18 @@
 //! Per-frame code allocates nothing: a counting global allocator watches one thread while
-//! it turns a stream frame into mask weights, poses the mask and deforms the head with
-//! every preset.
+//! the per-frame job (`animate::FrameJob`) turns stream frames into deformed heads and
+//! encoded viewer frames, with every preset, with and without face roughness.
+
+mod common;
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
-use std::path::Path;
+use std::sync::Arc;
 
-use facewire::deform::{bind, AlgoSpec, Registration};
-use facewire::fit::{FitFile, FittedMask};
-use facewire::head::Head;
+use common::data;
+use facewire::animate::{AnimatedHead, FrameJob, FrameTimes};
+use facewire::deform::{bind, AlgoSpec};
 use facewire::mask::Mask;
-use facewire::stream::open_stream;
-use glam::Vec3;
+use facewire::stream::{open_stream, ArkitBasis};
 
 struct Counting;
 
@@ -40,46 +41,35 @@ fn allocations_during(f: impl FnOnce()) -> usize {
 }
 
 #[test]
-fn a_frame_allocates_nothing() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("data");
-    let head = Head::load(&root.join("heads/makehuman_head.obj")).unwrap();
+fn the_per_frame_job_allocates_nothing() {
     let mask = Mask::candide3();
-    let fit = FitFile::load(&root.join("heads/makehuman_head.fit.toml"))
-        .unwrap()
-        .resolve("fit", &mask)
-        .unwrap();
-    let reg = Registration::new(head, FittedMask::new(mask.clone(), fit));
-    let frames: Vec<_> = open_stream(&root.join("streams/syllables.jsonl"), &mask)
+    let head = Arc::new(AnimatedHead::new(common::register("makehuman_head")).unwrap());
+    let frames: Vec<_> = open_stream(&data("streams/syllables.jsonl"), &mask)
         .unwrap()
         .take(40)
         .map(Result::unwrap)
         .collect();
-    let mut weights = vec![0.0f32; 65];
-    let mut mask_now = vec![Vec3::ZERO; 113];
-    let mut out = vec![Vec3::ZERO; reg.vertex_count()];
+    let basis = Arc::new(ArkitBasis::shipped());
     for (_, spec, _) in AlgoSpec::presets() {
-        let binding = bind(&reg, &spec);
-        let mut scratch = binding.scratch(113, reg.mask_triangles().len());
-        let count = allocations_during(|| {
-            for frame in &frames {
-                frame.animation_weights(&reg.fitted.mask, &reg.fitted.fapu, &mut weights);
-                reg.fitted.pose_into(&weights, &mut mask_now);
-                binding.deform(
-                    &reg.head.positions,
-                    reg.mask_rest(),
-                    &mask_now,
-                    reg.mask_triangles(),
-                    &mut scratch,
-                    &mut out,
-                );
-            }
-        });
-        assert_eq!(
-            count,
-            0,
-            "{spec} allocated {count} times over {} frames",
-            frames.len()
-        );
+        for face in [false, true] {
+            let binding = Arc::new(bind(&head.registration, &spec));
+            let mut job = FrameJob::new(head.clone(), binding, basis.clone(), face).unwrap();
+            // The first frame sizes the encoder's buffers.
+            job.deform(&frames[0]);
+            job.encode(&frames[0], FrameTimes::default()).unwrap();
+            let count = allocations_during(|| {
+                for frame in &frames {
+                    job.deform(frame);
+                    job.encode(frame, FrameTimes::default()).unwrap();
+                }
+            });
+            assert_eq!(
+                count,
+                0,
+                "{spec} (face roughness {face}) allocated {count} times over {} frames",
+                frames.len()
+            );
+        }
         // the counter does see allocations
         assert_eq!(allocations_during(|| drop(vec![1u8; 10])), 1);
     }

@@ -104,6 +104,24 @@ pub struct FrameEncoder {
 }
 
 impl FrameEncoder {
+    /// An encoder whose buffers already hold the largest frame of a head with `vertices`
+    /// vertices and `lip_values` lip roughness values (every vertex moved by the largest
+    /// counts, a 255-byte label, face roughness), so encoding allocates nothing after the
+    /// first frame (which makes the deflate state).
+    pub fn for_head(vertices: usize, lip_values: usize) -> FrameEncoder {
+        // Gap and three counts, each a LEB128 varint of at most 5 bytes (u32 and zigzag i32).
+        let block = vertices * 20;
+        let header = 64 + 1 + 4 * lip_values + 256 + 4;
+        // Deflate's worst case stays under the stored size plus its 5-byte block headers;
+        // the loop reserves half a block and 64 bytes more before each call.
+        let deflated = block + block / 2 + 64 + 5 * (block / 16_384 + 1);
+        FrameEncoder {
+            buffer: Vec::with_capacity(header + deflated + 4 + vertices),
+            block: Vec::with_capacity(block),
+            compressor: None,
+        }
+    }
+
     /// Encodes one frame; the returned slice lives until the next call.
     pub fn encode(&mut self, header: &FrameHeader, content: &FrameContent<'_>) -> &[u8] {
         let out = &mut self.buffer;

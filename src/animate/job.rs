@@ -74,7 +74,7 @@ impl FrameJob {
                 ..WireLip::default()
             },
             face,
-            encoder: FrameEncoder::default(),
+            encoder: FrameEncoder::for_head(n, LIP_VERTICES.len()),
             head,
             binding,
             basis,
@@ -99,6 +99,16 @@ impl FrameJob {
             &mut self.deformed,
         );
         &self.deformed
+    }
+
+    /// The head as the last [`FrameJob::deform`] left it (head units).
+    pub fn deformed(&self) -> &[Vec3] {
+        &self.deformed
+    }
+
+    /// The moved mask of the last [`FrameJob::deform`] (head units).
+    pub fn mask(&self) -> &[Vec3] {
+        self.poser.posed()
     }
 
     /// Encodes the head as [`FrameJob::deform`] left it, for `frame`: quantized deltas

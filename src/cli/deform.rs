@@ -5,16 +5,16 @@
 
 use std::io::{BufWriter, Write};
 use std::path::Path;
+use std::sync::Arc;
 use std::time::Instant;
 
-use glam::Vec3;
-
 use super::{load_fit, load_head, load_mask, CliResult, FilePath};
+use crate::animate::{AnimatedHead, FrameJob};
 use crate::deform::{bind, AlgoSpec, Registration};
 use crate::fit::FittedMask;
 use crate::head::obj;
-use crate::metrics::{LipRegion, LipRoughness, RoughnessTsvWriter};
-use crate::stream::{open_stream, ArkitBasis, FramePoser};
+use crate::metrics::{LipRoughness, RoughnessTsvWriter};
+use crate::stream::{open_stream, ArkitBasis};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -89,21 +89,20 @@ pub fn run(args: Args) -> CliResult {
     let control_path = args.out.join("control.tsv");
     let mut control = BufWriter::new(create(&control_path)?);
     writeln!(control, "frame\tmask_vertex\tanchor\tx\ty\tz\tdx\tdy\tdz")?;
-    let region = LipRegion::new(
-        &registration.head,
-        &registration.anchors,
-        registration.mm_per_unit(),
-    )
-    .map_err(|e| format!("the lip region of {}: {e}", args.head.display()))?;
-    let mut lips = LipRoughness::new(&registration.head, &region)?;
+    let animated =
+        Arc::new(AnimatedHead::new(registration).map_err(|e| format!("{}: {e}", args.head.display()))?);
+    let registration = &animated.registration;
+    let mut lips = LipRoughness::new(&registration.head, &animated.lip_region)?;
     let metrics_path = args.out.join("metrics.tsv");
     let in_metrics = |e| format!("{}: {e}", metrics_path.display());
     let mut metrics = RoughnessTsvWriter::new(BufWriter::new(create(&metrics_path)?)).map_err(in_metrics)?;
 
-    let arkit = ArkitBasis::shipped();
-    let mut poser = FramePoser::new(&registration.fitted);
-    let mut scratch = binding.scratch(mask.vertices.len(), mask.triangles.len());
-    let mut deformed = vec![Vec3::ZERO; registration.vertex_count()];
+    let mut job = FrameJob::new(
+        animated.clone(),
+        Arc::new(binding),
+        Arc::new(ArkitBasis::shipped()),
+        false,
+    )?;
     let header = vec![
         format!("facewire deform: {} with {spec}", args.head.display()),
         format!(
@@ -120,20 +119,13 @@ pub fn run(args: Args) -> CliResult {
         if index < range.start {
             continue;
         }
-        let mask_now = poser.pose(&registration.fitted, &arkit, &frame);
-        binding.deform(
-            &registration.head.positions,
-            registration.mask_rest(),
-            mask_now,
-            registration.mask_triangles(),
-            &mut scratch,
-            &mut deformed,
-        );
+        job.deform(&frame);
+        let (deformed, mask_now) = (job.deformed(), job.mask());
         let path = args.out.join(format!("frame_{index:05}.obj"));
         let mut file = BufWriter::new(create(&path)?);
-        obj::write(&mut file, &header, &deformed, &registration.head.triangles)?;
+        obj::write(&mut file, &header, deformed, &registration.head.triangles)?;
         file.flush()?;
-        let rows = lips.rows(&deformed, index as u64, frame.time_s)?;
+        let rows = lips.rows(deformed, index as u64, frame.time_s)?;
         metrics.write_rows(&rows).map_err(in_metrics)?;
         for (j, (now, rest)) in mask_now.iter().zip(registration.mask_rest()).enumerate() {
             let d = *now - *rest;

@@ -34,4 +34,9 @@ impl FramePoser {
         fitted.pose_with_offsets_into(&self.weights, &self.offsets, &mut self.posed);
         &self.posed
     }
+
+    /// The mask as the last [`FramePoser::pose`] left it (head units).
+    pub fn posed(&self) -> &[Vec3] {
+        &self.posed
+    }
 }
