@@ -5,7 +5,9 @@
 //! `FACEWIRE_BLESS=1 cargo test --test arkit` rewrites `data/arkit/basis.tsv` from the
 //! generator (as `facewire arkit-basis` does).
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::repo_path;
 
 use glam::Vec3;
 
@@ -24,10 +26,6 @@ const FILE_TOLERANCE_MASK_UNITS: f32 = 1.01e-6;
 /// The basis moves the MakeHuman anchors to the target within this (mm): rounding to
 /// 1e-6 mask units leaves at most 0.8e-4 mm, f32 positions about 1e-4 mm more.
 const ANCHOR_TOLERANCE_MM: f32 = 1e-3;
-
-fn repo_path(relative: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(relative)
-}
 
 fn fitted(fit_file: &str) -> FittedMask {
     let mask = Mask::candide3();

@@ -7,6 +7,10 @@
 //! WebDriver is plain HTTP and JSON, spoken here with reqwest; the test's own producer
 //! speaks WebSocket with tokio-tungstenite.
 
+mod common;
+
+use common::service::jaw_line;
+
 use std::io::{BufRead, BufReader};
 use std::panic::AssertUnwindSafe;
 use std::process::{Child, Command, Stdio};
@@ -328,9 +332,8 @@ where
     S: SinkExt<Message> + StreamExt<Item = tokio_tungstenite::tungstenite::Result<Message>> + Unpin,
     <S as futures_util::Sink<Message>>::Error: std::fmt::Debug,
 {
-    let frame = json!({"seq": seq, "t": seq as f64 / 30.0, "au": {"jaw_drop": 0.4}});
     producer
-        .send(Message::Text(frame.to_string().into()))
+        .send(Message::Text(jaw_line(seq, seq as f64 / 30.0).into()))
         .await
         .unwrap();
     let reply = producer.next().await.expect("an ack").unwrap();

@@ -1,11 +1,11 @@
 //! The `facewire` binary as a user runs it: real processes, real files.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn data(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path)
-}
+use common::data;
+
+use std::path::Path;
+use std::process::{Command, Output};
 
 fn facewire(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_facewire"))

@@ -3,6 +3,10 @@
 //! writes (headers, row counts, finite numbers, the ground-truth reference, the report's
 //! links) and the errors it gives for bad input.
 
+mod common;
+
+use common::data;
+
 use std::collections::BTreeSet;
 use std::fs::File;
 use std::io::BufWriter;
@@ -18,10 +22,6 @@ use facewire::stream::{open_stream, Frame, JsonlWriter};
 
 /// Frames of the shipped syllable stream the tests replay.
 const FRAMES: usize = 40;
-
-fn data(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path)
-}
 
 fn facewire(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_facewire"))

@@ -17,12 +17,16 @@
 //! `FACEWIRE_FUZZ_ITERS` (default 10000 per target) and `FACEWIRE_FUZZ_SEED` (default 1)
 //! make longer or different runs: `FACEWIRE_FUZZ_ITERS=200000 cargo test --test fuzz`.
 
+mod common;
+
+use common::{data, repo_path};
+
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::{Cell, RefCell};
 use std::fmt::Write as _;
 use std::io::Cursor;
 use std::panic::{self, AssertUnwindSafe};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::{Once, OnceLock};
 use std::time::{Duration, Instant};
 
@@ -384,7 +388,7 @@ fn mutate(rng: &mut Rng, input: &mut Vec<u8>, seeds: &[Vec<u8>], binary: bool, m
 // ---------------------------------------------------------------- harness
 
 fn fuzz_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz")
+    repo_path("tests/fuzz")
 }
 
 fn env_number(name: &str, default: u64) -> u64 {
@@ -564,7 +568,7 @@ fn candide3() -> &'static Mask {
 fn fitted() -> &'static (FittedMask, ArkitBasis) {
     static FITTED: OnceLock<(FittedMask, ArkitBasis)> = OnceLock::new();
     FITTED.get_or_init(|| {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/heads/makehuman_head.fit.toml");
+        let path = data("heads/makehuman_head.fit.toml");
         let fit = FitFile::load(&path).unwrap().resolve("fit", candide3()).unwrap();
         (FittedMask::new(candide3().clone(), fit), ArkitBasis::shipped())
     })

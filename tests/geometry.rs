@@ -1,7 +1,11 @@
 //! The geometry core against the shipped data: the CANDIDE-3 model, both real heads and
 //! their fits.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::data;
+
+use std::path::Path;
 
 use facewire::fit::{anchor_mask, residuals, FitFile, FittedMask, Landmarks};
 use facewire::head::{Head, HeadError, ObjError, SurfaceDistance};
@@ -9,10 +13,6 @@ use facewire::input::ReadError;
 use facewire::mask::{Fapu, Mask, MaskPose, WfmError, INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
 use facewire::quote::quote;
 use glam::Vec3;
-
-fn data(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path)
-}
 
 fn wfm_text() -> String {
     std::fs::read(data("candide3/candide3.wfm"))

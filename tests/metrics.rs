@@ -1,10 +1,13 @@
 //! Quality metrics against hand-computed meshes, an independent reference implementation
 //! and the shipped heads, fits and ARKit targets.
 
+mod common;
+
+use common::data;
+
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::collections::BTreeSet;
-use std::path::{Path, PathBuf};
 
 use facewire::fit::{anchor_mask, Anchors, FitFile, FittedMask};
 use facewire::head::{Head, SurfaceDistance, SurfaceIndex};
@@ -46,10 +49,6 @@ static ALLOCATOR: CountingAllocator = CountingAllocator;
 
 fn allocations() -> u64 {
     ALLOCATIONS.with(Cell::get)
-}
-
-fn data(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path)
 }
 
 struct Fitted {

@@ -5,6 +5,10 @@
 //! `FACEWIRE_BLESS=1 cargo test --test streams` rewrites `data/streams/syllables.jsonl`
 //! from the generator.
 
+mod common;
+
+use common::repo_path;
+
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -14,10 +18,6 @@ use facewire::stream::{
     open_stream, summarize, AuTextOptions, AuTextReader, AuTextWriter, ExpressionFap, FapHeader, FapReader,
     FapWriter, Frame, JsonlReader, JsonlWriter, StreamError, VisemeFap, MAX_LINE_BYTES,
 };
-
-fn repo_path(relative: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(relative)
-}
 
 fn xface_joy() -> PathBuf {
     repo_path("data/candide3/xface_joy.fap")

@@ -4,7 +4,10 @@
 //! values the Rust decoder reads from them to a JSON file that `node web/decode.test.mjs`
 //! checks.
 
-use std::path::Path;
+mod common;
+
+use common::repo_path;
+
 use std::process::Command;
 
 use facewire_proto::frame::{decode, FrameContent, FrameEncoder, FrameHeader, LipRoughness};
@@ -280,7 +283,7 @@ fn decode_js_agrees_with_the_rust_encoder() {
     let dir = tempfile::tempdir().unwrap();
     let cases_path = dir.path().join("cases.json");
     std::fs::write(&cases_path, serde_json::to_vec(&cases()).unwrap()).unwrap();
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("web/decode.test.mjs");
+    let script = repo_path("web/decode.test.mjs");
     let output = match Command::new("node").arg(&script).arg(&cases_path).output() {
         Ok(output) => output,
         Err(e) => panic!("cannot run `node` ({e}): the web decoder test needs Node.js 20 or newer on PATH"),

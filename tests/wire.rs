@@ -3,7 +3,10 @@
 //! algorithm is checked; `FACEWIRE_WIRE_ALL=1 cargo test --release --test wire --
 //! --nocapture` prints every preset (docs/PERFORMANCE.md).
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::data;
+
 use std::sync::Arc;
 
 use facewire::animate::{AnimatedHead, FrameJob, FrameTimes};
@@ -15,10 +18,6 @@ use facewire::mask::Mask;
 use facewire::stream::{open_stream, ArkitBasis};
 use facewire_proto::frame::decode;
 use glam::Vec3;
-
-fn data(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path)
-}
 
 /// (mean bytes per frame, worst quantization error in mm) over the syllable stream, as
 /// the service's per-frame job encodes it.
