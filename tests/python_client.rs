@@ -12,9 +12,12 @@
 
 mod common;
 
+use common::repo_path;
+use common::service::{memory_config, Server};
+use facewire::server::Config;
+
 use std::fs::File;
-use std::net::SocketAddr;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -22,13 +25,9 @@ use facewire::animate::STEP_MM;
 use facewire::deform::{bind, AlgoSpec};
 use facewire::mask::fap::FAPS;
 use facewire::mask::Mask;
-use facewire::server::{serve, AppState, Config};
+
 use facewire::stream::{open_stream, ArkitBasis, Frame, FramePoser, JsonlWriter, ARKIT_BLENDSHAPES};
 use serde::Deserialize;
-
-fn repo(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
-}
 
 /// The Python interpreter and package the client needs, or a failure that says what to
 /// install.
@@ -48,44 +47,11 @@ fn require_python() {
     }
 }
 
-struct Server {
-    addr: SocketAddr,
-    state: AppState,
-    task: tokio::task::JoinHandle<std::io::Result<()>>,
-}
-
-impl Server {
-    /// A server on 127.0.0.1:0 keeping heads in memory only.
-    async fn start() -> Server {
-        let state = AppState::new(Config {
-            addr: "127.0.0.1:0".parse().unwrap(),
-            data_dir: None,
-            ..Config::default()
-        })
-        .unwrap();
-        let (tx, rx) = tokio::sync::oneshot::channel();
-        let task = tokio::spawn(serve(state.clone(), move |addr| {
-            let _ = tx.send(addr);
-        }));
-        let addr = rx.await.unwrap();
-        Server { addr, state, task }
-    }
-
-    async fn stop(self) {
-        self.state.shutdown.cancel();
-        tokio::time::timeout(Duration::from_secs(10), self.task)
-            .await
-            .unwrap()
-            .unwrap()
-            .unwrap();
-    }
-}
-
 /// The frames pushed: the first 20 of the recorded syllable stream (`pa`: the lips close,
 /// press, then the jaw opens for the vowel), some given ARKit weights, FAPs or a head
 /// rotation so that every list of the binary format is exercised.
 fn frames_to_push() -> Vec<Frame> {
-    let frames: Vec<Frame> = open_stream(&repo("data/streams/syllables.jsonl"), &Mask::candide3())
+    let frames: Vec<Frame> = open_stream(&repo_path("data/streams/syllables.jsonl"), &Mask::candide3())
         .unwrap()
         .take(20)
         .map(Result::unwrap)
@@ -194,7 +160,7 @@ fn run_selftest(args: &[String], dir: &Path, limit: Duration) -> Outcome {
     let stdout_path = dir.join("selftest.stdout");
     let stderr_path = dir.join("selftest.stderr");
     let mut child = Command::new("python3")
-        .arg(repo("clients/python/selftest.py"))
+        .arg(repo_path("clients/python/selftest.py"))
         .args(args)
         .arg("--out")
         .arg(&out_path)
@@ -232,7 +198,7 @@ fn run_selftest(args: &[String], dir: &Path, limit: Duration) -> Outcome {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_python_client_decodes_what_the_library_computes() {
     require_python();
-    let server = Server::start().await;
+    let server = Server::start(memory_config()).await;
     let dir = tempfile::tempdir().unwrap();
     let frames = frames_to_push();
     let frames_path = dir.path().join("frames.jsonl");
@@ -244,9 +210,11 @@ async fn the_python_client_decodes_what_the_library_computes() {
         "--head".into(),
         "mh".into(),
         "--obj".into(),
-        repo("data/heads/makehuman_head.obj").display().to_string(),
+        repo_path("data/heads/makehuman_head.obj").display().to_string(),
         "--fit".into(),
-        repo("data/heads/makehuman_head.fit.toml").display().to_string(),
+        repo_path("data/heads/makehuman_head.fit.toml")
+            .display()
+            .to_string(),
         "--frames".into(),
         frames_path.display().to_string(),
     ]

@@ -47,42 +47,12 @@ async fn guarded() -> Router {
     })
     .unwrap();
     let router = app(state);
+    let obj = std::fs::read_to_string(data("heads/makehuman_head.obj")).unwrap();
+    let fit = std::fs::read_to_string(data("heads/makehuman_head.fit.toml")).unwrap();
     for (id, own) in [("own", Some("own")), ("plain", None)] {
-        let body = serde_json::json!({
-            "id": id,
-            "obj": std::fs::read_to_string(data("heads/makehuman_head.obj")).unwrap(),
-            "fit": std::fs::read_to_string(data("heads/makehuman_head.fit.toml")).unwrap(),
-            "producer_token": own,
-        });
-        let (status, answer) = call(
-            &router,
-            Method::POST,
-            "/v1/heads",
-            Some("admin"),
-            Body::from(body.to_string()),
-        )
-        .await;
-        assert_eq!(
-            status,
-            StatusCode::ACCEPTED,
-            "{}",
-            String::from_utf8_lossy(&answer)
-        );
-        for _ in 0..400 {
-            let (_, info) = call(
-                &router,
-                Method::GET,
-                &format!("/v1/heads/{id}"),
-                Some("admin"),
-                Body::empty(),
-            )
-            .await;
-            let info: serde_json::Value = serde_json::from_slice(&info).unwrap();
-            if info["status"] == "ready" {
-                break;
-            }
-            tokio::time::sleep(Duration::from_millis(50)).await;
-        }
+        let body = serde_json::json!({"id": id, "obj": obj, "fit": fit, "producer_token": own});
+        let info = register_and_wait(&router, body, Some("admin")).await;
+        assert_eq!(info["status"], "ready", "{info}");
     }
     router
 }
@@ -194,14 +164,18 @@ async fn what_no_route_answers_is_a_json_error() {
     );
 }
 
-/// Registers `obj` with `fit` and waits for the registration to end; its head info.
-async fn register_and_wait(router: &Router, id: &str, obj: String, fit: String) -> serde_json::Value {
-    let body = serde_json::json!({"id": id, "obj": obj, "fit": fit});
+/// Posts a registration request and waits for the registration to end; the head info.
+async fn register_and_wait(
+    router: &Router,
+    body: serde_json::Value,
+    token: Option<&str>,
+) -> serde_json::Value {
+    let id = body["id"].as_str().unwrap().to_string();
     let (status, answer) = call(
         router,
         Method::POST,
         "/v1/heads",
-        None,
+        token,
         Body::from(body.to_string()),
     )
     .await;
@@ -216,7 +190,7 @@ async fn register_and_wait(router: &Router, id: &str, obj: String, fit: String) 
             router,
             Method::GET,
             &format!("/v1/heads/{id}"),
-            None,
+            token,
             Body::empty(),
         )
         .await;
@@ -250,7 +224,12 @@ async fn heads_that_cannot_be_animated_fail_with_the_reason() {
         ("same", same_point, fit.clone(), "extent"),
         ("scaled", obj, huge_scale, "scale"),
     ] {
-        let info = register_and_wait(&router, id, obj, fit).await;
+        let info = register_and_wait(
+            &router,
+            serde_json::json!({"id": id, "obj": obj, "fit": fit}),
+            None,
+        )
+        .await;
         assert_eq!(info["status"], "failed", "{info}");
         let error = info["error"].as_str().unwrap();
         assert!(error.contains(says), "{id}: {error}");

@@ -70,52 +70,44 @@ async fn producer_session(mut socket: WebSocket, state: AppState, head: Arc<Head
     tracing::info!(head = %head.id, stream = %stream.name, "producer connected");
     let ending = receive_frames(&mut socket, &state, &head, &permit).await;
     let idle_s = state.config.limits.producer_idle_s;
-    match ending {
-        Ending::Ended => {
-            permit.end(EndReason::ProducerEnded);
-            let _ = socket
-                .send(text(&ServerMessage::end(EndReason::ProducerEnded)))
-                .await;
-            close(&mut socket, CloseCode::Normal, "stream ended").await;
-        }
+    let (reason, close_code, close_reason) = match ending {
         Ending::Gone(answer) => {
             drop(permit);
             if let Some((code, reason)) = answer {
                 close(&mut socket, code, &reason).await;
             }
+            state.telemetry.producers.dec();
+            tracing::info!(head = %head.id, stream = %stream.name, "producer disconnected");
+            return;
         }
-        Ending::Idle => {
+        Ending::Ended => (EndReason::ProducerEnded, CloseCode::Normal, "stream ended"),
+        Ending::Idle => (EndReason::ProducerIdle, CloseCode::Idle, "idle producer"),
+        Ending::Cancelled => (
+            EndReason::ProducerCancelled,
+            CloseCode::Cancelled,
+            "producer cancelled",
+        ),
+        Ending::HeadDeleted => (EndReason::HeadDeleted, CloseCode::HeadDeleted, "head deleted"),
+        Ending::Shutdown => (
+            EndReason::ServerShutdown,
+            CloseCode::GoingAway,
+            "server shutting down",
+        ),
+    };
+    permit.end(reason);
+    // An idle producer is told with an error (it sent nothing to be answered); the others
+    // get the end of their stream.
+    let told = match reason {
+        EndReason::ProducerIdle => {
             state.telemetry.reject(ErrorCode::Idle.as_str());
-            permit.end(EndReason::ProducerIdle);
-            let _ = socket
-                .send(text(&error(ErrorCode::Idle, format!("no frame for {idle_s} s"))))
-                .await;
-            close(&mut socket, CloseCode::Idle, "idle producer").await;
+            error(ErrorCode::Idle, format!("no frame for {idle_s} s"))
         }
-        Ending::Cancelled => {
-            permit.end(EndReason::ProducerCancelled);
-            let _ = socket
-                .send(text(&ServerMessage::end(EndReason::ProducerCancelled)))
-                .await;
-            close(&mut socket, CloseCode::Cancelled, "producer cancelled").await;
-        }
-        Ending::HeadDeleted => {
-            permit.end(EndReason::HeadDeleted);
-            let _ = socket
-                .send(text(&ServerMessage::end(EndReason::HeadDeleted)))
-                .await;
-            close(&mut socket, CloseCode::HeadDeleted, "head deleted").await;
-        }
-        Ending::Shutdown => {
-            permit.end(EndReason::ServerShutdown);
-            let _ = socket
-                .send(text(&ServerMessage::end(EndReason::ServerShutdown)))
-                .await;
-            close(&mut socket, CloseCode::GoingAway, "server shutting down").await;
-        }
-    }
+        _ => ServerMessage::end(reason),
+    };
+    let _ = socket.send(text(&told)).await;
+    close(&mut socket, close_code, close_reason).await;
     state.telemetry.producers.dec();
-    tracing::info!(head = %head.id, stream = %stream.name, "producer disconnected");
+    tracing::info!(head = %head.id, stream = %stream.name, %reason, "producer disconnected");
 }
 
 /// Acks or refuses every message until the session ends.
