@@ -22,4 +22,5 @@ pub mod report;
 #[cfg(feature = "server")]
 pub mod server;
 pub mod stream;
+pub mod targets;
 pub mod text_table;

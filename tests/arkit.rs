@@ -14,9 +14,9 @@ use glam::Vec3;
 use facewire::fit::{anchor_mask, Anchors, FitFile, FittedMask};
 use facewire::head::Head;
 use facewire::mask::{Mask, LOWER_LIP, UPPER_LIP};
-use facewire::metrics::ExpressionTarget;
 use facewire::stream::arkit::{OFFSET_DECIMALS, SHIPPED_BASIS_COMMAND, SHIPPED_BASIS_TSV};
 use facewire::stream::{arkit_index, ArkitBasis, Frame, ARKIT_BLENDSHAPES};
+use facewire::targets::ExpressionTarget;
 
 /// The shipped file and the generator may differ by one unit of the last written digit
 /// (1e-6 mask units, about 1e-4 mm on the MakeHuman head) where a platform rounds an f32

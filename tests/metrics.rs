@@ -13,6 +13,7 @@ use facewire::fit::{anchor_mask, Anchors, FitFile, FittedMask};
 use facewire::head::{Head, SurfaceDistance, SurfaceIndex};
 use facewire::mask::{Mask, INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER, LIP_VERTICES};
 use facewire::metrics::*;
+use facewire::targets::ExpressionTarget;
 use glam::{DMat3, DVec3, Vec3};
 
 /// Counts this thread's allocations, so a test can check that per-frame calls make none.

@@ -9,8 +9,9 @@ use glam::Vec3;
 use super::{load_fit, load_head, load_mask, CliResult, FilePath};
 use crate::atomic::write_atomic;
 use crate::fit::{anchor_mask, FittedMask};
-use crate::metrics::{ground_truth_error, ExpressionTarget, FaceVertices};
+use crate::metrics::{ground_truth_error, FaceVertices};
 use crate::stream::{arkit_index, ArkitBasis};
+use crate::targets::ExpressionTarget;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {

@@ -8,12 +8,12 @@ use std::path::{Path, PathBuf};
 use super::{load_fit, load_head, load_mask, print_json, CliResult, FilePath};
 use crate::deform::Registration;
 use crate::fit::FittedMask;
-use crate::metrics::ExpressionTarget;
 use crate::report::{
     compare, every_preset, parse_algorithms, write_report, AlgorithmSummary, CompareInput, Comparison,
     Progress, ReportContext, Stage,
 };
 use crate::stream::{open_stream, ArkitBasis};
+use crate::targets::ExpressionTarget;
 
 /// The head whose expression targets ship in `makehuman_arkit/` beside it.
 const MAKEHUMAN_HEAD: &str = "makehuman_head.obj";

@@ -14,7 +14,6 @@ mod lip_roughness;
 mod region;
 mod roughness;
 mod table;
-mod targets;
 
 pub use aggregate::{algorithm_score, AlgorithmScore, SyllableScore, SyllableScores};
 pub use face_region::{FaceVertices, FACE_RADIUS_MM};
@@ -27,4 +26,3 @@ pub use lip_roughness::{LipRoughness, LipRoughnessRow, LIP_ROWS, SUMMARY_MASK_VE
 pub use region::RegionError;
 pub use roughness::{Roughness, RoughnessError, VARIANCE_FLOOR};
 pub use table::{RoughnessTsvWriter, TsvError, TSV_HEADER};
-pub use targets::{ExpressionTarget, TargetError};

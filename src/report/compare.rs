@@ -15,10 +15,11 @@ use crate::deform::{bind, Registration};
 use crate::head::Head;
 use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
 use crate::metrics::{
-    control_error, ground_truth_error, mouth_opening, ExpressionTarget, FaceVertices, LipRegion,
-    LipRoughness, Roughness, RoughnessError, SyllableScores, LIP_ROWS,
+    control_error, ground_truth_error, mouth_opening, FaceVertices, LipRegion, LipRoughness, Roughness,
+    RoughnessError, SyllableScores, LIP_ROWS,
 };
 use crate::stream::{open_stream, ArkitBasis, FramePoser};
+use crate::targets::ExpressionTarget;
 
 /// Syllable label of frames that carry none.
 pub const UNLABELLED: &str = "-";

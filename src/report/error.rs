@@ -1,8 +1,9 @@
 //! Why a comparison or its report failed, with the file, algorithm or target at fault.
 
 use crate::deform::SpecError;
-use crate::metrics::{FidelityError, RegionError, RoughnessError, TargetError};
+use crate::metrics::{FidelityError, RegionError, RoughnessError};
 use crate::stream::StreamError;
+use crate::targets::TargetError;
 
 /// A failed comparison or report.
 #[derive(Debug, thiserror::Error)]

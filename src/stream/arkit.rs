@@ -18,11 +18,11 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::frame::{arkit_index, ARKIT_BLENDSHAPES};
+use super::blendshapes::{arkit_index, ARKIT_BLENDSHAPES};
 use crate::fit::{Anchors, FittedMask};
 use crate::input::{read_text, ReadError, MAX_TEXT_BYTES};
-use crate::metrics::{ExpressionTarget, TargetError};
 use crate::quote::quote;
+use crate::targets::{ExpressionTarget, TargetError};
 use crate::text_table::{self, FieldProblem, Row};
 
 /// The shipped basis (`data/arkit/basis.tsv`), derived from the MakeHuman head's targets.

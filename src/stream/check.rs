@@ -13,8 +13,9 @@ use std::f32::consts::TAU;
 
 use facewire_proto::params::ParamFrame;
 
+use super::blendshapes::ARKIT_BLENDSHAPES;
 use super::error::{Location, StreamError};
-use super::frame::{Frame, ARKIT_BLENDSHAPES, RADIANS_PER_ANGLE_COUNT};
+use super::frame::{Frame, RADIANS_PER_ANGLE_COUNT};
 use crate::mask::fap::{fap_info, Fapu};
 use crate::mask::{Mask, UnknownUnit};
 

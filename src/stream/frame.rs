@@ -19,72 +19,6 @@ pub const RADIANS_PER_ANGLE_COUNT: f32 = 1e-5;
 /// [`crate::mask::MaskPose`]'s rx, ry and rz, so the counts map with no sign change.
 pub const HEAD_ROTATION_FAPS: [u8; 3] = [48, 49, 50];
 
-/// The 52 ARKit blendshapes in Apple's documented order (`ARFaceAnchor.BlendShapeLocation`:
-/// left eye, right eye, jaw, mouth, brows, cheeks, nose, tongue), which is also the order
-/// of Unreal's `EARFaceBlendShape` and Live Link Face. A frame's `arkit` entries index it.
-pub const ARKIT_BLENDSHAPES: [&str; 52] = [
-    "eyeBlinkLeft",
-    "eyeLookDownLeft",
-    "eyeLookInLeft",
-    "eyeLookOutLeft",
-    "eyeLookUpLeft",
-    "eyeSquintLeft",
-    "eyeWideLeft",
-    "eyeBlinkRight",
-    "eyeLookDownRight",
-    "eyeLookInRight",
-    "eyeLookOutRight",
-    "eyeLookUpRight",
-    "eyeSquintRight",
-    "eyeWideRight",
-    "jawForward",
-    "jawLeft",
-    "jawRight",
-    "jawOpen",
-    "mouthClose",
-    "mouthFunnel",
-    "mouthPucker",
-    "mouthLeft",
-    "mouthRight",
-    "mouthSmileLeft",
-    "mouthSmileRight",
-    "mouthFrownLeft",
-    "mouthFrownRight",
-    "mouthDimpleLeft",
-    "mouthDimpleRight",
-    "mouthStretchLeft",
-    "mouthStretchRight",
-    "mouthRollLower",
-    "mouthRollUpper",
-    "mouthShrugLower",
-    "mouthShrugUpper",
-    "mouthPressLeft",
-    "mouthPressRight",
-    "mouthLowerDownLeft",
-    "mouthLowerDownRight",
-    "mouthUpperUpLeft",
-    "mouthUpperUpRight",
-    "browDownLeft",
-    "browDownRight",
-    "browInnerUp",
-    "browOuterUpLeft",
-    "browOuterUpRight",
-    "cheekPuff",
-    "cheekSquintLeft",
-    "cheekSquintRight",
-    "noseSneerLeft",
-    "noseSneerRight",
-    "tongueOut",
-];
-
-/// Index of an ARKit blendshape by name, case-insensitively (`jawOpen` -> 17).
-pub fn arkit_index(name: &str) -> Option<u8> {
-    ARKIT_BLENDSHAPES
-        .iter()
-        .position(|n| n.eq_ignore_ascii_case(name))
-        .and_then(|i| u8::try_from(i).ok())
-}
-
 /// MPEG-4 FAP 1, the high-level viseme: a blend of two of the standard's 14 visemes. Kept
 /// as read (integers as in a `.fap` file); CANDIDE-3 has no unit for it, so it does not
 /// move the mask.
@@ -242,20 +176,6 @@ impl Frame {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn arkit_table_is_apples_order() {
-        assert_eq!(ARKIT_BLENDSHAPES.len(), 52);
-        assert_eq!(arkit_index("jawOpen"), Some(17));
-        assert_eq!(arkit_index("JAWOPEN"), Some(17));
-        assert_eq!(arkit_index("browDownLeft"), Some(41));
-        assert_eq!(arkit_index("tongueOut"), Some(51));
-        assert_eq!(arkit_index("smile"), None);
-        let mut sorted = ARKIT_BLENDSHAPES.to_vec();
-        sorted.sort_unstable();
-        sorted.dedup();
-        assert_eq!(sorted.len(), 52);
-    }
 
     #[test]
     fn weights_add_animation_units_and_converted_faps() {

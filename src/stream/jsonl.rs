@@ -9,8 +9,9 @@ use std::sync::Arc;
 use serde::ser::{SerializeMap, Serializer};
 use serde_json::{Map, Value};
 
+use super::blendshapes::{arkit_index, ARKIT_BLENDSHAPES};
 use super::error::{check_order, Location, StreamError};
-use super::frame::{arkit_index, ExpressionFap, Frame, VisemeFap, ARKIT_BLENDSHAPES};
+use super::frame::{ExpressionFap, Frame, VisemeFap};
 use super::lines::{Decoding, LineReader};
 use super::strict_json::{self, StrictJsonError};
 use crate::mask::fap::{fap_by_name, fap_info, FAPS};

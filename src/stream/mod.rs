@@ -11,6 +11,7 @@
 
 pub mod arkit;
 pub mod au_text;
+mod blendshapes;
 mod check;
 mod error;
 pub mod fap_file;
@@ -29,16 +30,14 @@ use std::sync::Arc;
 
 pub use arkit::{ArkitBasis, ArkitBasisError};
 pub use au_text::{AuTextOptions, AuTextReader, AuTextWriter};
+pub use blendshapes::{arkit_index, ARKIT_BLENDSHAPES};
 pub use check::{
     MAX_CONTROL, MAX_FAP_ANGLE_COUNT, MAX_FAP_COUNT, MAX_FPS, MAX_LABEL_BYTES, MAX_ROTATION_RAD, MAX_SEQ,
     MAX_TIME_S, MAX_TRANSLATION, MAX_WEIGHT, MIN_FPS,
 };
 pub use error::{Location, StreamError};
 pub use fap_file::{FapHeader, FapReader, FapWriter};
-pub use frame::{
-    arkit_index, ExpressionFap, Frame, VisemeFap, ARKIT_BLENDSHAPES, HEAD_ROTATION_FAPS,
-    RADIANS_PER_ANGLE_COUNT,
-};
+pub use frame::{ExpressionFap, Frame, VisemeFap, HEAD_ROTATION_FAPS, RADIANS_PER_ANGLE_COUNT};
 pub use jsonl::{JsonlReader, JsonlWriter};
 pub use lines::MAX_LINE_BYTES;
 pub use poser::FramePoser;

@@ -4,8 +4,9 @@
 
 use std::collections::{BTreeMap, HashMap};
 
+use super::blendshapes::ARKIT_BLENDSHAPES;
 use super::error::StreamError;
-use super::frame::{Frame, ARKIT_BLENDSHAPES, HEAD_ROTATION_FAPS};
+use super::frame::{Frame, HEAD_ROTATION_FAPS};
 use crate::mask::fap::fap_info;
 use crate::mask::Mask;
 
