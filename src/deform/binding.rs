@@ -15,7 +15,7 @@
 
 use glam::{Vec3, Vec3A};
 
-use super::planar_bones::{BoneFrames, BoneTerm, Region};
+use super::bones::{BoneFrames, BoneTerm, Region};
 use super::spec::AlgoSpec;
 
 /// Compressed rows: the items of row `v` are `items[offsets[v]..offsets[v + 1]]`.

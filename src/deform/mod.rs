@@ -9,6 +9,7 @@ mod anchor_system;
 mod bary1;
 mod bary2;
 mod binding;
+mod bones;
 mod geometric;
 mod kshirsagar;
 pub mod planar_bones;
