@@ -10,6 +10,8 @@ use axum::Json;
 use facewire_proto::codes::ErrorCode;
 use facewire_proto::messages::ErrorBody;
 
+use crate::quote::quote;
+
 tokio::task_local! {
     /// The id of the request being handled (set by [`super::app`]'s request-id layer).
     pub static REQUEST_ID: String;
@@ -19,7 +21,7 @@ tokio::task_local! {
 pub enum ApiError {
     #[error("{0}")]
     BadRequest(String),
-    #[error("{what} {id:?} is not valid: use 1-64 lowercase letters, digits, '-' or '_'")]
+    #[error("{what} {} is not valid: use 1-64 lowercase letters, digits, '-' or '_'", quote(.id))]
     BadId { what: &'static str, id: String },
     #[error("{0}")]
     BadLandmarks(String),
@@ -35,21 +37,21 @@ pub enum ApiError {
     TooLong { duration_s: f64, limit_s: f64 },
     #[error("a valid {role} token is required (?token= or Authorization: Bearer)")]
     Unauthorized { role: &'static str },
-    #[error("no head {0:?}")]
+    #[error("no head {}", quote(.0))]
     UnknownHead(String),
-    #[error("stream {stream:?} of head {head:?} has no producer")]
+    #[error("stream {} of head {} has no producer", quote(.stream), quote(.head))]
     NoProducer { head: String, stream: String },
-    #[error("no such resource: {0}")]
+    #[error("no such resource: {}", quote(.0))]
     NotFound(String),
-    #[error("method {method} is not allowed on {path}")]
+    #[error("method {} is not allowed on {}", quote(.method), quote(.path))]
     MethodNotAllowed { method: String, path: String },
-    #[error("head {0:?} is already registered")]
+    #[error("head {} is already registered", quote(.0))]
     HeadExists(String),
-    #[error("stream {0:?} already has a producer; one at a time")]
+    #[error("stream {} already has a producer; one at a time", quote(.0))]
     ProducerBusy(String),
-    #[error("head {id:?} failed to register: {error}")]
+    #[error("head {} failed to register: {error}", quote(.id))]
     RegistrationFailed { id: String, error: String },
-    #[error("head {id:?} is still registering ({percent:.0} %)")]
+    #[error("head {} is still registering ({percent:.0} %)", quote(.id))]
     Registering { id: String, percent: f32 },
     #[error("{0}")]
     LimitReached(String),
@@ -146,6 +148,27 @@ impl IntoResponse for ApiError {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn client_values_are_quoted_short() {
+        let long = "x".repeat(6 << 20);
+        let message = ApiError::HeadExists(long.clone()).to_string();
+        assert!(message.len() < 120, "{} bytes", message.len());
+        assert!(message.contains("6291456 bytes"), "{message}");
+        assert_eq!(
+            ApiError::UnknownHead("scan".into()).to_string(),
+            "no head \"scan\""
+        );
+        assert!(
+            ApiError::BadId {
+                what: "stream name",
+                id: long
+            }
+            .to_string()
+            .len()
+                < 200
+        );
+    }
 
     #[tokio::test]
     async fn internal_errors_carry_the_request_id_and_no_cause() {
