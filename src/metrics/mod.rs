@@ -7,6 +7,7 @@
 //! nothing. Lengths are in head units going in and millimetres coming out.
 
 mod aggregate;
+mod face_crease;
 mod face_region;
 mod fidelity;
 mod lip_region;
@@ -16,6 +17,7 @@ mod roughness;
 mod table;
 
 pub use aggregate::{algorithm_score, AlgorithmScore, SyllableScore, SyllableScores};
+pub use face_crease::FaceCrease;
 pub use face_region::{FaceVertices, FACE_RADIUS_MM};
 pub use fidelity::{
     control_error, ground_truth_error, mouth_opening, ControlError, FidelityError, GroundTruthError,

@@ -12,11 +12,10 @@ use serde::Serialize;
 
 use super::{Candidate, CompareError};
 use crate::deform::{bind, Registration};
-use crate::head::Head;
 use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
 use crate::metrics::{
-    control_error, ground_truth_error, mouth_opening, FaceVertices, LipRegion, LipRoughness, Roughness,
-    RoughnessError, SyllableScores, LIP_ROWS,
+    control_error, ground_truth_error, mouth_opening, FaceCrease, FaceVertices, LipRegion, LipRoughness,
+    SyllableScores, LIP_ROWS,
 };
 use crate::stream::{open_stream, ArkitBasis, FramePoser};
 use crate::targets::ExpressionTarget;
@@ -176,7 +175,7 @@ pub fn compare(
         })?[LIP_ROWS - 1]
         .mean;
     let face = FaceVertices::new(&reg.head, mask, &reg.anchors, mm).map_err(CompareError::FaceRegion)?;
-    let face_smoothness = FaceSmoothness::new(&reg.head, &face).map_err(CompareError::FaceEvaluator)?;
+    let face_crease = FaceCrease::new(&reg.head, face.vertices()).map_err(CompareError::FaceEvaluator)?;
     let survey = survey(input)?;
 
     let mut target_positions = vec![Vec3::ZERO; rest.len()];
@@ -201,7 +200,7 @@ pub fn compare(
         survey,
         lips,
         face,
-        face_smoothness,
+        face_crease,
         poser: FramePoser::new(&reg.fitted),
         deformed: vec![Vec3::ZERO; rest.len()],
         target_positions,
@@ -234,8 +233,8 @@ pub fn compare(
         lip_triangles: region.union().len(),
         rest_roughness,
         face_vertices: run.face.vertices().len(),
-        face_triangles: run.face_smoothness.triangles(),
-        rest_face_roughness: run.face_smoothness.rest_mean,
+        face_triangles: run.face_crease.triangles(),
+        rest_face_roughness: run.face_crease.rest_mean(),
         rest_ground_truth,
         algorithms,
     })
@@ -266,7 +265,7 @@ struct Run<'i, 'a> {
     survey: Survey,
     lips: LipRoughness,
     face: FaceVertices,
-    face_smoothness: FaceSmoothness,
+    face_crease: FaceCrease,
     poser: FramePoser,
     deformed: Vec<Vec3>,
     target_positions: Vec<Vec3>,
@@ -327,7 +326,7 @@ impl Run<'_, '_> {
                 })?;
             syllables.add(frame.label.as_deref().unwrap_or(UNLABELLED), &rows);
             let (face_mean, crease) =
-                self.face_smoothness
+                self.face_crease
                     .measure(&self.deformed)
                     .map_err(|source| CompareError::Roughness {
                         algorithm: spec.clone(),
@@ -433,58 +432,6 @@ impl Run<'_, '_> {
             ground_truth,
         })
     }
-}
-
-/// Roughness over the whole face region, which the lip roughness does not see: its mean,
-/// and the largest rise of one triangle's `rho(T)` over its rest value (a new crease).
-struct FaceSmoothness {
-    roughness: Roughness,
-    /// `rho(T)` of each face triangle at rest, in the evaluator's order.
-    rest: Vec<f64>,
-    rest_mean: f64,
-}
-
-impl FaceSmoothness {
-    /// Over the head triangles whose three corners are face vertices.
-    fn new(head: &Head, face: &FaceVertices) -> Result<FaceSmoothness, RoughnessError> {
-        let mut in_face = vec![false; head.positions.len()];
-        for &v in face.vertices() {
-            in_face[v as usize] = true;
-        }
-        let triangles: Vec<u32> = (0..head.triangles.len() as u32)
-            .filter(|&t| head.triangles[t as usize].iter().all(|&v| in_face[v as usize]))
-            .collect();
-        let mut roughness = Roughness::new(head, &triangles)?;
-        roughness.evaluate(&head.positions)?;
-        let rest = roughness.triangle_roughness().to_vec();
-        let rest_mean = mean(&rest);
-        Ok(FaceSmoothness {
-            roughness,
-            rest,
-            rest_mean,
-        })
-    }
-
-    fn triangles(&self) -> usize {
-        self.rest.len()
-    }
-
-    /// Mean `rho(T)` of the face triangles, and the largest rise over rest, for a pose.
-    fn measure(&mut self, positions: &[Vec3]) -> Result<(f64, f64), RoughnessError> {
-        self.roughness.evaluate(positions)?;
-        let rho = self.roughness.triangle_roughness();
-        let crease = rho
-            .iter()
-            .zip(&self.rest)
-            .map(|(now, was)| now - was)
-            .fold(f64::NEG_INFINITY, f64::max);
-        Ok((mean(rho), crease))
-    }
-}
-
-/// Mean of values; NaN for none.
-fn mean(values: &[f64]) -> f64 {
-    values.iter().sum::<f64>() / values.len() as f64
 }
 
 /// The stream's frame and syllable counts.
