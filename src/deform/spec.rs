@@ -124,112 +124,112 @@ pub const ALGORITHM_NAMES: [&str; 10] = [
 ];
 
 /// The thesis's table 4.5 presets plus `kshirsagar` (S), `rbf` (T) and the interpolating
-/// `point_distance` (U), with one line each.
+/// `point_distance` (U), each with a line saying what it does to a head vertex.
 pub const PRESETS: [(char, &str, &str); 21] = [
     (
         'A',
         "bary1",
-        "barycentric local frame inside the mask, eq. 1.2 over the 3 nearest controls outside",
+        "rides on its mask triangle's local frame inside the mask; outside, the 3 nearest controls with an exponential falloff",
     ),
     (
         'B',
         "bary2",
-        "local frame of the nearest triangle everywhere (extrapolates outside)",
+        "rides on the local frame of the nearest mask triangle, everywhere (extrapolates outside the mask)",
     ),
     (
         'C',
         "bary2:weights=distance,r_mm=10",
-        "surface-oriented FFD: triangles within 10 mm blended",
+        "rides on the local frames of the mask triangles within 10 mm, blended by distance (surface-oriented FFD)",
     ),
     (
         'D',
         "bary2:weights=distance,r_mm=30",
-        "surface-oriented FFD: triangles within 30 mm blended",
+        "rides on the local frames of the mask triangles within 30 mm, blended by distance (surface-oriented FFD)",
     ),
     (
         'E',
         "geometric",
-        "moves rigidly with the single nearest feature point",
+        "moves rigidly with the single nearest control",
     ),
     (
         'F',
         "geometric:weights=kshirsagar,r_mm=10",
-        "feature points within 10 mm, Kshirsagar weights",
+        "blends the controls within 10 mm, weights falling smoothly to zero at 10 mm",
     ),
     (
         'G',
         "point_distance:k=3,interpolate=false",
-        "3 nearest controls, 1/(1+d^2) weights",
+        "blends the 3 nearest controls along the surface, weights 1/(1+d^2)",
     ),
     (
         'H',
         "point_distance:k=all,interpolate=false",
-        "every reachable control, 1/(1+d^2) weights",
+        "blends every control reachable along the surface, weights 1/(1+d^2)",
     ),
     (
         'I',
         "planar_bones:weights=planar_bones,r_pct=10",
-        "planar bones, radius 10% of the longest edge",
+        "each mask triangle carries nearby vertices like a bone, by region of its plane; bones within 10% of the longest edge blended",
     ),
     (
         'J',
         "planar_bones:weights=planar_bones,r_pct=30",
-        "planar bones, radius 30% of the longest edge",
+        "triangle bones as I, blended within 30% of the longest edge",
     ),
     (
         'K',
         "planar_bones:weights=planar_bones,r_pct=100",
-        "planar bones, radius 100% of the longest edge",
+        "triangle bones as I, blended within 100% of the longest edge (smoothest lips, squashes the mouth)",
     ),
     (
         'L',
         "planar_bones:weights=distance,r_mm=10",
-        "planar bones with distance weights, 10 mm",
+        "triangle bones as I, those within 10 mm blended by surface distance",
     ),
     (
         'M',
         "planar_bones:weights=distance,r_mm=30",
-        "planar bones with distance weights, 30 mm",
+        "triangle bones as I, those within 30 mm blended by surface distance",
     ),
     (
         'N',
         "renato1",
-        "legacy: barycentric inside, |mu| outside (overshoots)",
+        "follows its mask triangle by barycentric weights inside; outside, by their absolute values (overshoots)",
     ),
     (
         'O',
         "renato2",
-        "legacy: barycentric inside, eq. 1.2 exponential falloff outside",
+        "follows its mask triangle by barycentric weights inside; outside, the nearest corners with an exponential falloff",
     ),
     (
         'P',
         "renato3",
-        "barycentric rule of the nearest triangle everywhere",
+        "follows the nearest mask triangle by barycentric weights, everywhere",
     ),
     (
         'Q',
         "renato3:weights=distance,r_mm=10",
-        "renato3 over triangles within 10 mm",
+        "barycentric weights of the mask triangles within 10 mm, blended by distance",
     ),
     (
         'R',
         "renato3:weights=distance,r_mm=30",
-        "renato3 over triangles within 30 mm",
+        "barycentric weights of the mask triangles within 30 mm, blended by distance",
     ),
     (
         'S',
         "kshirsagar",
-        "Kshirsagar et al. 2001 as published: surface-grown feature-point regions",
+        "each control moves a region grown over the surface around it, with weights falling across the region (the published feature-point method)",
     ),
     (
         'T',
         "rbf",
-        "radial basis functions with a linear term (Wendland C2, surface distance, 30 mm)",
+        "smooth interpolation through every control: radial basis functions (Wendland C2 over surface distance, 30 mm) plus a linear term",
     ),
     (
         'U',
         "point_distance",
-        "3 nearest controls, 1/(1+d^2) weights, exact at the anchors (recommended)",
+        "blends the 3 nearest controls along the surface (1/(1+d^2)), corrected to move every control exactly (recommended)",
     ),
 ];
 
