@@ -144,3 +144,77 @@ pub async fn cancel_producer(
         Err(no_producer())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::server::stream::{ParamTimeline, Stream};
+    use crate::server::timeline::Step;
+    use crate::server::Config;
+
+    /// The newest producer seq the stream's viewers would see, and whether it has ended.
+    fn seen(params: &tokio::sync::watch::Receiver<ParamTimeline>) -> (Option<u64>, Option<EndReason>) {
+        let (mut seq, mut end) = (None, None);
+        for step in params.borrow().steps_after(0) {
+            match step {
+                Step::Frame(f) => seq = Some(f.value.frame.seq),
+                Step::End { reason, .. } => end = Some(reason),
+            }
+        }
+        (seq, end)
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_batch_plays_at_its_timestamps_then_ends() {
+        let state = AppState::new(Config {
+            data_dir: None,
+            ..Config::default()
+        })
+        .unwrap();
+        let stream = Arc::new(Stream::new("s"));
+        let params = stream.subscribe();
+        let permit = stream.claim_producer().unwrap();
+        // Timestamps count from the first frame: 0, 0.5 and 2 s into the batch.
+        let frames = vec![Frame::at(0, 10.0), Frame::at(1, 10.5), Frame::at(2, 12.0)];
+        let deleted = tokio_util::sync::CancellationToken::new();
+        let playing = tokio::spawn(play(state, deleted, permit, frames));
+        let step = Duration::from_millis(10);
+        tokio::time::sleep(step).await;
+        assert_eq!(seen(&params), (Some(0), None));
+        tokio::time::sleep(Duration::from_millis(480)).await;
+        assert_eq!(seen(&params), (Some(0), None), "seq 1 is due at 0.5 s");
+        tokio::time::sleep(step * 2).await;
+        assert_eq!(seen(&params), (Some(1), None));
+        tokio::time::sleep(Duration::from_millis(1480)).await;
+        assert_eq!(seen(&params), (Some(1), None), "seq 2 is due at 2 s");
+        tokio::time::sleep(step * 2).await;
+        assert_eq!(seen(&params), (Some(2), Some(EndReason::BatchFinished)));
+        playing.await.unwrap();
+        assert!(!stream.has_producer(), "the slot is free again");
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_cancelled_batch_ends_at_once() {
+        let state = AppState::new(Config {
+            data_dir: None,
+            ..Config::default()
+        })
+        .unwrap();
+        let stream = Arc::new(Stream::new("s"));
+        let params = stream.subscribe();
+        let permit = stream.claim_producer().unwrap();
+        let frames = (0..100).map(|i| Frame::at(i, i as f64)).collect();
+        let playing = tokio::spawn(play(
+            state,
+            tokio_util::sync::CancellationToken::new(),
+            permit,
+            frames,
+        ));
+        tokio::time::sleep(Duration::from_millis(2500)).await;
+        assert!(stream.cancel_producer());
+        playing.await.unwrap();
+        assert_eq!(seen(&params), (Some(2), Some(EndReason::ProducerCancelled)));
+    }
+}
