@@ -166,13 +166,17 @@ mod tests {
         (seq, end)
     }
 
-    #[tokio::test(start_paused = true)]
-    async fn a_batch_plays_at_its_timestamps_then_ends() {
-        let state = AppState::new(Config {
+    fn memory_state() -> AppState {
+        AppState::new(Config {
             data_dir: None,
             ..Config::default()
         })
-        .unwrap();
+        .unwrap()
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_batch_plays_at_its_timestamps_then_ends() {
+        let state = memory_state();
         let stream = Arc::new(Stream::new("s"));
         let params = stream.subscribe();
         let permit = stream.claim_producer().unwrap();
@@ -197,11 +201,7 @@ mod tests {
 
     #[tokio::test(start_paused = true)]
     async fn a_cancelled_batch_ends_at_once() {
-        let state = AppState::new(Config {
-            data_dir: None,
-            ..Config::default()
-        })
-        .unwrap();
+        let state = memory_state();
         let stream = Arc::new(Stream::new("s"));
         let params = stream.subscribe();
         let permit = stream.claim_producer().unwrap();

@@ -97,7 +97,8 @@ async fn run(
                 continue;
             }
         }
-        let steps: Vec<Step<_>> = params.borrow_and_update().steps_after(done).collect();
+        // The steps own their frames: the channel's lock is released before any await.
+        let steps = params.borrow_and_update().steps_after(done);
         for step in steps {
             match step {
                 Step::Frame(received) => {

@@ -125,21 +125,22 @@ impl Registry {
             heads.insert(entry.id.clone(), entry.clone());
             entry
         };
-        let record = Arc::new(record);
-        if persist {
-            if let Some(store) = self.inner.store.clone() {
-                let to_save = record.clone();
-                let saved = tokio::task::spawn_blocking(move || store.save(&to_save))
-                    .await
-                    .map_err(ApiError::internal)
-                    .and_then(|r| r.map_err(ApiError::internal));
-                if let Err(e) = saved {
-                    self.inner.heads.lock().expect("heads lock").remove(&entry.id);
-                    return Err(e);
+        let record = match (persist, self.inner.store.clone()) {
+            (true, Some(store)) => {
+                // The record goes to the blocking pool and comes back, never copied.
+                let saved = tokio::task::spawn_blocking(move || {
+                    let saved = store.save(&record);
+                    (record, saved)
+                })
+                .await;
+                match saved {
+                    Ok((record, Ok(()))) => record,
+                    Ok((_, Err(e))) => return Err(self.forget(&entry.id, ApiError::internal(e))),
+                    Err(e) => return Err(self.forget(&entry.id, ApiError::internal(e))),
                 }
             }
-        }
-        let record = Arc::try_unwrap(record).unwrap_or_else(|shared| (*shared).clone());
+            _ => record,
+        };
         let input = RegistrationInput {
             obj: record.obj,
             fit_toml: record.fit_toml,
@@ -170,6 +171,12 @@ impl Registry {
             release_memory();
         });
         Ok(entry)
+    }
+
+    /// Drops an entry whose registration could not start; passes its error on.
+    fn forget(&self, id: &str, error: ApiError) -> ApiError {
+        self.inner.heads.lock().expect("heads lock").remove(id);
+        error
     }
 
     /// Removes a head: its streams end, its sockets close, its registration stops and its

@@ -181,7 +181,8 @@ impl View {
                     Some(Ok(_)) => continue,
                 },
             }
-            let steps: Vec<Step<Encoded>> = self.frames.borrow_and_update().steps_after(done).collect();
+            // The steps own their frames: the channel's lock is released before any await.
+            let steps = self.frames.borrow_and_update().steps_after(done);
             for step in steps {
                 done = step.serial();
                 let message = match step {
