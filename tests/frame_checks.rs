@@ -4,11 +4,12 @@
 //! object may not name a key twice, and a `.fap` header with an absurd frame rate is
 //! refused at its line.
 
+mod common;
+
+use common::streams::{au_error, fap_error};
 use facewire::mask::Mask;
 use facewire::stream::jsonl::parse_message;
-use facewire::stream::{
-    AuTextOptions, AuTextReader, FapReader, Frame, StreamError, MAX_LABEL_BYTES, MAX_SEQ,
-};
+use facewire::stream::{AuTextOptions, Frame, StreamError, MAX_LABEL_BYTES, MAX_SEQ};
 use facewire_proto::params::ParamFrame;
 
 /// The variant of an error, to compare errors from different formats.
@@ -295,12 +296,6 @@ fn extreme_values_are_refused_in_jsonl() {
     }
 }
 
-fn fap_error(text: &str) -> StreamError {
-    FapReader::new(text.as_bytes())
-        .find_map(Result::err)
-        .expect("the input is bad")
-}
-
 #[test]
 fn fap_headers_with_absurd_frame_rates_are_refused_at_their_line() {
     for fps in ["1e-300", "0", "-25", "0.001", "1001", "1e300"] {
@@ -358,14 +353,7 @@ fn fap_values_beyond_the_bounds_are_refused_at_their_line() {
 
 #[test]
 fn au_text_values_beyond_the_bounds_are_refused_at_their_line() {
-    let mask = Mask::candide3();
-    let error = |text: &str| {
-        AuTextReader::new(text.as_bytes(), &mask, AuTextOptions::default())
-            .unwrap()
-            .find_map(Result::err)
-            .expect("the input is bad")
-            .to_string()
-    };
+    let error = |text: &str| au_error(text, AuTextOptions::default()).to_string();
     assert_eq!(
         error("0 0\n1e30 0\n"),
         "line 2: au.upper_lip_raiser: 1e30 is out of range (expected -10 to 10)"
@@ -379,6 +367,10 @@ fn au_text_values_beyond_the_bounds_are_refused_at_their_line() {
             fps,
             headerless_time_column: false,
         };
-        assert!(AuTextReader::new(&b""[..], &mask, options).is_err(), "{fps}");
+        assert!(
+            au_error("", options).to_string().contains("fps"),
+            "{fps}: {}",
+            au_error("", options)
+        );
     }
 }

@@ -75,7 +75,7 @@ fn rows_are_normalized_positive_and_bind_is_deterministic() {
                 reg.head.name
             );
         }
-        assert!(binding.frames.is_empty() && binding.bones.is_empty());
+        assert!(binding.triangle_terms.is_empty() && binding.bones.is_empty());
         let again = bind(reg, &"S".parse().unwrap());
         assert_eq!(
             again.linear, binding.linear,

@@ -4,7 +4,7 @@
 mod common;
 
 use common::data;
-use common::service::{connect, memory_config, next_frame, next_json, resident_kib, Server, Socket};
+use common::service::{connect, memory_config, next_frame, next_json, Server, Socket};
 
 use std::time::Duration;
 
@@ -20,10 +20,6 @@ use facewire_proto::params::ParamFrame;
 use futures_util::{SinkExt, StreamExt};
 use glam::Vec3;
 use tokio_tungstenite::tungstenite::Message;
-
-/// The tests of this file run one at a time: the slow-viewer test measures the process's
-/// memory, which other tests' heads would disturb.
-static SERIAL: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
 
 fn json_line(frame: &Frame, mask: &Mask) -> String {
     let mut writer = JsonlWriter::new(Vec::new(), mask);
@@ -50,7 +46,6 @@ fn rest_positions(viewer: &ViewerFrame, reg: &Registration) -> Vec<f32> {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn viewers_see_what_facewire_deform_computes() {
-    let _serial = SERIAL.lock().await;
     let server = Server::start(memory_config()).await;
     server.register("scan", "lee_perry_smith_head", "").await;
 
@@ -159,8 +154,8 @@ async fn viewers_see_what_facewire_deform_computes() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_slow_viewer_skips_frames_and_holds_nobody_up() {
-    let _serial = SERIAL.lock().await;
-    let server = Server::start(memory_config()).await;
+    // Its own process, so that its memory is the server's alone.
+    let server = Server::spawn("").await;
     server.register("mh", "makehuman_head", "").await;
     let url = server.ws("/v1/heads/mh/streams/s/view?algo=O");
     let mut fast: Vec<Socket> = Vec::new();
@@ -183,7 +178,7 @@ async fn a_slow_viewer_skips_frames_and_holds_nobody_up() {
     let mask = Mask::candide3();
     let frames = syllables();
     let mut producer = connect(&server.ws("/v1/heads/mh/streams/s/produce")).await;
-    let memory_before = resident_kib();
+    let memory_before = server.resident_kib();
     let count = 240;
     let readers: Vec<_> = fast
         .into_iter()
@@ -213,7 +208,7 @@ async fn a_slow_viewer_skips_frames_and_holds_nobody_up() {
         ));
         tokio::time::sleep(Duration::from_millis(12)).await;
     }
-    let memory_after = resident_kib();
+    let memory_after = server.resident_kib();
     for reader in readers {
         let seqs = tokio::time::timeout(Duration::from_secs(20), reader)
             .await
@@ -259,7 +254,6 @@ async fn a_slow_viewer_skips_frames_and_holds_nobody_up() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn malformed_input_is_refused_and_the_stream_keeps_running() {
-    let _serial = SERIAL.lock().await;
     let server = Server::start(Config {
         limits: facewire::server::config::Limits {
             max_message_bytes: 4096,
@@ -409,7 +403,6 @@ async fn malformed_input_is_refused_and_the_stream_keeps_running() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn heads_survive_a_restart() {
-    let _serial = SERIAL.lock().await;
     let dir = tempfile::tempdir().unwrap();
     let config = Config {
         data_dir: Some(dir.path().to_path_buf()),
@@ -462,7 +455,6 @@ async fn heads_survive_a_restart() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn tokens_are_required_when_configured() {
-    let _serial = SERIAL.lock().await;
     let server = Server::start(Config {
         auth: facewire::server::config::Auth {
             producer_token: Some("prod".into()),
@@ -510,7 +502,6 @@ async fn tokens_are_required_when_configured() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn fast_and_idle_producers_are_told_why() {
-    let _serial = SERIAL.lock().await;
     let server = Server::start(Config {
         limits: facewire::server::config::Limits {
             max_fps: 8.0,

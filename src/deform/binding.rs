@@ -2,11 +2,11 @@
 //!
 //! - **Linear** terms `w * delta_j`: a sparse weight matrix over the control displacements
 //!   (point distance, renato, geometric, Kshirsagar, RBF).
-//! - **Frame** terms `w * (A' + a (B'-A') + b (C'-A') + c n' - P)`: local coordinates in a
-//!   mask triangle's frame, re-evaluated on the moved mask (barycentric, SOFFD).
-//! - **Bone** terms: planar bones' region frames (see `planar_bones`).
+//! - **Triangle** terms `w * (A' + a (B'-A') + b (C'-A') + c n' - P)`: local coordinates in
+//!   a mask triangle's basis, re-evaluated on the moved mask (barycentric, SOFFD).
+//! - **Bone** terms: planar bones' region bases (see `planar_bones`).
 //!
-//! A vertex's new position is `P + sum(linear) + sum(frame) + sum(bone)`. Every term list
+//! A vertex's new position is `P + sum(linear) + sum(triangle) + sum(bone)`. Every term list
 //! is stored in compressed rows; deforming walks them once and allocates nothing.
 //!
 //! An interpolating linear algorithm may add a [`SourceMap`]: a small dense matrix that
@@ -15,7 +15,7 @@
 
 use glam::{Vec3, Vec3A};
 
-use super::bones::{BoneFrames, BoneTerm, Region};
+use super::bones::{BoneBases, BoneTerm, Region};
 use super::spec::AlgoSpec;
 
 /// Compressed rows: the items of row `v` are `items[offsets[v]..offsets[v + 1]]`.
@@ -70,30 +70,30 @@ pub struct LinearTerm {
     pub weight: f32,
 }
 
-/// `weight * (frame_t'(coords) - P)`.
+/// `weight * (basis_t'(coords) - P)`: follows mask triangle `t`'s basis.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FrameTerm {
+pub struct TriangleTerm {
     pub triangle: u16,
     /// (a, b, c): `P - A = a (B - A) + b (C - A) + c n`, n the unit normal.
     pub coords: Vec3,
     pub weight: f32,
 }
 
-/// A mask triangle's frame on the moved mask: origin, edges and unit normal.
+/// A mask triangle's basis on the moved mask: origin, edges and unit normal.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct TriangleFrame {
+pub struct TriangleBasis {
     pub origin: Vec3A,
     pub e1: Vec3A,
     pub e2: Vec3A,
     pub normal: Vec3A,
 }
 
-impl TriangleFrame {
-    pub fn of(a: Vec3, b: Vec3, c: Vec3) -> TriangleFrame {
+impl TriangleBasis {
+    pub fn of(a: Vec3, b: Vec3, c: Vec3) -> TriangleBasis {
         let (a, b, c) = (Vec3A::from(a), Vec3A::from(b), Vec3A::from(c));
         let e1 = b - a;
         let e2 = c - a;
-        TriangleFrame {
+        TriangleBasis {
             origin: a,
             e1,
             e2,
@@ -158,8 +158,8 @@ impl SourceMap {
 pub struct Binding {
     pub spec: AlgoSpec,
     pub linear: Csr<LinearTerm>,
-    pub frames: Csr<FrameTerm>,
-    /// Bone terms of inside and edge regions (affine in the moved bone's frame).
+    pub triangle_terms: Csr<TriangleTerm>,
+    /// Bone terms of inside and edge regions (affine in the moved bone's basis).
     pub bones: Csr<BoneTerm>,
     /// Bone terms of corner regions, which also rescale their in-plane offset: kept apart
     /// so that only they pay the square root.
@@ -173,18 +173,18 @@ pub struct Binding {
 pub struct DeformScratch {
     deltas: Vec<Vec3A>,
     sources: Vec<Vec3A>,
-    frames: Vec<TriangleFrame>,
-    bones: BoneFrames,
+    bases: Vec<TriangleBasis>,
+    bones: BoneBases,
 }
 
 impl Binding {
     pub fn new(
         spec: AlgoSpec,
         linear: Csr<LinearTerm>,
-        frames: Csr<FrameTerm>,
+        triangle_terms: Csr<TriangleTerm>,
         bones: Csr<BoneTerm>,
     ) -> Binding {
-        debug_assert!(linear.rows() == frames.rows() && frames.rows() == bones.rows());
+        debug_assert!(linear.rows() == triangle_terms.rows() && triangle_terms.rows() == bones.rows());
         let split = |corner: bool| {
             Csr::from_rows(
                 (0..bones.rows())
@@ -202,7 +202,7 @@ impl Binding {
         Binding {
             spec,
             linear,
-            frames,
+            triangle_terms,
             bones: split(false),
             corners: split(true),
             sources: None,
@@ -215,7 +215,7 @@ impl Binding {
         Binding {
             spec,
             linear: Csr::from_rows(rows),
-            frames: Csr::empty(n),
+            triangle_terms: Csr::empty(n),
             bones: Csr::empty(n),
             corners: Csr::empty(n),
             sources: None,
@@ -239,8 +239,8 @@ impl Binding {
         DeformScratch {
             deltas: vec![Vec3A::ZERO; mask_vertices],
             sources: vec![Vec3A::ZERO; mask_vertices],
-            frames: vec![TriangleFrame::default(); mask_triangles],
-            bones: BoneFrames::with_capacity(mask_triangles),
+            bases: vec![TriangleBasis::default(); mask_triangles],
+            bones: BoneBases::with_capacity(mask_triangles),
         }
     }
 
@@ -268,10 +268,10 @@ impl Binding {
             }
             None => &scratch.deltas,
         };
-        let has_frames = !self.frames.is_empty();
-        if has_frames {
-            for (frame, t) in scratch.frames.iter_mut().zip(triangles) {
-                *frame = TriangleFrame::of(
+        let has_triangle_terms = !self.triangle_terms.is_empty();
+        if has_triangle_terms {
+            for (basis, t) in scratch.bases.iter_mut().zip(triangles) {
+                *basis = TriangleBasis::of(
                     mask_now[t[0] as usize],
                     mask_now[t[1] as usize],
                     mask_now[t[2] as usize],
@@ -288,9 +288,9 @@ impl Binding {
             for term in self.linear.row(v) {
                 moved += term.weight * blended[term.control as usize];
             }
-            if has_frames {
-                for term in self.frames.row(v) {
-                    moved += term.weight * (scratch.frames[term.triangle as usize].point(term.coords) - p);
+            if has_triangle_terms {
+                for term in self.triangle_terms.row(v) {
+                    moved += term.weight * (scratch.bases[term.triangle as usize].point(term.coords) - p);
                 }
             }
             if has_bones {

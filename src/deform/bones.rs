@@ -1,11 +1,11 @@
 //! The bones of `planar_bones` (see that file for the method): one bone per mask
 //! triangle, the Voronoi region of a point relative to it, the point's coordinates in the
-//! region's frame, and every bone's region frames in the current pose, evaluated per frame
+//! region's basis, and every bone's region bases in the current pose, evaluated per frame
 //! by [`super::Binding::deform`].
 
 use glam::{Vec3, Vec3A};
 
-use super::binding::TriangleFrame;
+use super::binding::TriangleBasis;
 
 /// The region of a point relative to one bone.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -23,9 +23,9 @@ pub enum Region {
 pub struct BoneTerm {
     pub triangle: u16,
     pub region: Region,
-    /// Index of the region frame in [`BoneFrames`]: `triangle * 7 + region.slot()`.
-    pub frame: u32,
-    /// Inside: (a, b, c) in the affine frame. Edge: (t, s, h) with
+    /// Index of the region basis in [`BoneBases`]: `triangle * 7 + region.slot()`.
+    pub basis: u32,
+    /// Inside: (a, b, c) in the affine basis. Edge: (t, s, h) with
     /// `P - V_i = t e_i + s u_i + h n`. Corner: (x, y, h) with the in-plane offset
     /// `x u_i + y u_i-1` and height h.
     pub coords: Vec3,
@@ -61,8 +61,8 @@ impl Bone {
         }
     }
 
-    fn frame(&self) -> TriangleFrame {
-        TriangleFrame {
+    fn basis(&self) -> TriangleBasis {
+        TriangleBasis {
             origin: self.corners[0],
             e1: self.edges[0],
             e2: self.corners[2] - self.corners[0],
@@ -81,7 +81,7 @@ impl Bone {
         // Outside edge i when the foot is beyond its outward normal.
         let beyond = |i: usize| (foot - self.corners[i]).dot(self.outward[i]) > 0.0;
         if !(0..3).any(beyond) {
-            return Some((Region::Inside, self.frame().coords(p.into())?, 0.0));
+            return Some((Region::Inside, self.basis().coords(p.into())?, 0.0));
         }
         let mut best_edge: Option<(usize, f32)> = None;
         for i in 0..3 {
@@ -109,7 +109,7 @@ impl Bone {
         Some((Region::Corner(i as u8), Vec3::new(x, y, height), offset.length()))
     }
 
-    /// Coordinates of an in-plane offset in the corner frame (u_i, u_i-1).
+    /// Coordinates of an in-plane offset in the corner basis (u_i, u_i-1).
     fn corner_coords(&self, i: usize, offset: Vec3A) -> Option<(f32, f32)> {
         let (u, w) = (self.outward[i], self.outward[(i + 2) % 3]);
         let (uu, uw, ww) = (u.dot(u), u.dot(w), w.dot(w));
@@ -122,11 +122,11 @@ impl Bone {
     }
 
     /// The bound point in this pose.
-    /// The seven region frames of this bone, in [`Region::slot`] order: origin and three
+    /// The seven region bases of this bone, in [`Region::slot`] order: origin and three
     /// axes each. Inside: (A, B - A, C - A, n); edge i: (V_i, e_i, u_i, n); corner i:
     /// (V_i, u_i, u_i-1, n).
-    pub fn frames(&self) -> [RegionFrame; 7] {
-        let frame = self.frame();
+    pub fn bases(&self) -> [RegionBasis; 7] {
+        let basis = self.basis();
         let edge = |i: usize| [self.corners[i], self.edges[i], self.outward[i], self.normal];
         let corner = |i: usize| {
             [
@@ -137,7 +137,7 @@ impl Bone {
             ]
         };
         [
-            [frame.origin, frame.e1, frame.e2, frame.normal],
+            [basis.origin, basis.e1, basis.e2, basis.normal],
             edge(0),
             edge(1),
             edge(2),
@@ -148,18 +148,18 @@ impl Bone {
     }
 
     /// The bound point in this pose, one bone at a time: the reference the tests check
-    /// [`BoneFrames`]' evaluation and the region rules against.
+    /// [`BoneBases`]' evaluation and the region rules against.
     #[cfg(test)]
     pub fn point(&self, region: Region, coords: Vec3, offset_length: f32) -> Vec3A {
-        evaluate(&self.frames()[region.slot()], coords, offset_length)
+        evaluate(&self.bases()[region.slot()], coords, offset_length)
     }
 }
 
-/// Origin and three axes of one region frame.
-pub type RegionFrame = [Vec3A; 4];
+/// Origin and three axes of one region basis.
+pub type RegionBasis = [Vec3A; 4];
 
 impl Region {
-    /// Index of this region's frame among a bone's seven.
+    /// Index of this region's basis among a bone's seven.
     pub fn slot(self) -> usize {
         match self {
             Region::Inside => 0,
@@ -174,49 +174,49 @@ impl Region {
 /// regions mix within a vertex, and a mispredicted branch per term costs more than the
 /// arithmetic.
 #[inline]
-fn evaluate(frame: &RegionFrame, coords: Vec3, offset_length: f32) -> Vec3A {
-    let in_plane = coords.x * frame[1] + coords.y * frame[2];
+fn evaluate(basis: &RegionBasis, coords: Vec3, offset_length: f32) -> Vec3A {
+    let in_plane = coords.x * basis[1] + coords.y * basis[2];
     let length = in_plane.length();
     let keep = f32::from(u8::from(offset_length <= 0.0 || length <= 0.0));
     let scale = (offset_length * (1.0 - keep) + length * keep) / length.max(f32::MIN_POSITIVE);
-    frame[0] + in_plane * scale + coords.z * frame[3]
+    basis[0] + in_plane * scale + coords.z * basis[3]
 }
 
-/// Every bone's region frames in the current pose; rebuilt once per frame.
+/// Every bone's region bases in the current pose; rebuilt once per frame.
 #[derive(Debug, Clone, Default)]
-pub struct BoneFrames {
-    frames: Vec<RegionFrame>,
+pub struct BoneBases {
+    bases: Vec<RegionBasis>,
 }
 
-impl BoneFrames {
-    pub fn with_capacity(triangles: usize) -> BoneFrames {
-        BoneFrames {
-            frames: Vec::with_capacity(triangles * 7),
+impl BoneBases {
+    pub fn with_capacity(triangles: usize) -> BoneBases {
+        BoneBases {
+            bases: Vec::with_capacity(triangles * 7),
         }
     }
 
-    /// Rebuilds the frames from the moved mask. Allocates nothing once sized.
+    /// Rebuilds the bases from the moved mask. Allocates nothing once sized.
     pub fn update(&mut self, mask_now: &[Vec3], triangles: &[[u32; 3]]) {
-        self.frames.clear();
+        self.bases.clear();
         for t in triangles {
             let bone = Bone::of(
                 mask_now[t[0] as usize],
                 mask_now[t[1] as usize],
                 mask_now[t[2] as usize],
             );
-            self.frames.extend(bone.frames());
+            self.bases.extend(bone.bases());
         }
     }
 
     /// A bound point of any region.
     pub fn point(&self, term: &BoneTerm) -> Vec3A {
-        evaluate(&self.frames[term.frame as usize], term.coords, term.offset_length)
+        evaluate(&self.bases[term.basis as usize], term.coords, term.offset_length)
     }
 
-    /// A bound point of an inside or edge region: affine in its frame, no rescale.
+    /// A bound point of an inside or edge region: affine in its basis, no rescale.
     #[inline]
     pub fn affine_point(&self, term: &BoneTerm) -> Vec3A {
-        let f = &self.frames[term.frame as usize];
+        let f = &self.bases[term.basis as usize];
         f[0] + term.coords.x * f[1] + term.coords.y * f[2] + term.coords.z * f[3]
     }
 }

@@ -23,7 +23,7 @@ mod renato3;
 pub mod spec;
 mod weights;
 
-pub use binding::{Binding, Csr, DeformScratch, FrameTerm, LinearTerm, SourceMap, TriangleFrame};
+pub use binding::{Binding, Csr, DeformScratch, LinearTerm, SourceMap, TriangleBasis, TriangleTerm};
 pub use projection::Projection;
 pub use registration::{Registration, RegistrationError, HEAD_SIZE_MM, MASK_TO_HEAD_SIZE};
 pub use spec::{AlgoSpec, Kernel, Metric, RbfParams, SpecError, Weights};

@@ -2,18 +2,18 @@
 //! "bone" whose influence on a point depends on where the point lies relative to it
 //! (thesis eq. 2.8-2.14), classified by the Voronoi regions of the triangle in its plane:
 //!
-//! - **R_A**, foot point inside: the triangle's affine frame `(B-A, C-A, n)` (eq. 2.8).
-//! - **R_B,i**, nearest to the interior of edge i (V_i -> V_i+1): the edge frame
+//! - **R_A**, foot point inside: the triangle's affine basis `(B-A, C-A, n)` (eq. 2.8).
+//! - **R_B,i**, nearest to the interior of edge i (V_i -> V_i+1): the edge basis
 //!   `(e_i, u_i, n)` with `u_i = e_i x n / |e_i x n|` the edge's outward normal (eq. 2.9-2.10):
 //!   the point stretches along the edge and keeps its distance from it.
-//! - **R_C,i**, nearest to corner i: the corner frame `(u_i, u_i-1, n)` of the two
+//! - **R_C,i**, nearest to corner i: the corner basis `(u_i, u_i-1, n)` of the two
 //!   outward edge normals; the in-plane offset is carried by it and rescaled to keep its
 //!   length (the `D_i(P) / d_i(P)` factor of eq. 2.12-2.14).
 //!
-//! Rest frames use the rest normal n and moved frames the moved normal n' (the thesis prints
+//! Rest bases use the rest normal n and moved bases the moved normal n' (the thesis prints
 //! n' in both, which cannot be meant). With this classification the three rules agree on
 //! every region border, so a single bone is continuous; several bones are blended with a
-//! weight system (eq. 2.15-2.16). Every frame is rigid under a rigid motion of the mask.
+//! weight system (eq. 2.15-2.16). Every basis is rigid under a rigid motion of the mask.
 
 use super::binding::{Binding, Csr};
 use super::bones::{Bone, BoneTerm};
@@ -39,7 +39,7 @@ pub fn bind(reg: &Registration, spec: AlgoSpec, weights: &Weights) -> Binding {
                     let (region, coords, offset_length) = bones[t as usize].bind(p)?;
                     Some(BoneTerm {
                         triangle: t,
-                        frame: u32::from(t) * 7 + region.slot() as u32,
+                        basis: u32::from(t) * 7 + region.slot() as u32,
                         region,
                         coords,
                         offset_length,

@@ -10,12 +10,14 @@ use std::time::Duration;
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{Path, State};
 use axum::response::Response;
+use futures_util::{Sink, SinkExt, StreamExt};
 use tokio_tungstenite::tungstenite;
+use tokio_util::sync::CancellationToken;
 
 use super::error::ApiError;
 use super::head::HeadEntry;
 use super::ingest::{parse_binary, parse_text, Incoming};
-use super::rate::Gate;
+use super::rate::ProducerGate;
 use super::socket::{close, error, refuse, text};
 use super::stream::{ProducerPermit, Stream};
 use super::{now_us, AppState};
@@ -68,7 +70,7 @@ async fn producer_session(mut socket: WebSocket, state: AppState, head: Arc<Head
     };
     state.telemetry.producers.inc();
     tracing::info!(head = %head.id, stream = %stream.name, "producer connected");
-    let ending = receive_frames(&mut socket, &state, &head, &permit).await;
+    let ending = receive_frames(&mut socket, &state, &head.deleted, &permit).await;
     let idle_s = state.config.limits.producer_idle_s;
     let (reason, close_code, close_reason) = match ending {
         Ending::Gone(answer) => {
@@ -100,7 +102,7 @@ async fn producer_session(mut socket: WebSocket, state: AppState, head: Arc<Head
     let told = match reason {
         EndReason::ProducerIdle => {
             state.telemetry.reject(ErrorCode::Idle.as_str());
-            error(ErrorCode::Idle, format!("no frame for {idle_s} s"))
+            error(ErrorCode::Idle, format!("nothing received for {idle_s} s"))
         }
         _ => ServerMessage::end(reason),
     };
@@ -110,23 +112,28 @@ async fn producer_session(mut socket: WebSocket, state: AppState, head: Arc<Head
     tracing::info!(head = %head.id, stream = %stream.name, %reason, "producer disconnected");
 }
 
-/// Acks or refuses every message until the session ends.
-async fn receive_frames(
-    socket: &mut WebSocket,
+/// Acks or refuses every message until the session ends. `socket` is the producer's
+/// WebSocket (any stream of messages and sink of replies, so that tests can script it);
+/// `head_deleted` is the head's deletion token.
+async fn receive_frames<S>(
+    socket: &mut S,
     state: &AppState,
-    head: &HeadEntry,
+    head_deleted: &CancellationToken,
     permit: &ProducerPermit,
-) -> Ending {
+) -> Ending
+where
+    S: futures_util::Stream<Item = Result<Message, axum::Error>> + Sink<Message> + Unpin,
+{
     let idle = Duration::from_secs_f64(state.config.limits.producer_idle_s);
     let mask = &state.mask;
-    let mut gate = Gate::new(state.config.limits.max_fps);
+    let mut gate = ProducerGate::new(state.config.limits.max_fps);
     let mut messages = 0u64;
     loop {
         let next = tokio::select! {
             _ = state.shutdown.cancelled() => return Ending::Shutdown,
-            _ = head.deleted.cancelled() => return Ending::HeadDeleted,
+            _ = head_deleted.cancelled() => return Ending::HeadDeleted,
             _ = permit.cancelled() => return Ending::Cancelled,
-            next = tokio::time::timeout(idle, socket.recv()) => next,
+            next = tokio::time::timeout(idle, socket.next()) => next,
         };
         let message = match next {
             Err(_) => return Ending::Idle,
@@ -180,5 +187,144 @@ fn close_for(e: axum::Error, limit: usize) -> Option<(CloseCode, String)> {
         }
         Ok(tungstenite::Error::Protocol(p)) => Some((CloseCode::InvalidPayload, p.to_string())),
         _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::pin::Pin;
+    use std::task::{Context, Poll};
+
+    use tokio::sync::mpsc;
+    use tokio::time::Instant;
+
+    use super::*;
+    use crate::server::config::Limits;
+    use crate::server::Config;
+
+    /// A producer's socket played from a script: what the test sends into `incoming`
+    /// arrives as messages; the server's replies are kept in `replies`.
+    struct ScriptedSocket {
+        incoming: mpsc::UnboundedReceiver<Message>,
+        replies: Vec<ServerMessage>,
+    }
+
+    impl futures_util::Stream for ScriptedSocket {
+        type Item = Result<Message, axum::Error>;
+
+        fn poll_next(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<Option<Self::Item>> {
+            self.incoming.poll_recv(cx).map(|message| message.map(Ok))
+        }
+    }
+
+    impl Sink<Message> for ScriptedSocket {
+        type Error = std::convert::Infallible;
+
+        fn poll_ready(self: Pin<&mut Self>, _: &mut Context<'_>) -> Poll<Result<(), Self::Error>> {
+            Poll::Ready(Ok(()))
+        }
+
+        fn start_send(mut self: Pin<&mut Self>, message: Message) -> Result<(), Self::Error> {
+            let Message::Text(text) = message else {
+                panic!("the server replied with {message:?}");
+            };
+            self.replies.push(serde_json::from_str(text.as_str()).unwrap());
+            Ok(())
+        }
+
+        fn poll_flush(self: Pin<&mut Self>, _: &mut Context<'_>) -> Poll<Result<(), Self::Error>> {
+            Poll::Ready(Ok(()))
+        }
+
+        fn poll_close(self: Pin<&mut Self>, _: &mut Context<'_>) -> Poll<Result<(), Self::Error>> {
+            Poll::Ready(Ok(()))
+        }
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_producer_is_idle_after_producer_idle_s_of_silence_and_not_before() {
+        let state = AppState::new(Config {
+            data_dir: None,
+            limits: Limits {
+                producer_idle_s: 5.0,
+                ..Limits::default()
+            },
+            ..Config::default()
+        })
+        .unwrap();
+        let stream = Arc::new(Stream::new("s"));
+        let permit = stream.claim_producer().unwrap();
+        let (script, incoming) = mpsc::unbounded_channel();
+        let mut socket = ScriptedSocket {
+            incoming,
+            replies: Vec::new(),
+        };
+        // Every message restarts the idle clock: a frame, a ping, a refused message and a
+        // frame, 4 s apart; then silence.
+        let started = Instant::now();
+        tokio::spawn(async move {
+            let messages = [
+                Message::Text(r#"{"seq":0,"t":0.0}"#.into()),
+                Message::Ping(Default::default()),
+                Message::Text("not json".into()),
+                Message::Text(r#"{"seq":1,"t":0.1}"#.into()),
+            ];
+            for (i, message) in messages.into_iter().enumerate() {
+                tokio::time::sleep_until(started + Duration::from_secs(4 * i as u64)).await;
+                script.send(message).unwrap();
+            }
+            std::future::pending::<()>().await;
+        });
+        let ending = receive_frames(&mut socket, &state, &CancellationToken::new(), &permit).await;
+        let elapsed = started.elapsed().as_secs_f64();
+        assert!(matches!(ending, Ending::Idle));
+        assert!(
+            (17.0..17.01).contains(&elapsed),
+            "idle after {elapsed} s, not 12 s + 5 s"
+        );
+        let replies: Vec<&str> = socket
+            .replies
+            .iter()
+            .map(|reply| match reply {
+                ServerMessage::Ack { .. } => "ack",
+                ServerMessage::Error { .. } => "error",
+                _ => "other",
+            })
+            .collect();
+        assert_eq!(replies, ["ack", "error", "ack"]);
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_producer_that_keeps_sending_is_never_idle() {
+        let state = AppState::new(Config {
+            data_dir: None,
+            limits: Limits {
+                producer_idle_s: 1.0,
+                ..Limits::default()
+            },
+            ..Config::default()
+        })
+        .unwrap();
+        let stream = Arc::new(Stream::new("s"));
+        let permit = stream.claim_producer().unwrap();
+        let (script, incoming) = mpsc::unbounded_channel();
+        let mut socket = ScriptedSocket {
+            incoming,
+            replies: Vec::new(),
+        };
+        // A frame every 0.9 s for a minute, then `end`.
+        tokio::spawn(async move {
+            for seq in 0..67u64 {
+                let t = 0.9 * seq as f64;
+                script
+                    .send(Message::Text(format!(r#"{{"seq":{seq},"t":{t}}}"#).into()))
+                    .unwrap();
+                tokio::time::sleep(Duration::from_millis(900)).await;
+            }
+            script.send(Message::Text(r#"{"type":"end"}"#.into())).unwrap();
+        });
+        let ending = receive_frames(&mut socket, &state, &CancellationToken::new(), &permit).await;
+        assert!(matches!(ending, Ending::Ended));
+        assert_eq!(socket.replies.len(), 67);
     }
 }

@@ -8,7 +8,7 @@ use super::ingest::Refusal;
 use crate::stream::Frame;
 use facewire_proto::codes::ErrorCode;
 
-pub struct Gate {
+pub struct ProducerGate {
     last: Option<(u64, f64)>,
     tokens: f64,
     burst: f64,
@@ -16,10 +16,10 @@ pub struct Gate {
     refilled: Instant,
 }
 
-impl Gate {
-    pub fn new(max_fps: f64) -> Gate {
+impl ProducerGate {
+    pub fn new(max_fps: f64) -> ProducerGate {
         let burst = (max_fps / 4.0).max(2.0);
-        Gate {
+        ProducerGate {
             last: None,
             tokens: burst,
             burst,
@@ -73,7 +73,7 @@ mod tests {
 
     #[tokio::test(start_paused = true)]
     async fn bursts_pass_then_the_average_rate_holds() {
-        let mut gate = Gate::new(40.0);
+        let mut gate = ProducerGate::new(40.0);
         // A burst of 10 (a quarter second at 40 fps) passes at once; the 11th does not.
         for seq in 0..10 {
             gate.admit(&frame(seq, 0.0)).unwrap();
@@ -95,7 +95,7 @@ mod tests {
 
     #[tokio::test(start_paused = true)]
     async fn order_is_checked_before_the_rate() {
-        let mut gate = Gate::new(1000.0);
+        let mut gate = ProducerGate::new(1000.0);
         gate.admit(&frame(5, 1.0)).unwrap();
         let refusal = gate.admit(&frame(5, 2.0)).unwrap_err();
         assert_eq!(

@@ -13,12 +13,12 @@
 //! [`AuTextOptions::fps`] apart. Other `#` lines and blank lines are skipped.
 
 use std::io::{BufRead, Write};
-use std::sync::Arc;
 
 use super::check::{fps_in_range, FPS_EXPECTED};
-use super::error::{check_order, parse_finite, Location, StreamError};
+use super::error::{parse_finite, Location, StreamError};
 use super::frame::Frame;
 use super::lines::{Decoding, LineReader};
+use super::reader::{FrameReader, LineFormat};
 use crate::mask::Mask;
 
 /// The header comment that names the columns.
@@ -54,15 +54,13 @@ struct Columns {
 }
 
 /// Reads AU text frames from any [`BufRead`], one line at a time.
-pub struct AuTextReader<'m, R> {
-    lines: LineReader<R>,
+pub type AuTextReader<'m, R> = FrameReader<R, AuTextFormat<'m>>;
+
+/// AU text's lines: an optional `# columns:` header, then one frame per line.
+pub struct AuTextFormat<'m> {
     mask: &'m Mask,
     options: AuTextOptions,
-    line: String,
     columns: Option<Columns>,
-    frames_read: u64,
-    previous: Option<(u64, f64)>,
-    done: bool,
 }
 
 impl<'m, R: BufRead> AuTextReader<'m, R> {
@@ -75,41 +73,39 @@ impl<'m, R: BufRead> AuTextReader<'m, R> {
                 found: options.fps.to_string(),
             });
         }
-        Ok(AuTextReader {
-            lines: LineReader::new(input, Decoding::Latin1),
-            mask,
-            options,
-            line: String::new(),
-            columns: None,
-            frames_read: 0,
-            previous: None,
-            done: false,
-        })
+        Ok(FrameReader::with_format(
+            input,
+            AuTextFormat {
+                mask,
+                options,
+                columns: None,
+            },
+        ))
     }
+}
 
-    /// Names the source in error messages (usually the file path).
-    pub fn with_source_name(mut self, name: impl Into<Arc<str>>) -> Self {
-        self.lines.set_file(name.into());
-        self
-    }
-
+impl AuTextFormat<'_> {
     /// The next line holding a frame; a `# columns:` header seen before the first frame
     /// sets the columns.
-    fn next_frame_line(&mut self) -> Result<bool, StreamError> {
+    fn next_frame_line<R: BufRead>(
+        &mut self,
+        lines: &mut LineReader<R>,
+        line: &mut String,
+    ) -> Result<bool, StreamError> {
         loop {
-            if !self.lines.read_data_line(&mut self.line, false)? {
+            if !lines.read_data_line(line, false)? {
                 return Ok(false);
             }
-            let trimmed = self.line.trim();
+            let trimmed = line.trim();
             if !trimmed.starts_with('#') {
                 return Ok(true);
             }
             let Some(names) = strip_prefix_ignore_case(trimmed, COLUMNS_HEADER) else {
                 continue;
             };
-            let at = self.lines.location();
+            let at = lines.location();
             if self.columns.is_some() {
-                return Err(syntax(
+                return Err(StreamError::syntax(
                     &at,
                     "columns",
                     "the columns header must come once, before the first frame",
@@ -118,13 +114,24 @@ impl<'m, R: BufRead> AuTextReader<'m, R> {
             self.columns = Some(parse_columns_header(&at, names, self.mask)?);
         }
     }
+}
 
-    fn read_frame(&mut self) -> Result<Option<Frame>, StreamError> {
-        if !self.next_frame_line()? {
+impl LineFormat for AuTextFormat<'_> {
+    const DECODING: Decoding = Decoding::Latin1;
+    const SEQ_FIELD: &'static str = "line";
+    const TIME_FIELD: &'static str = "column 1 (time)";
+
+    fn read_frame<R: BufRead>(
+        &mut self,
+        lines: &mut LineReader<R>,
+        line: &mut String,
+        frames_read: u64,
+    ) -> Result<Option<(Frame, Location)>, StreamError> {
+        if !self.next_frame_line(lines, line)? {
             return Ok(None);
         }
-        let at = self.lines.location();
-        let tokens: Vec<&str> = self.line.split_whitespace().collect();
+        let at = lines.location();
+        let tokens: Vec<&str> = line.split_whitespace().collect();
         let columns = match self.columns.take() {
             Some(columns) => columns,
             None => headerless_columns(&at, tokens.len(), self.mask, self.options)?,
@@ -143,7 +150,7 @@ impl<'m, R: BufRead> AuTextReader<'m, R> {
                 ),
             });
         }
-        let seq = self.frames_read;
+        let seq = frames_read;
         let mut weights = tokens.as_slice();
         let time_s = match weights.split_first() {
             Some((time, rest)) if columns.time => {
@@ -164,31 +171,7 @@ impl<'m, R: BufRead> AuTextReader<'m, R> {
         }
         frame.animation.sort_by_key(|&(unit, _)| unit);
         frame.check_at(&at, Some(self.mask))?;
-        check_order(&at, self.previous, seq, time_s, "line", "column 1 (time)")?;
-        self.previous = Some((seq, time_s));
-        self.frames_read += 1;
-        Ok(Some(frame))
-    }
-}
-
-impl<R: BufRead> Iterator for AuTextReader<'_, R> {
-    type Item = Result<Frame, StreamError>;
-
-    fn next(&mut self) -> Option<Self::Item> {
-        if self.done {
-            return None;
-        }
-        let result = self.read_frame().transpose();
-        self.done = !matches!(result, Some(Ok(_)));
-        result
-    }
-}
-
-fn syntax(at: &Location, field: &str, message: &str) -> StreamError {
-    StreamError::Syntax {
-        at: at.clone(),
-        field: field.to_string(),
-        message: message.to_string(),
+        Ok(Some((frame, at)))
     }
 }
 
@@ -204,7 +187,11 @@ fn parse_columns_header(at: &Location, names: &str, mask: &Mask) -> Result<Colum
         let field = format!("columns[{}]", k + 1);
         if name.eq_ignore_ascii_case("time") {
             if k != 0 {
-                return Err(syntax(at, &field, "time can only be the first column"));
+                return Err(StreamError::syntax(
+                    at,
+                    &field,
+                    "time can only be the first column",
+                ));
             }
             time = true;
             continue;
@@ -233,7 +220,7 @@ fn parse_columns_header(at: &Location, names: &str, mask: &Mask) -> Result<Colum
         units.push(unit);
     }
     if units.is_empty() {
-        return Err(syntax(at, "columns", "names no animation unit"));
+        return Err(StreamError::syntax(at, "columns", "names no animation unit"));
     }
     Ok(Columns { time, units })
 }

@@ -153,6 +153,15 @@ pub enum StreamError {
 }
 
 impl StreamError {
+    /// A [`StreamError::Syntax`] at `at` in `field`.
+    pub(crate) fn syntax(at: &Location, field: &str, message: impl Into<String>) -> StreamError {
+        StreamError::Syntax {
+            at: at.clone(),
+            field: field.to_string(),
+            message: message.into(),
+        }
+    }
+
     /// The field that is wrong, as a producer names it: the frame's top-level JSONL key
     /// (`au` for an error in `au.jaw_drop`, `controls` for `controls[3][1]`, `t`, `seq`,
     /// `json` for text that is not JSON) or, in `.fap` and AU text files, the part of
@@ -216,36 +225,4 @@ where
             found: text.to_string(),
         })
     }
-}
-
-/// Fails when a frame's time goes backwards or its sequence number does not increase.
-/// `previous` is `(seq, time_s)` of the frame before, if any.
-pub(crate) fn check_order(
-    at: &Location,
-    previous: Option<(u64, f64)>,
-    seq: u64,
-    time_s: f64,
-    seq_field: &str,
-    time_field: &str,
-) -> Result<(), StreamError> {
-    let Some((previous_seq, previous_time)) = previous else {
-        return Ok(());
-    };
-    if seq <= previous_seq {
-        return Err(StreamError::SeqNotIncreasing {
-            at: at.clone(),
-            field: seq_field.to_string(),
-            seq,
-            previous: previous_seq,
-        });
-    }
-    if time_s < previous_time {
-        return Err(StreamError::TimeBackwards {
-            at: at.clone(),
-            field: time_field.to_string(),
-            time: time_s,
-            previous: previous_time,
-        });
-    }
-    Ok(())
 }

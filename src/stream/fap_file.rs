@@ -13,12 +13,12 @@
 //! also the frame's `seq`.
 
 use std::io::{BufRead, Write};
-use std::sync::Arc;
 
 use super::check::{fps_in_range, FPS_EXPECTED};
-use super::error::{check_order, parse_finite, Location, StreamError};
+use super::error::{parse_finite, Location, StreamError};
 use super::frame::{ExpressionFap, Frame, VisemeFap, HEAD_ROTATION_FAPS, RADIANS_PER_ANGLE_COUNT};
 use super::lines::{Decoding, LineReader};
+use super::reader::{FrameReader, LineFormat};
 use crate::mask::fap::fap_info;
 
 /// Entries of a standard mask line: one per FAP 1..=68.
@@ -40,96 +40,88 @@ pub struct FapHeader {
 
 /// Reads `.fap` frames from any [`BufRead`], two lines per frame. The header is read on
 /// the first call to [`FapReader::header`] or `next`.
-pub struct FapReader<R> {
-    lines: LineReader<R>,
-    line: String,
-    header: Option<FapHeader>,
-    frames_read: u64,
-    previous: Option<(u64, f64)>,
-    done: bool,
+pub type FapReader<R> = FrameReader<R, FapFormat>;
+
+/// A `.fap` file's lines: the header, then a mask line and a values line per frame.
+pub struct FapFormat {
+    header: Header,
+}
+
+/// The header, once read.
+enum Header {
+    NotRead,
+    Read(FapHeader),
+    /// Reading it failed: the reader yields no frames.
+    Failed,
 }
 
 impl<R: BufRead> FapReader<R> {
     pub fn new(input: R) -> Self {
-        FapReader {
-            lines: LineReader::new(input, Decoding::Latin1),
-            line: String::new(),
-            header: None,
-            frames_read: 0,
-            previous: None,
-            done: false,
-        }
-    }
-
-    /// Names the source in error messages (usually the file path).
-    pub fn with_source_name(mut self, name: impl Into<Arc<str>>) -> Self {
-        self.lines.set_file(name.into());
-        self
+        FrameReader::with_format(
+            input,
+            FapFormat {
+                header: Header::NotRead,
+            },
+        )
     }
 
     /// The file's header, reading it if no frame has been read yet. After a header error
     /// the reader yields no frames.
     pub fn header(&mut self) -> Result<&FapHeader, StreamError> {
-        let header = match self.header.take() {
-            Some(header) => header,
-            None => self.read_header().inspect_err(|_| self.done = true)?,
-        };
-        Ok(self.header.insert(header))
+        let (format, lines, line) = self.format_and_lines();
+        format.header(lines, line)
     }
+}
 
-    fn read_header(&mut self) -> Result<FapHeader, StreamError> {
-        if !self.lines.read_data_line(&mut self.line, true)? {
-            return Err(StreamError::Truncated {
-                at: self.lines.location(),
+impl FapFormat {
+    fn header<R: BufRead>(
+        &mut self,
+        lines: &mut LineReader<R>,
+        line: &mut String,
+    ) -> Result<&FapHeader, StreamError> {
+        if matches!(self.header, Header::NotRead) {
+            self.header = match read_header(lines, line) {
+                Ok(header) => Header::Read(header),
+                Err(e) => {
+                    self.header = Header::Failed;
+                    return Err(e);
+                }
+            };
+        }
+        match &self.header {
+            Header::Read(header) => Ok(header),
+            Header::NotRead | Header::Failed => Err(StreamError::Truncated {
+                at: lines.location(),
                 field: "header".to_string(),
-                expected: "the header line \"version name fps frames\"".to_string(),
-            });
+                expected: "a valid header line (reading it failed before)".to_string(),
+            }),
         }
-        let at = self.lines.location();
-        let tokens: Vec<&str> = self.line.split_whitespace().collect();
-        if tokens.len() < 3 {
-            return Err(StreamError::WrongLength {
-                at,
-                field: "header".to_string(),
-                found: tokens.len(),
-                expected: "at least 3 (version [name] fps frames)".to_string(),
-            });
-        }
-        let fps_text = tokens[tokens.len() - 2];
-        let fps: f64 = parse_finite(&at, fps_text, "header fps")?;
-        if !fps_in_range(fps) {
-            return Err(StreamError::OutOfRange {
-                at,
-                field: "header fps".to_string(),
-                found: fps_text.to_string(),
-                expected: FPS_EXPECTED.to_string(),
-            });
-        }
-        let count_text = tokens[tokens.len() - 1];
-        let frame_count = count_text.parse::<u64>().map_err(|_| StreamError::NotANumber {
-            at: at.clone(),
-            field: "header frame count".to_string(),
-            found: format!("{count_text:?}"),
-            expected: "a non-negative integer",
-        })?;
-        Ok(FapHeader {
-            version: tokens[0].to_string(),
-            name: tokens[1..tokens.len() - 2].join(" "),
-            fps,
-            frame_count,
-        })
     }
+}
 
-    fn read_frame(&mut self) -> Result<Option<Frame>, StreamError> {
-        let (fps, frame_count) = {
-            let header = self.header()?;
-            (header.fps, header.frame_count)
+impl LineFormat for FapFormat {
+    const DECODING: Decoding = Decoding::Latin1;
+    const SEQ_FIELD: &'static str = "frame number";
+    const TIME_FIELD: &'static str = "frame number";
+
+    fn read_frame<R: BufRead>(
+        &mut self,
+        lines: &mut LineReader<R>,
+        line: &mut String,
+        frames_read: u64,
+    ) -> Result<Option<(Frame, Location)>, StreamError> {
+        let (fps, frame_count) = match self.header {
+            Header::Failed => return Ok(None),
+            _ => {
+                let header = self.header(lines, line)?;
+                (header.fps, header.frame_count)
+            }
         };
-        let frame_index = self.frames_read + 1;
-        if self.frames_read == frame_count {
-            if self.lines.read_data_line(&mut self.line, true)? {
+        let frame_index = frames_read + 1;
+        if frames_read == frame_count {
+            if lines.read_data_line(line, true)? {
                 return Err(StreamError::TrailingData {
-                    at: self.lines.location(),
+                    at: lines.location(),
                     frames: frame_count,
                 });
             }
@@ -137,50 +129,70 @@ impl<R: BufRead> FapReader<R> {
         }
         let of_frames = format!("frame {frame_index} of {frame_count}");
 
-        if !self.lines.read_data_line(&mut self.line, true)? {
+        if !lines.read_data_line(line, true)? {
             return Err(StreamError::Truncated {
-                at: self.lines.location(),
+                at: lines.location(),
                 field: "mask".to_string(),
                 expected: format!("the mask line of {of_frames}"),
             });
         }
-        let mask = parse_mask(&self.lines.location(), &self.line)?;
+        let mask = parse_mask(&lines.location(), line)?;
 
-        if !self.lines.read_data_line(&mut self.line, true)? {
+        if !lines.read_data_line(line, true)? {
             return Err(StreamError::Truncated {
-                at: self.lines.location(),
+                at: lines.location(),
                 field: "values".to_string(),
                 expected: format!("the values line of {of_frames}"),
             });
         }
-        let at = self.lines.location();
-        let frame = parse_values(&at, &self.line, &mask, fps)?;
+        let at = lines.location();
+        let frame = parse_values(&at, line, &mask, fps)?;
         frame.check_at(&at, None)?;
-        check_order(
-            &at,
-            self.previous,
-            frame.seq,
-            frame.time_s,
-            "frame number",
-            "frame number",
-        )?;
-        self.previous = Some((frame.seq, frame.time_s));
-        self.frames_read += 1;
-        Ok(Some(frame))
+        Ok(Some((frame, at)))
     }
 }
 
-impl<R: BufRead> Iterator for FapReader<R> {
-    type Item = Result<Frame, StreamError>;
-
-    fn next(&mut self) -> Option<Self::Item> {
-        if self.done {
-            return None;
-        }
-        let result = self.read_frame().transpose();
-        self.done = !matches!(result, Some(Ok(_)));
-        result
+fn read_header<R: BufRead>(lines: &mut LineReader<R>, line: &mut String) -> Result<FapHeader, StreamError> {
+    if !lines.read_data_line(line, true)? {
+        return Err(StreamError::Truncated {
+            at: lines.location(),
+            field: "header".to_string(),
+            expected: "the header line \"version name fps frames\"".to_string(),
+        });
     }
+    let at = lines.location();
+    let tokens: Vec<&str> = line.split_whitespace().collect();
+    if tokens.len() < 3 {
+        return Err(StreamError::WrongLength {
+            at,
+            field: "header".to_string(),
+            found: tokens.len(),
+            expected: "at least 3 (version [name] fps frames)".to_string(),
+        });
+    }
+    let fps_text = tokens[tokens.len() - 2];
+    let fps: f64 = parse_finite(&at, fps_text, "header fps")?;
+    if !fps_in_range(fps) {
+        return Err(StreamError::OutOfRange {
+            at,
+            field: "header fps".to_string(),
+            found: fps_text.to_string(),
+            expected: FPS_EXPECTED.to_string(),
+        });
+    }
+    let count_text = tokens[tokens.len() - 1];
+    let frame_count = count_text.parse::<u64>().map_err(|_| StreamError::NotANumber {
+        at: at.clone(),
+        field: "header frame count".to_string(),
+        found: format!("{count_text:?}"),
+        expected: "a non-negative integer",
+    })?;
+    Ok(FapHeader {
+        version: tokens[0].to_string(),
+        name: tokens[1..tokens.len() - 2].join(" "),
+        fps,
+        frame_count,
+    })
 }
 
 /// Which of FAPs 1..=68 a mask line switches on.

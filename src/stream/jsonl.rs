@@ -4,15 +4,15 @@
 //! names it in its errors.
 
 use std::io::{BufRead, Write};
-use std::sync::Arc;
 
 use serde::ser::{SerializeMap, Serializer};
 use serde_json::{Map, Value};
 
 use super::blendshapes::{arkit_index, ARKIT_BLENDSHAPES};
-use super::error::{check_order, Location, StreamError};
+use super::error::{Location, StreamError};
 use super::frame::{ExpressionFap, Frame, VisemeFap};
 use super::lines::{Decoding, LineReader};
+use super::reader::{FrameReader, LineFormat};
 use super::strict_json::{self, StrictJsonError};
 use crate::mask::fap::{fap_by_name, fap_info, FAPS};
 use crate::mask::Mask;
@@ -43,62 +43,36 @@ const EXPRESSION_FIELDS: [&str; 6] = [
 ];
 
 /// Reads JSONL frames from any [`BufRead`], one line at a time. Blank lines are skipped.
-pub struct JsonlReader<'m, R> {
-    lines: LineReader<R>,
+pub type JsonlReader<'m, R> = FrameReader<R, JsonlFormat<'m>>;
+
+/// JSONL's lines: one frame each, its keys resolved by the mask.
+pub struct JsonlFormat<'m> {
     mask: &'m Mask,
-    line: String,
-    previous: Option<(u64, f64)>,
-    done: bool,
 }
 
 impl<'m, R: BufRead> JsonlReader<'m, R> {
     /// `mask` resolves the `au` keys and sizes `controls`.
     pub fn new(input: R, mask: &'m Mask) -> Self {
-        JsonlReader {
-            lines: LineReader::new(input, Decoding::Utf8),
-            mask,
-            line: String::new(),
-            previous: None,
-            done: false,
-        }
+        FrameReader::with_format(input, JsonlFormat { mask })
     }
+}
 
-    /// Names the source in error messages (usually the file path).
-    pub fn with_source_name(mut self, name: impl Into<Arc<str>>) -> Self {
-        self.lines.set_file(name.into());
-        self
-    }
+impl LineFormat for JsonlFormat<'_> {
+    const DECODING: Decoding = Decoding::Utf8;
+    const SEQ_FIELD: &'static str = "seq";
+    const TIME_FIELD: &'static str = "t";
 
-    fn read_frame(&mut self) -> Result<Option<Frame>, StreamError> {
-        if !self.lines.read_data_line(&mut self.line, false)? {
+    fn read_frame<R: BufRead>(
+        &mut self,
+        lines: &mut LineReader<R>,
+        line: &mut String,
+        _frames_read: u64,
+    ) -> Result<Option<(Frame, Location)>, StreamError> {
+        if !lines.read_data_line(line, false)? {
             return Ok(None);
         }
-        let at = self.lines.location();
-        let frame = parse_frame(&at, &self.line, self.mask)?;
-        check_order(&at, self.previous, frame.seq, frame.time_s, "seq", "t")?;
-        self.previous = Some((frame.seq, frame.time_s));
-        Ok(Some(frame))
-    }
-}
-
-impl<R: BufRead> Iterator for JsonlReader<'_, R> {
-    type Item = Result<Frame, StreamError>;
-
-    fn next(&mut self) -> Option<Self::Item> {
-        if self.done {
-            return None;
-        }
-        let result = self.read_frame().transpose();
-        self.done = !matches!(result, Some(Ok(_)));
-        result
-    }
-}
-
-fn syntax(at: &Location, field: &str, message: impl Into<String>) -> StreamError {
-    StreamError::Syntax {
-        at: at.clone(),
-        field: field.to_string(),
-        message: message.into(),
+        let at = lines.location();
+        Ok(Some((parse_frame(&at, line, self.mask)?, at)))
     }
 }
 
@@ -113,11 +87,13 @@ pub fn parse_message(origin: &str, text: &str, mask: &Mask) -> Result<Frame, Str
 
 fn parse_frame(at: &Location, text: &str, mask: &Mask) -> Result<Frame, StreamError> {
     let value = strict_json::parse(text).map_err(|e| match e {
-        StrictJsonError::Syntax(e) => syntax(at, "json", format!("invalid JSON: {e}")),
-        StrictJsonError::RepeatedKey(path) => syntax(at, &path, "the key appears twice; name it once"),
+        StrictJsonError::Syntax(e) => StreamError::syntax(at, "json", format!("invalid JSON: {e}")),
+        StrictJsonError::RepeatedKey(path) => {
+            StreamError::syntax(at, &path, "the key appears twice; name it once")
+        }
     })?;
     let Value::Object(object) = value else {
-        return Err(syntax(at, "frame", "expected a JSON object"));
+        return Err(StreamError::syntax(at, "frame", "expected a JSON object"));
     };
     let mut frame = Frame::default();
     let (mut seq, mut time) = (None, None);
@@ -149,8 +125,8 @@ fn parse_frame(at: &Location, text: &str, mask: &Mask) -> Result<Frame, StreamEr
             }
         }
     }
-    frame.seq = seq.ok_or_else(|| syntax(at, "seq", "missing (every frame needs one)"))?;
-    frame.time_s = time.ok_or_else(|| syntax(at, "t", "missing (every frame needs one)"))?;
+    frame.seq = seq.ok_or_else(|| StreamError::syntax(at, "seq", "missing (every frame needs one)"))?;
+    frame.time_s = time.ok_or_else(|| StreamError::syntax(at, "t", "missing (every frame needs one)"))?;
     frame.check_at(at, Some(mask))?;
     Ok(frame)
 }
@@ -212,7 +188,7 @@ fn parse_label(at: &Location, value: &Value) -> Result<Option<String>, StreamErr
     match value {
         Value::Null => Ok(None),
         Value::String(label) => Ok(Some(label.clone())),
-        other => Err(syntax(
+        other => Err(StreamError::syntax(
             at,
             "label",
             format!("expected a string or null, found {other}"),
@@ -227,14 +203,14 @@ fn as_object<'v>(
 ) -> Result<&'v Map<String, Value>, StreamError> {
     value
         .as_object()
-        .ok_or_else(|| syntax(at, field, format!("expected an object, found {value}")))
+        .ok_or_else(|| StreamError::syntax(at, field, format!("expected an object, found {value}")))
 }
 
 fn as_array<'v>(at: &Location, value: &'v Value, field: &str) -> Result<&'v [Value], StreamError> {
     value
         .as_array()
         .map(Vec::as_slice)
-        .ok_or_else(|| syntax(at, field, format!("expected an array, found {value}")))
+        .ok_or_else(|| StreamError::syntax(at, field, format!("expected an array, found {value}")))
 }
 
 /// Sorts `(index, value)` entries by index, failing when two keys name the same index.
@@ -405,7 +381,7 @@ fn parse_int_fields<const N: usize>(
         let item_field = format!("{field}.{name}");
         let item = object
             .get(name)
-            .ok_or_else(|| syntax(at, &item_field, "missing"))?;
+            .ok_or_else(|| StreamError::syntax(at, &item_field, "missing"))?;
         *slot = parse_i32(at, item, &item_field)?;
     }
     Ok(out)

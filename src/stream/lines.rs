@@ -13,7 +13,7 @@ pub const MAX_LINE_BYTES: usize = 1 << 20;
 
 /// How the bytes of a line become text.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Decoding {
+pub enum Decoding {
     /// Strict UTF-8 (JSONL).
     Utf8,
     /// ISO-8859-1, one byte per `char`: never fails (`.fap` headers written on Windows).
@@ -21,7 +21,7 @@ pub(crate) enum Decoding {
 }
 
 /// Reads lines from any [`BufRead`], counting them, stripping `\n` or `\r\n`.
-pub(crate) struct LineReader<R> {
+pub struct LineReader<R> {
     input: R,
     decoding: Decoding,
     file: Option<Arc<str>>,

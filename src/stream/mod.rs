@@ -19,6 +19,7 @@ mod frame;
 pub mod jsonl;
 mod lines;
 mod poser;
+mod reader;
 mod strict_json;
 pub mod summary;
 pub mod syllables;

@@ -3,6 +3,7 @@
 #![allow(dead_code)] // each test file uses its own subset
 
 pub mod service;
+pub mod streams;
 
 use std::path::{Path, PathBuf};
 

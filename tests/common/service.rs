@@ -17,8 +17,30 @@ pub type Socket =
 
 pub struct Server {
     pub addr: SocketAddr,
-    pub state: AppState,
-    task: tokio::task::JoinHandle<std::io::Result<()>>,
+    runs: Runs,
+}
+
+/// Where the server runs: in this test process, or as a `facewire serve` child process of
+/// its own, for tests that measure the server's memory while other tests run.
+enum Runs {
+    InProcess {
+        state: AppState,
+        task: tokio::task::JoinHandle<std::io::Result<()>>,
+    },
+    Child {
+        child: KilledOnDrop,
+        _data_dir: tempfile::TempDir,
+    },
+}
+
+/// A child process killed (and reaped) when dropped, even by a failing test.
+struct KilledOnDrop(std::process::Child);
+
+impl Drop for KilledOnDrop {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
 }
 
 /// The defaults with no data directory (heads in memory).
@@ -41,7 +63,59 @@ impl Server {
             let _ = tx.send(addr);
         }));
         let addr = rx.await.unwrap();
-        Server { addr, state, task }
+        Server {
+            addr,
+            runs: Runs::InProcess { state, task },
+        }
+    }
+
+    /// `facewire serve` as a child process with `config_toml` as its configuration file
+    /// and a fresh data directory; killed when the `Server` is dropped.
+    pub async fn spawn(config_toml: &str) -> Server {
+        use std::io::BufRead;
+        let data_dir = tempfile::tempdir().unwrap();
+        let config = data_dir.path().join("facewire.toml");
+        std::fs::write(&config, config_toml).unwrap();
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_facewire"))
+            .args(["serve", "--addr", "127.0.0.1:0", "--config"])
+            .arg(&config)
+            .arg("--data-dir")
+            .arg(data_dir.path().join("data"))
+            .env("RUST_LOG", "warn")
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::inherit())
+            .spawn()
+            .unwrap();
+        let stdout = child.stdout.take().unwrap();
+        let line = tokio::task::spawn_blocking(move || {
+            let mut line = String::new();
+            std::io::BufReader::new(stdout).read_line(&mut line).unwrap();
+            line
+        })
+        .await
+        .unwrap();
+        let addr = line
+            .trim()
+            .trim_start_matches("facewire listening on http://")
+            .trim_end_matches('/')
+            .parse()
+            .unwrap_or_else(|e| panic!("{e}: {line:?}"));
+        Server {
+            addr,
+            runs: Runs::Child {
+                child: KilledOnDrop(child),
+                _data_dir: data_dir,
+            },
+        }
+    }
+
+    /// The server's resident memory, KiB (a child process's own; this process's when the
+    /// server runs in it).
+    pub fn resident_kib(&self) -> u64 {
+        match &self.runs {
+            Runs::InProcess { .. } => resident_kib("/proc/self/statm"),
+            Runs::Child { child, .. } => resident_kib(&format!("/proc/{}/statm", child.0.id())),
+        }
     }
 
     pub fn http(&self, path: &str) -> String {
@@ -52,14 +126,20 @@ impl Server {
         format!("ws://{}{path}", self.addr)
     }
 
-    /// Shuts the server down and waits (at most 10 s) for `serve` to return.
+    /// Shuts the server down and waits (at most 10 s) for `serve` to return; a child
+    /// process is killed.
     pub async fn stop(self) {
-        self.state.shutdown.cancel();
-        tokio::time::timeout(Duration::from_secs(10), self.task)
-            .await
-            .expect("serve returns after shutdown")
-            .unwrap()
-            .unwrap();
+        match self.runs {
+            Runs::InProcess { state, task } => {
+                state.shutdown.cancel();
+                tokio::time::timeout(Duration::from_secs(10), task)
+                    .await
+                    .expect("serve returns after shutdown")
+                    .unwrap()
+                    .unwrap();
+            }
+            Runs::Child { child, .. } => drop(child),
+        }
     }
 
     /// Registers a shipped head under `id` (`query` carries a token) and waits until it
@@ -170,9 +250,9 @@ pub fn jaw_line(seq: u64, t: f64) -> String {
     format!(r#"{{"seq":{seq},"t":{t},"au":{{"jaw_drop":0.3}}}}"#)
 }
 
-/// This process's resident memory, KiB.
-pub fn resident_kib() -> u64 {
-    let statm = std::fs::read_to_string("/proc/self/statm").unwrap();
+/// Resident memory, KiB, from a `/proc/{pid}/statm` file.
+fn resident_kib(statm: &str) -> u64 {
+    let statm = std::fs::read_to_string(statm).unwrap();
     let pages: u64 = statm.split_whitespace().nth(1).unwrap().parse().unwrap();
     pages * 4
 }
