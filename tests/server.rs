@@ -3,14 +3,12 @@
 
 mod common;
 
-use common::data;
 use common::service::{connect, memory_config, next_frame, next_json, Server, Socket};
+use common::{data, register};
 
 use std::time::Duration;
 
 use facewire::deform::{bind, AlgoSpec, Registration};
-use facewire::fit::{FitFile, FittedMask};
-use facewire::head::Head;
 use facewire::mask::Mask;
 use facewire::server::Config;
 use facewire::stream::{open_stream, Frame, JsonlWriter};
@@ -50,13 +48,8 @@ async fn viewers_see_what_facewire_deform_computes() {
     server.register("scan", "lee_perry_smith_head", "").await;
 
     // The same computation offline, as `facewire deform` does it.
-    let mask = Mask::candide3();
-    let head = Head::load(&data("heads/lee_perry_smith_head.obj")).unwrap();
-    let fit = FitFile::load(&data("heads/lee_perry_smith_head.fit.toml"))
-        .unwrap()
-        .resolve("fit", &mask)
-        .unwrap();
-    let reg = Registration::new(head, FittedMask::new(mask.clone(), fit));
+    let reg = register("lee_perry_smith_head");
+    let mask = reg.fitted.mask.clone();
     let specs: Vec<AlgoSpec> = ["O", "C", "kshirsagar"]
         .iter()
         .map(|s| s.parse().unwrap())

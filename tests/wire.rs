@@ -5,16 +5,12 @@
 
 mod common;
 
-use common::data;
+use common::{data, register};
 
 use std::sync::Arc;
 
 use facewire::animate::{AnimatedHead, FrameJob, FrameTimes};
-
-use facewire::deform::{bind, AlgoSpec, Registration};
-use facewire::fit::{FitFile, FittedMask};
-use facewire::head::Head;
-use facewire::mask::Mask;
+use facewire::deform::{bind, AlgoSpec};
 use facewire::stream::{open_stream, ArkitBasis};
 use facewire_proto::frame::decode;
 use glam::Vec3;
@@ -47,13 +43,7 @@ fn measure(head: &Arc<AnimatedHead>, spec: &AlgoSpec) -> (f64, f32) {
 
 #[test]
 fn default_algorithm_frames_are_a_tenth_of_raw_deltas() {
-    let mask = Mask::candide3();
-    let head = Head::load(&data("heads/lee_perry_smith_head.obj")).unwrap();
-    let fit = FitFile::load(&data("heads/lee_perry_smith_head.fit.toml"))
-        .unwrap()
-        .resolve("fit", &mask)
-        .unwrap();
-    let head = Arc::new(AnimatedHead::new(Registration::new(head, FittedMask::new(mask, fit))).unwrap());
+    let head = Arc::new(AnimatedHead::new(register("lee_perry_smith_head")).unwrap());
     let raw = head.registration.vertex_count() as f64 * 12.0;
     let default: AlgoSpec = facewire::server::Config::default()
         .default_algorithm

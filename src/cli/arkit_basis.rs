@@ -6,21 +6,19 @@
 
 use glam::Vec3;
 
-use super::{load_fit, load_head, load_mask, CliResult, FilePath};
+use super::fitted_head::FittedHeadArgs;
+use super::{CliResult, FilePath};
 use crate::atomic::write_atomic;
-use crate::fit::{anchor_mask, FittedMask};
+use crate::fit::anchor_mask;
 use crate::metrics::{ground_truth_error, FaceVertices};
 use crate::stream::{arkit_index, ArkitBasis};
 use crate::targets::ExpressionTarget;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The head the targets belong to (OBJ).
-    #[arg(long)]
-    head: FilePath,
-    /// The fit of the CANDIDE-3 mask to that head (.fit.toml).
-    #[arg(long)]
-    fit: FilePath,
+    /// The head the targets belong to, and its fit.
+    #[command(flatten)]
+    fitted: FittedHeadArgs,
     /// Folder of `<arkitName>.target` files (`vertex dx dy dz`, head units).
     #[arg(long)]
     targets: FilePath,
@@ -30,11 +28,8 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> CliResult {
-    let mask = load_mask(None)?;
-    let head = load_head(&args.head)?;
-    let fit = load_fit(&args.fit, &mask)?;
-    let mm_per_unit = fit.mm_per_unit;
-    let fitted = FittedMask::new(mask, fit);
+    let (head, fitted) = args.fitted.load()?;
+    let mm_per_unit = fitted.fit.mm_per_unit;
     let anchors = anchor_mask(&head, &fitted.neutral, mm_per_unit);
     let targets = ExpressionTarget::load_dir(&args.targets, head.positions.len())?;
     if targets.is_empty() {
@@ -43,8 +38,8 @@ pub fn run(args: Args) -> CliResult {
     let derived = ArkitBasis::derive(&fitted, &anchors, &targets)?;
     let command = format!(
         "facewire arkit-basis --head {} --fit {} --targets {} --out {}",
-        args.head.display(),
-        args.fit.display(),
+        args.fitted.head.display(),
+        args.fitted.fit.display(),
         args.targets.display(),
         args.out.display()
     );
@@ -60,7 +55,7 @@ pub fn run(args: Args) -> CliResult {
     println!(
         "ARKit basis from {} targets of {} ({} mm per head unit, {:.2} mm per mask unit)",
         targets.len(),
-        args.head.display(),
+        args.fitted.head.display(),
         mm_per_unit,
         fitted.mm_per_mask_unit()
     );

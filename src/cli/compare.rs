@@ -5,12 +5,12 @@
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
-use super::{load_fit, load_head, load_mask, print_json, CliResult, FilePath};
+use super::fitted_head::FittedHeadArgs;
+use super::{print_json, CliResult, FilePath};
 use crate::deform::Registration;
-use crate::fit::FittedMask;
 use crate::report::{
-    compare, every_preset, parse_algorithms, write_report, AlgorithmSummary, CompareInput, Comparison,
-    Progress, ReportContext, Stage,
+    compare, every_preset, parse_algorithms, write_report, AlgorithmSummary, Column, CompareInput,
+    Comparison, Progress, ReportContext, Stage, ALGORITHM_COLUMNS,
 };
 use crate::stream::{open_stream, ArkitBasis};
 use crate::targets::ExpressionTarget;
@@ -21,12 +21,8 @@ const MAKEHUMAN_TARGETS: &str = "makehuman_arkit";
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The head mesh (OBJ).
-    #[arg(long)]
-    head: FilePath,
-    /// Its fit (.fit.toml).
-    #[arg(long)]
-    fit: FilePath,
+    #[command(flatten)]
+    fitted: FittedHeadArgs,
     /// Parameter stream (.jsonl, .fap, .fau).
     #[arg(long)]
     stream: FilePath,
@@ -44,9 +40,6 @@ pub struct Args {
     /// Print the algorithms table as JSON on stdout.
     #[arg(long)]
     json: bool,
-    /// A CANDIDE-3 .wfm instead of the embedded one.
-    #[arg(long)]
-    mask: Option<FilePath>,
 }
 
 pub fn run(args: Args) -> CliResult {
@@ -54,13 +47,11 @@ pub fn run(args: Args) -> CliResult {
         Some(list) => parse_algorithms(list)?,
         None => every_preset(),
     };
-    let mask = load_mask(args.mask.as_deref())?;
-    let fit = load_fit(&args.fit, &mask)?;
-    let head = load_head(&args.head)?;
+    let (head, fitted) = args.fitted.load()?;
     // Fail before the slow part when the stream cannot be opened.
-    drop(open_stream(&args.stream, &mask)?);
+    drop(open_stream(&args.stream, &fitted.mask)?);
     let targets = load_targets(&args, head.positions.len())?;
-    let registration = Registration::try_new(head, FittedMask::new(mask, fit))?;
+    let registration = Registration::try_new(head, fitted)?;
 
     let basis = ArkitBasis::shipped();
     let input = CompareInput {
@@ -81,8 +72,8 @@ pub fn run(args: Args) -> CliResult {
     let context = ReportContext {
         command: &command,
         machine: &machine,
-        head: &display(&args.head),
-        fit: &display(&args.fit),
+        head: &display(&args.fitted.head),
+        fit: &display(&args.fitted.fit),
         stream: &display(&args.stream),
         targets: targets_dir.as_deref(),
     };
@@ -120,6 +111,7 @@ fn load_targets(
         }));
     }
     let is_makehuman = args
+        .fitted
         .head
         .file_name()
         .is_some_and(|n| n.eq_ignore_ascii_case(MAKEHUMAN_HEAD));
@@ -127,6 +119,7 @@ fn load_targets(
         return Ok(None);
     }
     let dir = args
+        .fitted
         .head
         .parent()
         .unwrap_or(Path::new(""))
@@ -151,8 +144,9 @@ fn command_line(args: &Args) -> String {
         words.push(flag.to_string());
         words.push(shell_word(value));
     };
-    push("--head", &args.head.display().to_string());
-    push("--fit", &args.fit.display().to_string());
+    for (flag, value) in args.fitted.words() {
+        push(flag, &value);
+    }
     push("--stream", &args.stream.display().to_string());
     push("--out", &args.out.display().to_string());
     if let Some(list) = &args.algos {
@@ -160,9 +154,6 @@ fn command_line(args: &Args) -> String {
     }
     if let Some(dir) = &args.targets {
         push("--targets", &dir.display().to_string());
-    }
-    if let Some(mask) = &args.mask {
-        push("--mask", &mask.display().to_string());
     }
     words.join(" ")
 }
@@ -198,24 +189,20 @@ fn machine() -> String {
 }
 
 fn print_table(comparison: &Comparison) {
-    println!(
-        "{:<3} {:<58} {:>9} {:>9} {:>7} {:>6} {:>6} {:>6} {:>9}",
-        "", "spec", "roughness", "variance", "ctrl mm", "mouth", "gt mm", "crease", "deform us"
-    );
+    // Each column as wide as its title or 9, whichever is wider.
+    let width = |column: &Column| column.short.len().max(9);
+    let mut header = format!("{:<3} {:<58}", "", "spec");
+    for column in &ALGORITHM_COLUMNS {
+        header += &format!(" {:>w$}", column.short, w = width(column));
+    }
+    println!("{header}");
     for a in &comparison.algorithms {
         let s = &a.summary;
-        println!(
-            "{:<3} {:<58} {:>9.5} {:>9.2e} {:>7.2} {:>6} {:>6} {:>6.3} {:>9.1}",
-            s.letter,
-            s.spec,
-            s.roughness_mean,
-            s.roughness_var,
-            s.control_err_mm,
-            s.mouth_opening_ratio.map_or("-".into(), |r| format!("{r:.2}")),
-            s.ground_truth_rms_mm.map_or("-".into(), |r| format!("{r:.2}")),
-            s.crease,
-            s.deform_us
-        );
+        let mut row = format!("{:<3} {:<58}", s.letter, s.spec);
+        for column in &ALGORITHM_COLUMNS {
+            row += &format!(" {:>w$}", column.shown(s), w = width(column));
+        }
+        println!("{row}");
     }
     println!(
         "{:<3} {:<58} {:>9.5}",

@@ -8,22 +8,18 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
-use super::{load_fit, load_head, load_mask, CliResult, FilePath};
+use super::fitted_head::FittedHeadArgs;
+use super::{CliResult, FilePath};
 use crate::animate::{AnimatedHead, FrameJob};
 use crate::deform::{bind, AlgoSpec, Registration};
-use crate::fit::FittedMask;
 use crate::head::obj;
 use crate::metrics::{LipRoughness, RoughnessTsvWriter};
 use crate::stream::{open_stream, ArkitBasis};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The head mesh (OBJ).
-    #[arg(long)]
-    head: FilePath,
-    /// Its fit (.fit.toml).
-    #[arg(long)]
-    fit: FilePath,
+    #[command(flatten)]
+    fitted: FittedHeadArgs,
     /// Algorithm spec or preset letter (see `facewire algos`).
     #[arg(long, default_value = crate::server::config::DEFAULT_ALGORITHM)]
     algo: String,
@@ -36,9 +32,6 @@ pub struct Args {
     /// Only frames A..B (0-based, B excluded; either end may be left out: `10..`, `..50`).
     #[arg(long)]
     frames: Option<String>,
-    /// A CANDIDE-3 .wfm instead of the embedded one.
-    #[arg(long)]
-    mask: Option<FilePath>,
 }
 
 /// Parses `A..B`, `A..`, `..B` into a half-open range.
@@ -70,16 +63,15 @@ pub fn run(args: Args) -> CliResult {
         .map(parse_range)
         .transpose()?
         .unwrap_or(0..usize::MAX);
-    let mask = load_mask(args.mask.as_deref())?;
-    let fit = load_fit(&args.fit, &mask)?;
-    let head = load_head(&args.head)?;
+    let (head, fitted) = args.fitted.load()?;
+    let mask = fitted.mask.clone();
     let started = Instant::now();
-    let registration = Registration::try_new(head, FittedMask::new(mask.clone(), fit))?;
+    let registration = Registration::try_new(head, fitted)?;
     let registered = started.elapsed();
     let binding = bind(&registration, &spec);
     eprintln!(
         "registered {} ({} vertices) in {:.0} ms, bound {spec} in {:.0} ms",
-        args.head.display(),
+        args.fitted.head.display(),
         registration.vertex_count(),
         registered.as_secs_f64() * 1e3,
         (started.elapsed() - registered).as_secs_f64() * 1e3
@@ -89,8 +81,9 @@ pub fn run(args: Args) -> CliResult {
     let control_path = args.out.join("control.tsv");
     let mut control = BufWriter::new(create(&control_path)?);
     writeln!(control, "frame\tmask_vertex\tanchor\tx\ty\tz\tdx\tdy\tdz")?;
-    let animated =
-        Arc::new(AnimatedHead::new(registration).map_err(|e| format!("{}: {e}", args.head.display()))?);
+    let animated = Arc::new(
+        AnimatedHead::new(registration).map_err(|e| format!("{}: {e}", args.fitted.head.display()))?,
+    );
     let registration = &animated.registration;
     let mut lips = LipRoughness::new(&registration.head, &animated.lip_region)?;
     let metrics_path = args.out.join("metrics.tsv");
@@ -104,7 +97,7 @@ pub fn run(args: Args) -> CliResult {
         false,
     )?;
     let header = vec![
-        format!("facewire deform: {} with {spec}", args.head.display()),
+        format!("facewire deform: {} with {spec}", args.fitted.head.display()),
         format!(
             "stream {}; head units, same vertex order and faces as the input",
             args.stream.display()

@@ -6,6 +6,7 @@ mod compare;
 mod deform;
 mod demo;
 mod fit;
+mod fitted_head;
 mod inspect;
 mod play;
 mod render;

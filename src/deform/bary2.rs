@@ -6,6 +6,7 @@
 use rayon::prelude::*;
 
 use super::binding::{Binding, Csr, TriangleBasis, TriangleTerm};
+use super::normalize::normalize;
 use super::spec::{AlgoSpec, Weights};
 use super::{triangle_weights, Registration};
 
@@ -42,9 +43,6 @@ pub(super) fn triangle_terms(reg: &Registration, v: u32, chosen: &[(u16, f32)]) 
             })
         })
         .collect();
-    let total: f32 = terms.iter().map(|t| t.weight).sum();
-    if total > 0.0 {
-        terms.iter_mut().for_each(|t| t.weight /= total);
-    }
+    normalize(&mut terms);
     terms
 }

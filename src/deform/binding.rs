@@ -16,6 +16,7 @@
 use glam::{Vec3, Vec3A};
 
 use super::bones::{BoneBases, BoneTerm, Region};
+use super::normalize::Weighted;
 use super::spec::AlgoSpec;
 
 /// Compressed rows: the items of row `v` are `items[offsets[v]..offsets[v + 1]]`.
@@ -70,6 +71,12 @@ pub struct LinearTerm {
     pub weight: f32,
 }
 
+impl Weighted for LinearTerm {
+    fn weight_mut(&mut self) -> &mut f32 {
+        &mut self.weight
+    }
+}
+
 /// `weight * (basis_t'(coords) - P)`: follows mask triangle `t`'s basis.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TriangleTerm {
@@ -77,6 +84,12 @@ pub struct TriangleTerm {
     /// (a, b, c): `P - A = a (B - A) + b (C - A) + c n`, n the unit normal.
     pub coords: Vec3,
     pub weight: f32,
+}
+
+impl Weighted for TriangleTerm {
+    fn weight_mut(&mut self) -> &mut f32 {
+        &mut self.weight
+    }
 }
 
 /// A mask triangle's basis on the moved mask: origin, edges and unit normal.

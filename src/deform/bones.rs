@@ -6,6 +6,7 @@
 use glam::{Vec3, Vec3A};
 
 use super::binding::TriangleBasis;
+use super::normalize::Weighted;
 
 /// The region of a point relative to one bone.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -32,6 +33,12 @@ pub struct BoneTerm {
     /// Corner regions: the rest length of the in-plane offset (head units).
     pub offset_length: f32,
     pub weight: f32,
+}
+
+impl Weighted for BoneTerm {
+    fn weight_mut(&mut self) -> &mut f32 {
+        &mut self.weight
+    }
 }
 
 /// A bone's geometry in one pose: corners, edges, outward edge normals, unit normal.

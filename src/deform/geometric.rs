@@ -9,6 +9,7 @@
 use rayon::prelude::*;
 
 use super::binding::{Binding, LinearTerm};
+use super::normalize::normalize;
 use super::spec::{AlgoSpec, Weights};
 use super::Registration;
 
@@ -58,11 +59,13 @@ fn blend(reg: &Registration, v: u32, r_mm: f32, falloff: impl Fn(f32) -> f32) ->
             weight: 1.0,
         }];
     }
-    let total: f32 = near.iter().map(|(_, w)| w).sum();
-    near.into_iter()
-        .map(|(j, w)| LinearTerm {
+    let mut terms: Vec<LinearTerm> = near
+        .into_iter()
+        .map(|(j, weight)| LinearTerm {
             control: j as u16,
-            weight: w / total,
+            weight,
         })
-        .collect()
+        .collect();
+    normalize(&mut terms);
+    terms
 }

@@ -12,6 +12,7 @@ mod binding;
 mod bones;
 mod geometric;
 mod kshirsagar;
+mod normalize;
 pub mod planar_bones;
 mod point_distance;
 pub mod projection;

@@ -17,6 +17,7 @@
 
 use super::binding::{Binding, Csr};
 use super::bones::{Bone, BoneTerm};
+use super::normalize::normalize;
 use super::spec::{AlgoSpec, Weights};
 use super::{triangle_weights, Registration};
 use rayon::prelude::*;
@@ -47,10 +48,7 @@ pub fn bind(reg: &Registration, spec: AlgoSpec, weights: &Weights) -> Binding {
                     })
                 })
                 .collect();
-            let total: f32 = terms.iter().map(|t| t.weight).sum();
-            if total > 0.0 {
-                terms.iter_mut().for_each(|t| t.weight /= total);
-            }
+            normalize(&mut terms);
             terms
         })
         .collect();

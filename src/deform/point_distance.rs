@@ -21,6 +21,7 @@ use rayon::prelude::*;
 
 use super::anchor_system::{centres, invert};
 use super::binding::{Binding, LinearTerm, SourceMap};
+use super::normalize::normalize;
 use super::spec::AlgoSpec;
 use super::Registration;
 
@@ -29,16 +30,15 @@ pub fn bind(reg: &Registration, spec: AlgoSpec, k: Option<u32>, local: f32, inte
         .into_par_iter()
         .map(|v| {
             let chosen = nearest_controls(reg, v, k.map(|k| k as usize));
-            let weights: Vec<f32> = chosen.iter().map(|&(_, d)| 1.0 / (1.0 + d.powf(local))).collect();
-            let total: f32 = weights.iter().sum();
-            chosen
+            let mut terms: Vec<LinearTerm> = chosen
                 .iter()
-                .zip(weights)
-                .map(|(&(j, _), w)| LinearTerm {
+                .map(|&(j, d)| LinearTerm {
                     control: j as u16,
-                    weight: w / total,
+                    weight: 1.0 / (1.0 + d.powf(local)),
                 })
-                .collect()
+                .collect();
+            normalize(&mut terms);
+            terms
         })
         .collect();
     let sources = interpolate.then(|| anchor_sources(reg, &rows)).flatten();

@@ -3,6 +3,7 @@
 //! the vertex to the triangle's nearest corner anchor. A vertex with no triangle in range
 //! falls back to its projection triangle, so nothing is dropped.
 
+use super::normalize::normalize;
 use super::spec::Weights;
 use super::Registration;
 
@@ -33,8 +34,5 @@ pub fn triangle_weights(reg: &Registration, v: u32, weights: &Weights, out: &mut
         out.push((nearest, 1.0));
         return;
     }
-    let total: f32 = out.iter().map(|(_, w)| w).sum();
-    for (_, w) in out.iter_mut() {
-        *w /= total;
-    }
+    normalize(out);
 }

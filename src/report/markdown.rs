@@ -4,7 +4,7 @@
 
 use std::fmt::Write;
 
-use super::{AlgorithmResult, Comparison, Files};
+use super::{algorithms_header, AlgorithmResult, Column, Comparison, Files, ALGORITHM_COLUMNS};
 use crate::metrics::{FACE_RADIUS_MM, LIP_RADIUS_MM, MIN_MASK_OPENING_MM};
 
 /// Where a report came from, for its header.
@@ -91,49 +91,35 @@ pub fn render(comparison: &Comparison, context: &ReportContext<'_>, files: &File
 
     // The table.
     let _ = writeln!(out, "## Algorithms\n");
-    let _ = write!(
-        out,
-        "| | spec | roughness mean | roughness variance | control error (mm) | mouth opening ratio |"
-    );
-    if has_gt {
-        let _ = write!(out, " ground-truth RMS (mm) |");
+    let columns: Vec<&Column> = ALGORITHM_COLUMNS
+        .iter()
+        .filter(|column| has_gt || !column.needs_ground_truth())
+        .collect();
+    let _ = write!(out, "| | spec |");
+    for column in &columns {
+        let _ = write!(out, " {} |", column.title);
     }
-    let _ = writeln!(out, " face crease | deform (us) |");
-    let _ = writeln!(
-        out,
-        "|---|---|---:|---:|---:|---:|{}---:|---:|",
-        if has_gt { "---:|" } else { "" }
-    );
+    let _ = writeln!(out, "\n|---|---|{}", "---:|".repeat(columns.len()));
     for a in algos {
         let s = &a.summary;
-        let _ = write!(
-            out,
-            "| **{}** | `{}` | {:.5} | {:.2e} | {:.2} | {} |",
-            s.letter,
-            s.spec,
-            s.roughness_mean,
-            s.roughness_var,
-            s.control_err_mm,
-            s.mouth_opening_ratio.map_or("-".into(), |r| format!("{r:.3}"))
-        );
-        if has_gt {
-            let _ = write!(
-                out,
-                " {} |",
-                s.ground_truth_rms_mm.map_or("-".into(), |r| format!("{r:.2}"))
-            );
+        let _ = write!(out, "| **{}** | `{}` |", s.letter, s.spec);
+        for column in &columns {
+            let _ = write!(out, " {} |", column.shown(s));
         }
-        let _ = writeln!(out, " {:.3} | {:.1} |", s.crease, s.deform_us);
+        out.push('\n');
     }
-    let _ = write!(
-        out,
-        "| rest | the head not moving | {:.5} | | | |",
-        c.rest_roughness
-    );
-    if has_gt {
-        let _ = write!(out, " {rest_gt_mean:.2} |");
+    let _ = write!(out, "| rest | the head not moving |");
+    for column in &columns {
+        match (column.rest)(c) {
+            // A crease of exactly 0 reads better as `0` than as `0.000`.
+            Some(0.0) => out.push_str(" 0 |"),
+            Some(v) => {
+                let _ = write!(out, " {} |", (column.rounded)(v));
+            }
+            None => out.push_str(" |"),
+        }
     }
-    let _ = writeln!(out, " 0 | |\n");
+    out.push_str("\n\n");
 
     let _ = writeln!(out, "What the columns mean:\n");
     let _ = writeln!(
@@ -306,10 +292,11 @@ pub fn render(comparison: &Comparison, context: &ReportContext<'_>, files: &File
     let _ = writeln!(out, "## Files\n");
     let _ = writeln!(
         out,
-        "- [`{}`]({}): the table above (`letter spec roughness_mean roughness_var \
-         control_err_mm mouth_opening_ratio deform_us`, full precision; `NaN` where no frame \
-         opens the mouth).",
-        files.algorithms, files.algorithms
+        "- [`{}`]({}): the table above (`{}`, full precision; `NaN` where no frame opens the \
+         mouth or no target was measured).",
+        files.algorithms,
+        files.algorithms,
+        algorithms_header().replace('\t', " ")
     );
     let _ = writeln!(
         out,

@@ -9,6 +9,7 @@
 
 mod algorithms;
 mod charts;
+mod columns;
 mod compare;
 mod error;
 mod markdown;
@@ -18,6 +19,7 @@ use std::path::{Path, PathBuf};
 
 pub use algorithms::{every_preset, parse_algorithms, Candidate};
 pub use charts::{bar_chart, scatter, Reference, Ticks};
+pub use columns::{Column, ALGORITHM_COLUMNS};
 pub use compare::{
     compare, AlgorithmResult, AlgorithmSummary, CompareInput, Comparison, Progress, Stage, SyllableRow,
     TargetRow, UNLABELLED,
@@ -25,7 +27,7 @@ pub use compare::{
 pub use error::CompareError;
 pub use markdown::{pareto_front, ReportContext};
 pub use tables::{
-    algorithms_tsv, face_tsv, ground_truth_tsv, syllables_tsv, ALGORITHMS_HEADER, FACE_HEADER,
+    algorithms_header, algorithms_tsv, face_tsv, ground_truth_tsv, syllables_tsv, FACE_HEADER,
     GROUND_TRUTH_HEADER, REST_LETTER, REST_SPEC, SYLLABLES_HEADER,
 };
 

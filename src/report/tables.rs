@@ -1,14 +1,11 @@
 //! The comparison as tab-separated tables: `algorithms.tsv`, `syllables.tsv`, `face.tsv`
 //! and `ground_truth.tsv`. Numbers are in Rust's shortest round-trip form, so a reader gets
-//! back the exact values; a missing value (no mouth-opening frame) is `NaN`.
+//! back the exact values; a missing value (no mouth-opening frame, no targets) is `NaN`.
 
 use std::fmt::Write;
 
-use super::Comparison;
+use super::{Comparison, ALGORITHM_COLUMNS};
 
-/// Header of `algorithms.tsv`.
-pub const ALGORITHMS_HEADER: &str =
-    "letter\tspec\troughness_mean\troughness_var\tcontrol_err_mm\tmouth_opening_ratio\tdeform_us";
 /// Header of `syllables.tsv`.
 pub const SYLLABLES_HEADER: &str = "letter\tspec\tsyllable\tframes\troughness_mean";
 /// Header of `face.tsv`.
@@ -20,22 +17,27 @@ pub const GROUND_TRUTH_HEADER: &str = "letter\tspec\ttarget\trms_mm\tmax_mm";
 pub const REST_LETTER: &str = "-";
 pub const REST_SPEC: &str = "rest";
 
+/// Header of `algorithms.tsv`: `letter`, `spec`, then every [`ALGORITHM_COLUMNS`] key.
+pub fn algorithms_header() -> String {
+    let keys = ALGORITHM_COLUMNS.iter().map(|c| c.key);
+    ["letter", "spec"]
+        .into_iter()
+        .chain(keys)
+        .collect::<Vec<_>>()
+        .join("\t")
+}
+
 /// One row per algorithm, in the order compared.
 pub fn algorithms_tsv(comparison: &Comparison) -> String {
-    let mut out = format!("{ALGORITHMS_HEADER}\n");
+    let mut out = algorithms_header();
+    out.push('\n');
     for a in &comparison.algorithms {
         let s = &a.summary;
-        let _ = writeln!(
-            out,
-            "{}\t{}\t{}\t{}\t{}\t{}\t{}",
-            s.letter,
-            s.spec,
-            s.roughness_mean,
-            s.roughness_var,
-            s.control_err_mm,
-            s.mouth_opening_ratio.unwrap_or(f64::NAN),
-            s.deform_us
-        );
+        let _ = write!(out, "{}\t{}", s.letter, s.spec);
+        for column in &ALGORITHM_COLUMNS {
+            let _ = write!(out, "\t{}", (column.value)(s).unwrap_or(f64::NAN));
+        }
+        out.push('\n');
     }
     out
 }

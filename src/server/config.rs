@@ -10,6 +10,7 @@ use std::time::Duration;
 use serde::Deserialize;
 
 use crate::deform::AlgoSpec;
+use crate::input::{read_text, ReadError, MAX_TEXT_BYTES};
 
 /// The algorithm facewire recommends (preset U, the thesis's G made exact at the anchors):
 /// smooth lips, almost no new creases, every control reproduced, about 31 µs per frame on
@@ -121,8 +122,8 @@ impl Default for Limits {
 
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
-    #[error("cannot read {path}: {source}")]
-    Io { path: String, source: std::io::Error },
+    #[error(transparent)]
+    Read(#[from] ReadError),
     #[error("{path}: {message}")]
     Toml { path: String, message: String },
     #[error("environment variable {name}={value:?}: {message}")]
@@ -148,10 +149,7 @@ pub enum ConfigError {
 impl Config {
     /// Reads a TOML file over the defaults.
     pub fn load(path: &Path) -> Result<Config, ConfigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text = read_text(path, MAX_TEXT_BYTES)?;
         toml::from_str(&text).map_err(|e| ConfigError::Toml {
             path: path.display().to_string(),
             message: e.to_string(),

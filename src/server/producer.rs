@@ -241,24 +241,37 @@ mod tests {
         }
     }
 
-    #[tokio::test(start_paused = true)]
-    async fn a_producer_is_idle_after_producer_idle_s_of_silence_and_not_before() {
+    /// A service in memory with `producer_idle_s`, a stream's producer permit, and the
+    /// producer's scripted socket with the sender that plays its script.
+    fn scripted_producer(
+        producer_idle_s: f64,
+    ) -> (
+        AppState,
+        ProducerPermit,
+        mpsc::UnboundedSender<Message>,
+        ScriptedSocket,
+    ) {
         let state = AppState::new(Config {
             data_dir: None,
             limits: Limits {
-                producer_idle_s: 5.0,
+                producer_idle_s,
                 ..Limits::default()
             },
             ..Config::default()
         })
         .unwrap();
-        let stream = Arc::new(Stream::new("s"));
-        let permit = stream.claim_producer().unwrap();
+        let permit = Arc::new(Stream::new("s")).claim_producer().unwrap();
         let (script, incoming) = mpsc::unbounded_channel();
-        let mut socket = ScriptedSocket {
+        let socket = ScriptedSocket {
             incoming,
             replies: Vec::new(),
         };
+        (state, permit, script, socket)
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_producer_is_idle_after_producer_idle_s_of_silence_and_not_before() {
+        let (state, permit, script, mut socket) = scripted_producer(5.0);
         // Every message restarts the idle clock: a frame, a ping, a refused message and a
         // frame, 4 s apart; then silence.
         let started = Instant::now();
@@ -296,22 +309,7 @@ mod tests {
 
     #[tokio::test(start_paused = true)]
     async fn a_producer_that_keeps_sending_is_never_idle() {
-        let state = AppState::new(Config {
-            data_dir: None,
-            limits: Limits {
-                producer_idle_s: 1.0,
-                ..Limits::default()
-            },
-            ..Config::default()
-        })
-        .unwrap();
-        let stream = Arc::new(Stream::new("s"));
-        let permit = stream.claim_producer().unwrap();
-        let (script, incoming) = mpsc::unbounded_channel();
-        let mut socket = ScriptedSocket {
-            incoming,
-            replies: Vec::new(),
-        };
+        let (state, permit, script, mut socket) = scripted_producer(1.0);
         // A frame every 0.9 s for a minute, then `end`.
         tokio::spawn(async move {
             for seq in 0..67u64 {

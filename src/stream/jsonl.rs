@@ -159,28 +159,26 @@ fn parse_f64(at: &Location, value: &Value, field: &str) -> Result<f64, StreamErr
         found: value.to_string(),
         expected: "a number",
     })?;
-    if number.is_finite() {
-        Ok(number)
-    } else {
-        Err(StreamError::NotFinite {
-            at: at.clone(),
-            field: field.to_string(),
-            found: value.to_string(),
-        })
-    }
+    number
+        .is_finite()
+        .then_some(number)
+        .ok_or_else(|| not_finite(at, value, field))
 }
 
 /// A JSON number as an `f32`; values beyond `f32`'s range are not finite.
 fn parse_f32(at: &Location, value: &Value, field: &str) -> Result<f32, StreamError> {
     let number = parse_f64(at, value, field)? as f32;
-    if number.is_finite() {
-        Ok(number)
-    } else {
-        Err(StreamError::NotFinite {
-            at: at.clone(),
-            field: field.to_string(),
-            found: value.to_string(),
-        })
+    number
+        .is_finite()
+        .then_some(number)
+        .ok_or_else(|| not_finite(at, value, field))
+}
+
+fn not_finite(at: &Location, value: &Value, field: &str) -> StreamError {
+    StreamError::NotFinite {
+        at: at.clone(),
+        field: field.to_string(),
+        found: value.to_string(),
     }
 }
 
