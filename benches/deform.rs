@@ -1,6 +1,7 @@
-//! Bind and deform of every preset on the two shipped heads and on the scan subdivided
-//! twice (141k vertices), beside a plain sparse gather over the same rows (the memory
-//! roofline a linear deform can hope for). Run: `cargo bench --bench deform`.
+//! Bind and deform of every preset and of `biharmonic` on the two shipped heads and on the
+//! scan subdivided twice (141k vertices), beside a plain sparse gather over the same rows
+//! (the memory roofline a linear deform can hope for). Run: `cargo bench --bench deform`
+//! (`-- biharmonic` for one variant).
 
 use std::hint::black_box;
 use std::path::Path;
@@ -26,6 +27,16 @@ fn register(name: &str, subdivisions: usize) -> Registration {
         .resolve(name, &mask)
         .expect("valid fit");
     Registration::new(head, FittedMask::new(mask, fit))
+}
+
+/// Every preset by its letter, and the variants that are not presets by name.
+fn variants() -> Vec<(String, AlgoSpec)> {
+    let mut variants: Vec<(String, AlgoSpec)> = AlgoSpec::presets()
+        .into_iter()
+        .map(|(letter, spec, _)| (letter.to_string(), spec))
+        .collect();
+    variants.push(("biharmonic".into(), "biharmonic".parse().expect("a valid spec")));
+    variants
 }
 
 fn heads() -> Vec<(String, Registration)> {
@@ -97,10 +108,10 @@ fn benches(c: &mut Criterion) {
             .warm_up_time(Duration::from_millis(300))
             .measurement_time(Duration::from_secs(1))
             .sample_size(20);
-        for (letter, spec, _) in AlgoSpec::presets() {
+        for (label, spec) in variants() {
             let binding = bind(&reg, &spec);
             let mut scratch = binding.scratch(mask_now.len(), reg.mask_triangles().len());
-            group.bench_function(BenchmarkId::new("algo", letter), |b| {
+            group.bench_function(BenchmarkId::new("algo", &label), |b| {
                 b.iter(|| {
                     binding.deform(
                         &reg.head.positions,
@@ -114,7 +125,7 @@ fn benches(c: &mut Criterion) {
             });
             if spec.is_linear() {
                 let gather = Gather::of(&binding);
-                group.bench_function(BenchmarkId::new("gather", letter), |b| {
+                group.bench_function(BenchmarkId::new("gather", &label), |b| {
                     b.iter(|| gather.run(&reg.head.positions, black_box(&delta), &mut out))
                 });
             }
@@ -126,8 +137,8 @@ fn benches(c: &mut Criterion) {
             .warm_up_time(Duration::from_millis(100))
             .measurement_time(Duration::from_secs(2))
             .sample_size(10);
-        for (letter, spec, _) in AlgoSpec::presets() {
-            group.bench_function(BenchmarkId::new("algo", letter), |b| {
+        for (label, spec) in variants() {
+            group.bench_function(BenchmarkId::new("algo", &label), |b| {
                 b.iter(|| bind(&reg, black_box(&spec)))
             });
         }

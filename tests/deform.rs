@@ -26,7 +26,7 @@ fn heads() -> [(&'static str, &'static Registration); 2] {
     [("scan", scan()), ("makehuman", makehuman())]
 }
 
-/// Every preset (A-U) plus a few non-preset variants.
+/// Every preset (A-U) plus a few non-preset variants, biharmonic among them.
 fn variants() -> Vec<AlgoSpec> {
     let mut specs: Vec<AlgoSpec> = AlgoSpec::presets().into_iter().map(|(_, s, _)| s).collect();
     for extra in [
@@ -35,6 +35,7 @@ fn variants() -> Vec<AlgoSpec> {
         "rbf:kernel=wendland,distance=surface,r_mm=25,poly=none",
         "rbf:kernel=thin_plate,distance=euclidean,r_mm=50",
         "point_distance:k=all",
+        "biharmonic",
     ] {
         specs.push(extra.parse().unwrap());
     }
@@ -103,11 +104,12 @@ fn no_nan_on_the_shipped_streams() {
     }
 }
 
-/// Variants whose weights sum to one everywhere (translation moves everything).
+/// Variants whose weights sum to one everywhere (translation moves everything). Biharmonic
+/// holds the far head still, so its weights fall to zero there (tested on its own).
 fn is_normalized(spec: &AlgoSpec) -> bool {
     !matches!(
         spec,
-        AlgoSpec::Bary1 { .. } | AlgoSpec::Renato1 | AlgoSpec::Renato2 { .. }
+        AlgoSpec::Bary1 { .. } | AlgoSpec::Renato1 | AlgoSpec::Renato2 { .. } | AlgoSpec::Biharmonic { .. }
     ) && !matches!(spec, AlgoSpec::Rbf(p) if !p.polynomial)
 }
 
@@ -260,6 +262,7 @@ fn interpolating_variants_reproduce_the_controls_at_the_anchors() {
             ("rbf", 1e-4),
             ("F", 1e-4),
             ("point_distance", 1e-4),
+            ("biharmonic", 1e-4),
             // Every control in every row: f32 rounding over ~110 terms, through sources up
             // to 8 times a displacement, reaches 3e-4 of the smaller control motions.
             ("point_distance:k=all", 1e-3),

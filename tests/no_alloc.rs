@@ -1,6 +1,6 @@
 //! Per-frame code allocates nothing: a counting global allocator watches one thread while
 //! the per-frame job (`animate::FrameJob`) turns stream frames into deformed heads and
-//! encoded viewer frames, with every preset, with and without face roughness.
+//! encoded viewer frames, with every preset and `biharmonic`, with and without face roughness.
 
 mod common;
 
@@ -50,7 +50,9 @@ fn the_per_frame_job_allocates_nothing() {
         .map(Result::unwrap)
         .collect();
     let basis = Arc::new(ArkitBasis::shipped());
-    for (_, spec, _) in AlgoSpec::presets() {
+    let biharmonic: AlgoSpec = "biharmonic".parse().unwrap();
+    let specs = AlgoSpec::presets().into_iter().map(|(_, spec, _)| spec);
+    for spec in specs.chain([biharmonic]) {
         for face in [false, true] {
             let binding = Arc::new(bind(&head.registration, &spec));
             let mut job = FrameJob::new(head.clone(), binding, basis.clone(), face).unwrap();

@@ -8,6 +8,7 @@
 mod anchor_system;
 mod bary1;
 mod bary2;
+mod biharmonic;
 mod binding;
 mod bones;
 mod geometric;
@@ -47,6 +48,7 @@ pub fn bind(reg: &Registration, spec: &AlgoSpec) -> Binding {
         AlgoSpec::Renato3 { weights } => renato3::bind(reg, *spec, &weights),
         AlgoSpec::Kshirsagar => kshirsagar::bind(reg, *spec),
         AlgoSpec::Rbf(params) => rbf::bind(reg, *spec, &params),
+        AlgoSpec::Biharmonic { hold_mm, k } => biharmonic::bind(reg, *spec, hold_mm, k),
     }
 }
 

@@ -83,6 +83,12 @@ pub enum AlgoSpec {
     },
     Kshirsagar,
     Rbf(RbfParams),
+    Biharmonic {
+        /// Vertices farther than this along the surface from every anchor are held still, mm.
+        hold_mm: f32,
+        /// Weights kept per vertex (the largest), rescaled to their full sum.
+        k: u32,
+    },
 }
 
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -109,8 +115,11 @@ pub enum SpecError {
     },
 }
 
+/// Most weights a `biharmonic` vertex may keep.
+pub const MAX_BIHARMONIC_K: u32 = 128;
+
 /// Names of every algorithm, in catalogue order.
-pub const ALGORITHM_NAMES: [&str; 10] = [
+pub const ALGORITHM_NAMES: [&str; 11] = [
     "bary1",
     "bary2",
     "geometric",
@@ -121,6 +130,7 @@ pub const ALGORITHM_NAMES: [&str; 10] = [
     "renato3",
     "kshirsagar",
     "rbf",
+    "biharmonic",
 ];
 
 /// The thesis's table 4.5 presets plus `kshirsagar` (S), `rbf` (T) and the interpolating
@@ -246,6 +256,7 @@ impl AlgoSpec {
             AlgoSpec::Renato3 { .. } => "renato3",
             AlgoSpec::Kshirsagar => "kshirsagar",
             AlgoSpec::Rbf(_) => "rbf",
+            AlgoSpec::Biharmonic { .. } => "biharmonic",
         }
     }
 
@@ -302,6 +313,7 @@ impl AlgoSpec {
                 r_mm: 30.0,
                 polynomial: true,
             }),
+            "biharmonic" => AlgoSpec::Biharmonic { hold_mm: 40.0, k: 16 },
             _ => return None,
         })
     }
@@ -317,6 +329,7 @@ impl AlgoSpec {
             AlgoSpec::PointDistance { .. } => &["k", "local", "interpolate"],
             AlgoSpec::Renato1 | AlgoSpec::Kshirsagar => &[],
             AlgoSpec::Rbf(_) => &["kernel", "distance", "r_mm", "poly"],
+            AlgoSpec::Biharmonic { .. } => &["hold_mm", "k"],
         }
     }
 }
@@ -490,6 +503,23 @@ fn apply(spec: &mut AlgoSpec, pairs: &[(String, String)]) -> Result<(), SpecErro
                 };
             }
         }
+        AlgoSpec::Biharmonic { hold_mm, k } => {
+            if let Some(h) = num("hold_mm")? {
+                *hold_mm = h;
+            }
+            if let Some(v) = get("k") {
+                let n = number(algorithm, "k", v, true)?;
+                if n.fract() != 0.0 || n > MAX_BIHARMONIC_K as f32 {
+                    return Err(SpecError::BadValue {
+                        algorithm,
+                        key: "k".into(),
+                        value: v.into(),
+                        problem: format!("must be a whole number from 1 to {MAX_BIHARMONIC_K}"),
+                    });
+                }
+                *k = n as u32;
+            }
+        }
         AlgoSpec::Renato1 | AlgoSpec::Kshirsagar => {}
     }
     Ok(())
@@ -616,6 +646,7 @@ impl fmt::Display for AlgoSpec {
                     p.r_mm
                 )
             }
+            AlgoSpec::Biharmonic { hold_mm, k } => write!(f, "{name}:hold_mm={hold_mm},k={k}"),
         }
     }
 }
@@ -707,5 +738,25 @@ mod tests {
         let err = "geometric:weights=planar_bones".parse::<AlgoSpec>().unwrap_err();
         assert!(err.to_string().contains("none, distance, kshirsagar"), "{err}");
         assert!("point_distance:k=2.5".parse::<AlgoSpec>().is_err());
+        for (text, problem) in [
+            ("biharmonic:k=0", "positive"),
+            ("biharmonic:k=2.5", "whole number from 1 to 128"),
+            ("biharmonic:k=129", "whole number from 1 to 128"),
+            ("biharmonic:hold_mm=0", "positive"),
+            ("biharmonic:hold_mm=inf", "positive"),
+        ] {
+            let err = text.parse::<AlgoSpec>().unwrap_err().to_string();
+            assert!(err.contains(problem), "{text}: {err}");
+        }
+    }
+
+    #[test]
+    fn biharmonic_defaults_and_round_trip() {
+        let spec: AlgoSpec = "biharmonic".parse().unwrap();
+        assert_eq!(spec, AlgoSpec::Biharmonic { hold_mm: 40.0, k: 16 });
+        assert_eq!(spec.to_string(), "biharmonic:hold_mm=40,k=16");
+        let spec: AlgoSpec = "Biharmonic: k=4, hold_mm=30.5".parse().unwrap();
+        assert_eq!(spec.to_string().parse::<AlgoSpec>(), Ok(spec));
+        assert!(spec.is_linear() && spec.letter().is_none());
     }
 }

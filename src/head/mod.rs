@@ -3,6 +3,7 @@
 
 pub mod animatable;
 pub mod geodesic;
+pub mod laplacian;
 pub mod obj;
 pub mod spatial;
 pub mod subdivide;
@@ -18,6 +19,7 @@ use crate::input::{read_file, ReadError, MAX_HEAD_BYTES};
 
 pub use animatable::{check_animatable, AnimatableError};
 pub use geodesic::SurfaceDistance;
+pub use laplacian::CotanLaplacian;
 pub use obj::ObjError;
 pub use spatial::{SurfaceIndex, SurfacePoint, VertexIndex};
 pub use topology::{Edge, Fan, Topology};

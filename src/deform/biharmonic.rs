@@ -1,0 +1,182 @@
+//! `biharmonic` (not in the thesis: the standard smooth deformation a default must beat,
+//! docs/ALGORITHMS.md, "Biharmonic"): the displacement field `d` of least bi-Laplacian
+//! energy `d^T L M^-1 L d` over the head at rest ([`CotanLaplacian`]) that equals each
+//! control's displacement at its anchor and zero on the held region: the vertices farther
+//! than `hold_mm` along the surface from every anchor, and those no anchor reaches.
+//!
+//! The field is linear in the control displacements, so binding solves once for one weight
+//! field per anchor, `W = -Q_ff^-1 Q_fc` with `Q = L M^-1 L` over the free vertices f and
+//! the anchors c, by sparse Cholesky. Each free vertex keeps its `k` largest weights (by
+//! magnitude), corrected to the sum of all of them (the dropped sum shared in proportion
+//! to magnitude), so that moving every control alike still moves the vertex as the full
+//! field would; deforming is then the same sparse gather as the other linear variants. Controls sharing an anchor share its constraint: the mean of
+//! their displacements.
+//!
+//! With nothing held the method overshoots where the surface folds (the upper eyelid);
+//! holding the far head still fixes that and keeps every weight field local.
+
+use faer::prelude::Solve;
+use faer::sparse::{SparseColMat, Triplet};
+use faer::{Mat, Side};
+use rayon::prelude::*;
+
+use super::anchor_system::{centres, Centre};
+use super::binding::{Binding, LinearTerm};
+use super::spec::AlgoSpec;
+use super::Registration;
+use crate::head::CotanLaplacian;
+
+/// Added to `Q_ff`'s diagonal, relative to its largest entry: keeps the factorization
+/// positive definite where rounding alone would not, far below any effect on the weights.
+const RIDGE: f64 = 1e-12;
+
+/// What the minimization does with a head vertex.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Role {
+    /// Solved for; its index among the free vertices.
+    Free(u32),
+    /// The anchor of one or more controls; its index among the anchors.
+    Anchor(u32),
+    /// Held still.
+    Held,
+}
+
+pub fn bind(reg: &Registration, spec: AlgoSpec, hold_mm: f32, k: u32) -> Binding {
+    let centres = centres(reg);
+    let roles = roles(reg, &centres, hold_mm);
+    let free_count = roles.iter().filter(|r| matches!(r, Role::Free(_))).count();
+    // A head whose operator cannot be factored (never seen on a checked head) is held still
+    // rather than moved wrongly; its anchors still move exactly.
+    let fields = weight_fields(reg, &roles, free_count, centres.len());
+    let rows: Vec<Vec<LinearTerm>> = roles
+        .par_iter()
+        .map(|role| match *role {
+            Role::Held => Vec::new(),
+            Role::Anchor(c) => spread(&centres[c as usize], 1.0),
+            Role::Free(f) => match &fields {
+                Some(fields) => strongest(fields, f as usize, &centres, k as usize),
+                None => Vec::new(),
+            },
+        })
+        .collect();
+    Binding::linear(spec, rows)
+}
+
+/// Every vertex's role: anchors first, then the vertices within `hold_mm` of some anchor
+/// are free, numbered in vertex order; the rest are held.
+fn roles(reg: &Registration, centres: &[Centre], hold_mm: f32) -> Vec<Role> {
+    let mut roles = vec![Role::Held; reg.vertex_count()];
+    for (c, centre) in centres.iter().enumerate() {
+        roles[centre.vertex as usize] = Role::Anchor(c as u32);
+    }
+    let mut free = 0;
+    for (v, role) in roles.iter_mut().enumerate() {
+        let near = reg
+            .controls
+            .iter()
+            .any(|&j| reg.distance_to_control(j, v as u32) <= hold_mm);
+        if *role == Role::Held && near {
+            *role = Role::Free(free);
+            free += 1;
+        }
+    }
+    roles
+}
+
+/// `W = -Q_ff^-1 Q_fc`: column c is anchor c's weight field over the free vertices. `None`
+/// when the factorization fails.
+fn weight_fields(
+    reg: &Registration,
+    roles: &[Role],
+    free_count: usize,
+    anchor_count: usize,
+) -> Option<Mat<f64>> {
+    let mut fields = Mat::<f64>::zeros(free_count, anchor_count);
+    if free_count == 0 {
+        return Some(fields);
+    }
+    let laplacian = CotanLaplacian::new(&reg.head.positions, &reg.head.triangles);
+    // Q = L M^-1 L, summed over the middle vertex m: Q_ij += L_im L_mj / M_m for i and j in
+    // m's closed ring. Only Q_ff's lower triangle is kept; Q_fc goes to the right-hand side.
+    let mut lower: Vec<Triplet<usize, usize, f64>> = Vec::new();
+    let mut diagonal = vec![0.0f64; free_count];
+    let mut ring: Vec<(u32, f64)> = Vec::new();
+    for m in 0..laplacian.vertex_count() {
+        let mass = laplacian.mass[m];
+        if mass <= 0.0 {
+            continue;
+        }
+        ring.clear();
+        ring.push((m as u32, laplacian.diagonal[m]));
+        ring.extend_from_slice(&laplacian.neighbors[m]);
+        for &(i, l_im) in &ring {
+            let Role::Free(fi) = roles[i as usize] else {
+                continue;
+            };
+            let fi = fi as usize;
+            for &(j, l_mj) in &ring {
+                let q = l_im * l_mj / mass;
+                match roles[j as usize] {
+                    Role::Free(fj) if fj as usize == fi => diagonal[fi] += q,
+                    Role::Free(fj) if (fj as usize) < fi => lower.push(Triplet::new(fi, fj as usize, q)),
+                    Role::Anchor(c) => fields.col_as_slice_mut(c as usize)[fi] -= q,
+                    Role::Free(_) | Role::Held => {}
+                }
+            }
+        }
+    }
+    let ridge = RIDGE * diagonal.iter().fold(0.0f64, |a, &d| a.max(d));
+    lower.extend(
+        diagonal
+            .iter()
+            .enumerate()
+            .map(|(f, &d)| Triplet::new(f, f, d + ridge)),
+    );
+    let q_ff = SparseColMat::<usize, f64>::try_new_from_triplets(free_count, free_count, &lower).ok()?;
+    let factor = q_ff.sp_cholesky(Side::Lower).ok()?;
+    factor.solve_in_place(fields.as_mut());
+    let finite = (0..anchor_count).all(|c| fields.col_as_slice(c).iter().all(|w| w.is_finite()));
+    finite.then_some(fields)
+}
+
+/// Free vertex `f`'s `k` largest anchor weights, corrected to the sum of all its weights,
+/// spread over each anchor's controls.
+fn strongest(fields: &Mat<f64>, f: usize, centres: &[Centre], k: usize) -> Vec<LinearTerm> {
+    let mut weights: Vec<(usize, f64)> = (0..centres.len())
+        .map(|c| (c, fields.col_as_slice(c)[f]))
+        .filter(|&(_, w)| w != 0.0)
+        .collect();
+    let total: f64 = weights.iter().map(|&(_, w)| w).sum();
+    if weights.len() > k {
+        weights.select_nth_unstable_by(k - 1, |a, b| b.1.abs().total_cmp(&a.1.abs()));
+        weights.truncate(k);
+    }
+    // The dropped weights' sum goes to the kept ones in proportion to their magnitude: for
+    // weights of one sign that is a rescale to the full sum; for the signed weights of an
+    // extrapolating vertex it never divides by a sum that nearly cancels.
+    let kept: f64 = weights.iter().map(|&(_, w)| w).sum();
+    let magnitude: f64 = weights.iter().map(|&(_, w)| w.abs()).sum();
+    let dropped_per_magnitude = if magnitude > 0.0 {
+        (total - kept) / magnitude
+    } else {
+        0.0
+    };
+    weights.sort_by_key(|&(c, _)| c);
+    weights
+        .iter()
+        .flat_map(|&(c, w)| spread(&centres[c], w + dropped_per_magnitude * w.abs()))
+        .collect()
+}
+
+/// An anchor's weight shared by its controls, which it moves by their mean displacement.
+fn spread(centre: &Centre, weight: f64) -> Vec<LinearTerm> {
+    let share = (weight / centre.members.len() as f64) as f32;
+    centre
+        .members
+        .iter()
+        .map(|&j| LinearTerm {
+            control: j as u16,
+            weight: share,
+        })
+        .collect()
+}
