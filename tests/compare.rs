@@ -123,6 +123,8 @@ fn compare_writes_tables_charts_and_report() {
             "mouth_opening_ratio",
             "ground_truth_rms_mm",
             "crease",
+            "lip_folds",
+            "fold_deg",
         ] {
             assert!(row[key].as_f64().is_some_and(f64::is_finite), "{key}: {row}");
         }
@@ -135,15 +137,20 @@ fn compare_writes_tables_charts_and_report() {
     assert_eq!(
         header,
         "letter\tspec\troughness_mean\troughness_var\tcontrol_err_mm\tmouth_opening_ratio\t\
-         ground_truth_rms_mm\tcrease\tdeform_us"
+         ground_truth_rms_mm\tcrease\tlip_folds\tfold_deg\tdeform_us"
     );
     assert_eq!(header, algorithms_header());
     assert_eq!(algorithms.len(), 3);
     for row in &algorithms {
-        assert_eq!(row.len(), 9);
+        assert_eq!(row.len(), 11);
         assert!(row[2..].iter().map(|f| number(f)).all(f64::is_finite), "{row:?}");
     }
-    assert!(number(&algorithms[0][8]) > 0.0, "deform_us is measured");
+    assert!(number(&algorithms[0][10]) > 0.0, "deform_us is measured");
+    // Folds are counts and angles: whole triangle-frames, degrees from 0 to 180.
+    for row in &algorithms {
+        assert_eq!(number(&row[8]).fract(), 0.0, "{row:?}");
+        assert!((0.0..=180.0).contains(&number(&row[9])), "{row:?}");
+    }
 
     let labels: BTreeSet<&str> = frames.iter().map(|f| f.label.as_deref().unwrap()).collect();
     let (header, syllables) = read_tsv(&out.join("syllables.tsv"));

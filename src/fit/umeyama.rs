@@ -26,17 +26,31 @@ impl Similarity {
 /// Solves `min sum |s R x_i + t - y_i|^2`. Needs at least three non-collinear pairs;
 /// returns `None` for fewer or for a degenerate source set.
 pub fn umeyama(source: &[DVec3], target: &[DVec3]) -> Option<Similarity> {
-    let n = source.len();
-    if n < 3 || n != target.len() {
+    if source.len() != target.len() {
         return None;
     }
-    let mean_x = source.iter().sum::<DVec3>() / n as f64;
-    let mean_y = target.iter().sum::<DVec3>() / n as f64;
+    umeyama_pairs(|| source.iter().copied().zip(target.iter().copied()))
+}
+
+/// [`umeyama`] over the pairs `(x_i, y_i)` that `pairs` yields; it is called twice (the
+/// means, then the covariance), and nothing is allocated, so per-frame code can use it.
+pub fn umeyama_pairs<I: Iterator<Item = (DVec3, DVec3)>>(pairs: impl Fn() -> I) -> Option<Similarity> {
+    let (mut n, mut sum_x, mut sum_y) = (0usize, DVec3::ZERO, DVec3::ZERO);
+    for (x, y) in pairs() {
+        n += 1;
+        sum_x += x;
+        sum_y += y;
+    }
+    if n < 3 {
+        return None;
+    }
+    let mean_x = sum_x / n as f64;
+    let mean_y = sum_y / n as f64;
     let mut covariance = Matrix3::<f64>::zeros();
     let mut variance_x = 0.0;
-    for (x, y) in source.iter().zip(target) {
-        let dx = *x - mean_x;
-        let dy = *y - mean_y;
+    for (x, y) in pairs() {
+        let dx = x - mean_x;
+        let dy = y - mean_y;
         variance_x += dx.length_squared();
         covariance += nalgebra::Vector3::new(dy.x, dy.y, dy.z) * nalgebra::RowVector3::new(dx.x, dx.y, dx.z);
     }

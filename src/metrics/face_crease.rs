@@ -4,6 +4,7 @@
 
 use glam::Vec3;
 
+use super::face_region::triangles_within;
 use super::{Roughness, RoughnessError};
 use crate::head::Head;
 
@@ -20,13 +21,7 @@ impl FaceCrease {
     /// Over the head triangles whose three corners are in `face` (head vertex indexes,
     /// such as [`super::FaceVertices::vertices`]).
     pub fn new(head: &Head, face: &[u32]) -> Result<FaceCrease, RoughnessError> {
-        let mut in_face = vec![false; head.positions.len()];
-        for &v in face {
-            in_face[v as usize] = true;
-        }
-        let triangles: Vec<u32> = (0..head.triangles.len() as u32)
-            .filter(|&t| head.triangles[t as usize].iter().all(|&v| in_face[v as usize]))
-            .collect();
+        let triangles = triangles_within(head, face);
         let mut roughness = Roughness::new(head, &triangles)?;
         roughness.evaluate(&head.positions)?;
         let rest = roughness.triangle_roughness().to_vec();

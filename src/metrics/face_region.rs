@@ -65,4 +65,21 @@ impl FaceVertices {
     pub fn vertices(&self) -> &[u32] {
         &self.vertices
     }
+
+    /// The face triangles: the head triangles whose three corners are face vertices,
+    /// ascending.
+    pub fn triangles(&self, head: &Head) -> Vec<u32> {
+        triangles_within(head, &self.vertices)
+    }
+}
+
+/// The head triangles whose three corners are among `vertices`, ascending.
+pub(super) fn triangles_within(head: &Head, vertices: &[u32]) -> Vec<u32> {
+    let mut inside = vec![false; head.positions.len()];
+    for &v in vertices {
+        inside[v as usize] = true;
+    }
+    (0..head.triangles.len() as u32)
+        .filter(|&t| head.triangles[t as usize].iter().all(|&v| inside[v as usize]))
+        .collect()
 }

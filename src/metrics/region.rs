@@ -26,6 +26,10 @@ pub enum RegionError {
         vertex: u32,
         radius_mm: f32,
     },
+    #[error("region triangle {triangle} is not a head triangle: the head has {triangles}")]
+    TriangleOutOfRange { triangle: u32, triangles: usize },
+    #[error("a pose of {found} vertices for a head of {expected}")]
+    PoseLength { found: usize, expected: usize },
 }
 
 /// The surface radius in head units, after checking both numbers.

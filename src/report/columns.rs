@@ -36,7 +36,7 @@ impl Column {
 const GROUND_TRUTH_KEY: &str = "ground_truth_rms_mm";
 
 /// The measured columns, in table order.
-pub const ALGORITHM_COLUMNS: [Column; 7] = [
+pub const ALGORITHM_COLUMNS: [Column; 9] = [
     Column {
         key: "roughness_mean",
         title: "roughness mean",
@@ -88,6 +88,23 @@ pub const ALGORITHM_COLUMNS: [Column; 7] = [
         // The head at rest has no new crease, by definition.
         rest: |_| Some(0.0),
         rounded: |v| format!("{v:.3}"),
+    },
+    Column {
+        key: "lip_folds",
+        title: "lip folds",
+        short: "lip folds",
+        value: |s| Some(s.lip_folds as f64),
+        // Nothing turns at rest.
+        rest: |_| Some(0.0),
+        rounded: |v| format!("{v:.0}"),
+    },
+    Column {
+        key: "fold_deg",
+        title: "sharpest fold (deg)",
+        short: "fold deg",
+        value: |s| Some(s.fold_deg),
+        rest: |_| Some(0.0),
+        rounded: |v| format!("{v:.1}"),
     },
     Column {
         key: "deform_us",

@@ -14,8 +14,8 @@ use super::{Candidate, CompareError};
 use crate::deform::{bind, Registration};
 use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
 use crate::metrics::{
-    control_error, ground_truth_error, mouth_opening, FaceCrease, FaceVertices, LipRegion, LipRoughness,
-    SyllableScores, LIP_ROWS,
+    control_error, ground_truth_error, mouth_opening, FaceCrease, FaceVertices, FoldMeter, LipRegion,
+    LipRoughness, SyllableScores, LIP_ROWS,
 };
 use crate::stream::{open_stream, ArkitBasis, FramePoser};
 use crate::targets::ExpressionTarget;
@@ -93,6 +93,12 @@ pub struct AlgorithmSummary {
     /// Median over frames of the largest rise of a face triangle's `rho(T)` over its rest
     /// value: the sharpest new crease of a typical frame (dimensionless).
     pub crease: f64,
+    /// Lip triangles turned more than 60 degrees from rest (after the lip region's own
+    /// rigid motion), summed over frames: triangle-frames folded near the lips.
+    pub lip_folds: u64,
+    /// The largest increase of a dihedral angle over rest between two face triangles, in
+    /// any frame, degrees: the sharpest fold anywhere on the face.
+    pub fold_deg: f64,
 }
 
 /// One syllable's roughness under one algorithm.
@@ -176,6 +182,9 @@ pub fn compare(
         .mean;
     let face = FaceVertices::new(&reg.head, mask, &reg.anchors, mm).map_err(CompareError::FaceRegion)?;
     let face_crease = FaceCrease::new(&reg.head, face.vertices()).map_err(CompareError::FaceEvaluator)?;
+    let lip_folds = FoldMeter::new(&reg.head, region.union()).map_err(CompareError::LipRegion)?;
+    let face_folds =
+        FoldMeter::new(&reg.head, &face.triangles(&reg.head)).map_err(CompareError::FaceRegion)?;
     let survey = survey(input)?;
 
     let mut target_positions = vec![Vec3::ZERO; rest.len()];
@@ -201,6 +210,8 @@ pub fn compare(
         lips,
         face,
         face_crease,
+        lip_folds,
+        face_folds,
         poser: FramePoser::new(&reg.fitted),
         deformed: vec![Vec3::ZERO; rest.len()],
         target_positions,
@@ -266,6 +277,8 @@ struct Run<'i, 'a> {
     lips: LipRoughness,
     face: FaceVertices,
     face_crease: FaceCrease,
+    lip_folds: FoldMeter,
+    face_folds: FoldMeter,
     poser: FramePoser,
     deformed: Vec<Vec3>,
     target_positions: Vec<Vec3>,
@@ -299,6 +312,7 @@ impl Run<'_, '_> {
         let mut durations = Vec::with_capacity(frames);
         let mut creases = Vec::with_capacity(frames);
         let (mut control_sum, mut ratio_sum, mut face_sum) = (0.0f64, 0.0f64, 0.0f64);
+        let (mut lip_folds, mut fold_deg) = (0u64, 0.0f64);
         self.stream = StreamTotals::default();
         let upper = reg.anchors.vertex[INNER_LIP_MID_UPPER] as usize;
         let lower = reg.anchors.vertex[INNER_LIP_MID_LOWER] as usize;
@@ -335,6 +349,19 @@ impl Run<'_, '_> {
                     })?;
             face_sum += face_mean;
             creases.push(crease);
+            let folds_error = |source| CompareError::Folds {
+                algorithm: spec.clone(),
+                frame: f,
+                source,
+            };
+            lip_folds += u64::from(
+                self.lip_folds
+                    .measure(&self.deformed)
+                    .map_err(folds_error)?
+                    .turned_over_60,
+            );
+            let face = self.face_folds.measure(&self.deformed).map_err(folds_error)?;
+            fold_deg = fold_deg.max(face.max_dihedral_increase_deg);
 
             control_displacements(reg, mask_now, &mut self.controls);
             let control =
@@ -420,6 +447,8 @@ impl Run<'_, '_> {
                 ground_truth_rms_mm,
                 face_roughness_mean: face_sum / counted as f64,
                 crease: median(&mut creases),
+                lip_folds,
+                fold_deg,
             },
             syllables: syllables
                 .scores()

@@ -38,6 +38,12 @@ pub enum CompareError {
         frame: usize,
         source: RoughnessError,
     },
+    #[error("folds with {algorithm}, frame {frame}: {source}")]
+    Folds {
+        algorithm: String,
+        frame: usize,
+        source: RegionError,
+    },
     #[error("fidelity with {algorithm}: {source}")]
     Fidelity {
         algorithm: String,

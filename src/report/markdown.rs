@@ -5,7 +5,7 @@
 use std::fmt::Write;
 
 use super::{algorithms_header, AlgorithmResult, Column, Comparison, Files, ALGORITHM_COLUMNS};
-use crate::metrics::{FACE_RADIUS_MM, LIP_RADIUS_MM, MIN_MASK_OPENING_MM};
+use crate::metrics::{FACE_RADIUS_MM, FOLD_DEG, LIP_RADIUS_MM, MIN_MASK_OPENING_MM};
 
 /// Where a report came from, for its header.
 #[derive(Debug, Clone, Copy)]
@@ -187,6 +187,17 @@ pub fn render(comparison: &Comparison, context: &ReportContext<'_>, files: &File
         thousands(c.face_triangles),
         FACE_RADIUS_MM,
         c.rest_face_roughness
+    );
+    let _ = writeln!(
+        out,
+        "- **lip folds** (count; lower is better, 0 is the goal): in each frame, the lip \
+         triangles whose normal turned more than {FOLD_DEG} degrees from rest once the lip \
+         region's own rigid motion is taken out; the column sums them over the frames \
+         (triangle-frames). A skin that folds over near the mouth shows here even when the \
+         averages above stay low.\n\
+         - **sharpest fold** (degrees; lower is better): the largest increase of the angle \
+         between two adjacent face triangles over its rest value, in any frame: 0 for a face \
+         that only stretches and bends smoothly, 90 and more for a visible ridge or kink."
     );
     let _ = writeln!(
         out,
