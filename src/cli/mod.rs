@@ -8,6 +8,7 @@ mod demo;
 mod fit;
 mod fitted_head;
 mod inspect;
+mod load;
 mod play;
 mod render;
 mod serve;
@@ -46,6 +47,9 @@ pub enum Command {
     Play(play::Args),
     /// Watch a stream headlessly: fps, latency per hop, bytes per frame.
     Watch(watch::Args),
+    /// Load a running service: S producers and V viewers on loopback, with latency,
+    /// skips, stalls and the server's CPU and memory.
+    Load(load::Args),
     /// Summarize a mask (.wfm), head (.obj), fit (.fit.toml), landmarks (.landmarks.toml)
     /// or parameter stream (.jsonl, .fap, .fau, .txt).
     Inspect(inspect::Args),
@@ -72,6 +76,7 @@ pub fn run(cli: Cli) -> CliResult {
         Command::Serve(args) => serve::run(args),
         Command::Play(args) => play::run(args),
         Command::Watch(args) => watch::run(args),
+        Command::Load(args) => load::run(args),
         Command::Inspect(args) => inspect::run(args),
         Command::Fit(args) => fit::run(args),
         Command::Render(args) => render::run(args),

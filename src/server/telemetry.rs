@@ -1,6 +1,9 @@
 //! Service metrics in Prometheus text format (`GET /metrics`): frames in and out, skipped
-//! frames, deform and encode time, viewers, producers and per-hop latency. One registry per
-//! server instance, so tests can run several servers in one process.
+//! frames, deform and encode time, viewers, producers, per-hop latency, and the process's
+//! CPU time and resident memory. One registry per server instance, so tests can run
+//! several servers in one process.
+
+use std::sync::atomic::AtomicU64;
 
 use prometheus_client::encoding::text::encode;
 use prometheus_client::encoding::EncodeLabelSet;
@@ -9,6 +12,8 @@ use prometheus_client::metrics::family::Family;
 use prometheus_client::metrics::gauge::Gauge;
 use prometheus_client::metrics::histogram::{exponential_buckets, Histogram};
 use prometheus_client::registry::Registry;
+
+use super::process;
 
 #[derive(Debug, Clone, Hash, PartialEq, Eq, EncodeLabelSet)]
 pub struct CodeLabel {
@@ -49,6 +54,10 @@ pub struct Telemetry {
     /// Deform pipelines running (one per stream and algorithm with viewers).
     pub pipelines: Gauge,
     pub heads: Gauge,
+    /// CPU seconds of the whole process, read when the metrics are rendered.
+    process_cpu_seconds: Gauge<f64, AtomicU64>,
+    /// Resident memory of the whole process, bytes, read when the metrics are rendered.
+    process_resident_bytes: Gauge,
 }
 
 fn seconds_histogram() -> Histogram {
@@ -72,6 +81,8 @@ impl Default for Telemetry {
             producers: Gauge::default(),
             pipelines: Gauge::default(),
             heads: Gauge::default(),
+            process_cpu_seconds: Gauge::default(),
+            process_resident_bytes: Gauge::default(),
             registry: Registry::default(),
         };
         registry.register("frames_in", "Producer frames accepted", t.frames_in.clone());
@@ -106,6 +117,16 @@ impl Default for Telemetry {
         registry.register("producers", "Connected producers", t.producers.clone());
         registry.register("pipelines", "Deform pipelines running", t.pipelines.clone());
         registry.register("heads", "Registered heads", t.heads.clone());
+        registry.register(
+            "process_cpu_seconds",
+            "CPU time of the server process, user and system",
+            t.process_cpu_seconds.clone(),
+        );
+        registry.register(
+            "process_resident_bytes",
+            "Resident memory of the server process",
+            t.process_resident_bytes.clone(),
+        );
         Telemetry { registry, ..t }
     }
 }
@@ -131,8 +152,11 @@ impl Telemetry {
             .observe(seconds);
     }
 
-    /// The exposition text.
+    /// The exposition text, with the process's CPU time and memory read now.
     pub fn render(&self) -> String {
+        self.process_cpu_seconds.set(process::cpu_seconds());
+        self.process_resident_bytes
+            .set(i64::try_from(process::resident_bytes()).unwrap_or(i64::MAX));
         let mut out = String::new();
         encode(&mut out, &self.registry).expect("writing to a String cannot fail");
         out

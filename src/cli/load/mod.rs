@@ -1,0 +1,461 @@
+//! `facewire load`: a load generator for a running service. It produces S streams (the
+//! syllable stream, looped, through real producer sockets) on one head and spreads V
+//! viewers over them, all in this process, then reports what the viewers saw (frames,
+//! skips, stalls, frames older than one already shown, producer-to-viewer latency, bytes
+//! per frame) and what the server spent (CPU and memory from its `/metrics`).
+//!
+//! Counts and duration are bounded, and only loopback targets are accepted unless
+//! `--allow-remote` is given: the tool opens thousands of sockets. The server and the
+//! generator share the machine's cores on loopback; reports say so.
+
+mod latency;
+mod producer;
+mod send_times;
+mod server_metrics;
+mod viewer;
+
+use std::net::ToSocketAddrs;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant as StdInstant};
+
+use serde::Serialize;
+use tokio::time::Instant;
+
+use super::serve::runtime;
+use super::{CliResult, FilePath};
+use crate::mask::Mask;
+use crate::stream::{syllables, JsonlWriter};
+use latency::Latencies;
+use producer::{produce, ProducerPlan};
+use send_times::SendTimes;
+use server_metrics::ServerSample;
+use viewer::{ViewerOutcome, ViewerPlan};
+
+/// Most streams one run produces.
+pub const MAX_STREAMS: usize = 10_000;
+/// Most viewers one run opens.
+pub const MAX_VIEWERS: usize = 100_000;
+/// Longest run, seconds.
+pub const MAX_SECONDS: f64 = 3_600.0;
+/// A viewer stalls when no frame comes for this many frame periods.
+pub const STALL_PERIODS: f64 = 3.0;
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The service, e.g. http://127.0.0.1:8480
+    #[arg(long)]
+    url: String,
+    /// Streams to produce (1 to 10,000).
+    #[arg(long, default_value_t = 10)]
+    streams: usize,
+    /// Viewers, spread evenly over the streams (1 to 100,000).
+    #[arg(long, default_value_t = 40)]
+    viewers: usize,
+    /// How long to produce, seconds (up to 3,600).
+    #[arg(long, default_value_t = 10.0)]
+    seconds: f64,
+    /// Frames per second of every producer.
+    #[arg(long, default_value_t = 30.0)]
+    fps: f64,
+    /// Algorithm spec the viewers ask for [default: the server's].
+    #[arg(long)]
+    algo: Option<String>,
+    /// A registered head to use; without it the MakeHuman head is registered for the run
+    /// and deleted after.
+    #[arg(long)]
+    head: Option<String>,
+    /// Also write the report as JSON to this file.
+    #[arg(long)]
+    json: Option<FilePath>,
+    /// Token for every request, if the server wants one (admin, or one that may produce,
+    /// view and register).
+    #[arg(long)]
+    token: Option<String>,
+    /// Accept a target that is not on this machine's loopback.
+    #[arg(long)]
+    allow_remote: bool,
+}
+
+/// What one run measured.
+#[derive(Debug, Serialize)]
+pub struct LoadReport {
+    pub url: String,
+    pub head: String,
+    pub algorithm: Option<String>,
+    pub streams: usize,
+    pub viewers: usize,
+    pub seconds: f64,
+    pub fps: f64,
+    /// Frames the producers sent.
+    pub frames_sent: u64,
+    /// Frames the viewers would get if none were skipped: each stream's sent frames times
+    /// its viewers.
+    pub frames_expected: u64,
+    pub frames_received: u64,
+    pub frames_skipped: u64,
+    /// Frames older than one the viewer had already received (must be 0).
+    pub regressions: u64,
+    /// Gaps of more than `STALL_PERIODS` frame periods between two frames of one viewer.
+    pub stalls: u64,
+    /// Viewers that received no frame at all.
+    pub viewers_without_frames: usize,
+    /// Producer-to-viewer latency, milliseconds.
+    pub latency_ms: LatencySummary,
+    pub bytes_per_frame: f64,
+    /// Refusals and failures, by message, with counts (at most 20 kinds).
+    pub failures: Vec<(String, usize)>,
+    /// The server's CPU use over the run (percent of one core) and memory, when its
+    /// `/metrics` could be read.
+    pub server: Option<ServerUse>,
+    /// Where the numbers come from.
+    pub note: &'static str,
+}
+
+#[derive(Debug, Serialize)]
+pub struct LatencySummary {
+    /// Frames whose send time was still known when they arrived.
+    pub samples: u64,
+    pub p50: f64,
+    pub p90: f64,
+    pub p99: f64,
+    pub max: f64,
+}
+
+#[derive(Debug, Serialize)]
+pub struct ServerUse {
+    pub cpu_percent: f64,
+    pub resident_mib_before: f64,
+    pub resident_mib_after: f64,
+}
+
+pub fn run(args: Args) -> CliResult {
+    check(&args)?;
+    let base = args.url.trim_end_matches('/').to_string();
+    let report = runtime()?.block_on(load(&args, &base))?;
+    print(&report);
+    if let Some(path) = &args.json {
+        let text = serde_json::to_string_pretty(&report)?;
+        crate::atomic::write_atomic(path, text.as_bytes())
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
+    Ok(())
+}
+
+/// Refuses counts, durations and targets out of bounds, naming the flag.
+fn check(args: &Args) -> Result<(), String> {
+    if !(1..=MAX_STREAMS).contains(&args.streams) {
+        return Err(format!("--streams {}: must be 1 to {MAX_STREAMS}", args.streams));
+    }
+    if !(1..=MAX_VIEWERS).contains(&args.viewers) {
+        return Err(format!("--viewers {}: must be 1 to {MAX_VIEWERS}", args.viewers));
+    }
+    if !(args.seconds > 0.0 && args.seconds <= MAX_SECONDS) {
+        return Err(format!(
+            "--seconds {}: must be above 0 and at most {MAX_SECONDS}",
+            args.seconds
+        ));
+    }
+    if !(args.fps > 0.0 && args.fps <= crate::stream::MAX_FPS) {
+        return Err(format!(
+            "--fps {}: must be above 0 and at most {}",
+            args.fps,
+            crate::stream::MAX_FPS
+        ));
+    }
+    let Some(authority) = args.url.strip_prefix("http://") else {
+        return Err(format!("--url {:?}: expected http://HOST:PORT", args.url));
+    };
+    let host_port = authority.trim_end_matches('/');
+    let addrs: Vec<_> = host_port
+        .to_socket_addrs()
+        .map_err(|e| format!("--url {:?}: {e}", args.url))?
+        .collect();
+    if !args.allow_remote && (addrs.is_empty() || addrs.iter().any(|a| !a.ip().is_loopback())) {
+        return Err(format!(
+            "--url {:?}: not a loopback address; a load run opens thousands of sockets, so give --allow-remote to aim it at another machine",
+            args.url
+        ));
+    }
+    Ok(())
+}
+
+async fn load(args: &Args, base: &str) -> Result<LoadReport, Box<dyn std::error::Error + Send + Sync>> {
+    let http = reqwest::Client::new();
+    let token_query = args
+        .token
+        .as_deref()
+        .map_or(String::new(), |t| format!("token={t}"));
+    let with_token = |path: &str| -> String {
+        match (&token_query, path.contains('?')) {
+            (t, _) if t.is_empty() => path.to_string(),
+            (t, true) => format!("{path}&{t}"),
+            (t, false) => format!("{path}?{t}"),
+        }
+    };
+    let (head, registered) = match &args.head {
+        Some(head) => (head.clone(), false),
+        None => (register(&http, base, &with_token).await?, true),
+    };
+    let frames = Arc::new(syllable_frames(args.fps)?);
+    let ws_base = base.replacen("http://", "ws://", 1);
+    let run_id = std::process::id();
+    let stream_name = |s: usize| format!("load-{run_id}-{s}");
+    let algo = args
+        .algo
+        .as_deref()
+        .map_or(String::new(), |a| format!("?algo={a}"));
+
+    let before = server_metrics::sample(&http, base, &with_token).await;
+    let clock = StdInstant::now();
+    let times: Vec<Arc<SendTimes>> = (0..args.streams)
+        .map(|_| Arc::new(SendTimes::new(clock)))
+        .collect();
+    let (sent, received) = (Arc::new(AtomicU64::new(0)), Arc::new(AtomicU64::new(0)));
+    let period = Duration::from_secs_f64(1.0 / args.fps);
+    // Viewers first, so that every one sees the first frame; streams come to life with them.
+    let setup_deadline = Instant::now() + Duration::from_secs(60);
+    let run_length = Duration::from_secs_f64(args.seconds);
+    let mut viewers = Vec::with_capacity(args.viewers);
+    let mut failures: Vec<String> = Vec::new();
+    eprint!("facewire load: connecting {} viewers", args.viewers);
+    let mut connected = Vec::with_capacity(args.viewers);
+    for v in 0..args.viewers {
+        let s = v % args.streams;
+        let plan = ViewerPlan {
+            url: with_token(&format!(
+                "{ws_base}/v1/heads/{head}/streams/{}/view{algo}",
+                stream_name(s)
+            )),
+            times: times[s].clone(),
+            received: received.clone(),
+            stall_after: period.mul_f64(STALL_PERIODS),
+            deadline: setup_deadline,
+        };
+        match viewer::connect(&plan).await {
+            Ok((socket, algorithm)) => connected.push((plan, socket, algorithm)),
+            Err(e) => failures.push(format!("viewer: {e}")),
+        }
+    }
+    eprintln!(", {} connected", connected.len());
+    let start = Instant::now() + Duration::from_millis(200);
+    let deadline = start + run_length + Duration::from_secs(3);
+    for (mut plan, socket, algorithm) in connected {
+        plan.deadline = deadline;
+        viewers.push(tokio::spawn(viewer::watch(plan, socket, algorithm)));
+    }
+    let count = (args.seconds * args.fps).round() as u64;
+    let producers: Vec<_> = (0..args.streams)
+        .map(|s| {
+            tokio::spawn(produce(ProducerPlan {
+                url: with_token(&format!(
+                    "{ws_base}/v1/heads/{head}/streams/{}/produce",
+                    stream_name(s)
+                )),
+                frames: frames.clone(),
+                fps: args.fps,
+                count,
+                // Spread the streams' frames over one period, as independent producers are.
+                start: start + period.mul_f64(s as f64 / args.streams as f64),
+                times: times[s].clone(),
+                sent: sent.clone(),
+            }))
+        })
+        .collect();
+    let progress = tokio::spawn(progress_line(start, run_length, sent.clone(), received.clone()));
+
+    let mut sent_per_stream = Vec::with_capacity(args.streams);
+    for producer in producers {
+        match producer.await? {
+            Ok(frames) => sent_per_stream.push(frames),
+            Err(e) => {
+                failures.push(format!("producer: {e}"));
+                sent_per_stream.push(0);
+            }
+        }
+    }
+    let mut outcomes: Vec<ViewerOutcome> = Vec::with_capacity(viewers.len());
+    for viewer in viewers {
+        outcomes.push(viewer.await?);
+    }
+    progress.abort();
+    eprintln!();
+    let after = server_metrics::sample(&http, base, &with_token).await;
+    let elapsed = start.elapsed().as_secs_f64();
+    if registered {
+        let _ = http
+            .delete(with_token(&format!("{base}/v1/heads/{head}")))
+            .send()
+            .await;
+    }
+    failures.extend(outcomes.iter().filter_map(|o| o.failure.clone()));
+    let viewers_of = |s: usize| (0..args.viewers).filter(|v| v % args.streams == s).count() as u64;
+    let frames_expected = sent_per_stream
+        .iter()
+        .enumerate()
+        .map(|(s, &n)| n * viewers_of(s))
+        .sum();
+    let mut latencies = Latencies::default();
+    for outcome in &outcomes {
+        latencies.merge(&outcome.latencies);
+    }
+    let frames_received: u64 = outcomes.iter().map(|o| o.frames).sum();
+    let bytes: u64 = outcomes.iter().map(|o| o.bytes).sum();
+    Ok(LoadReport {
+        url: base.to_string(),
+        head,
+        algorithm: outcomes.iter().find_map(|o| o.algorithm.clone()),
+        streams: args.streams,
+        viewers: args.viewers,
+        seconds: args.seconds,
+        fps: args.fps,
+        frames_sent: sent_per_stream.iter().sum(),
+        frames_expected,
+        frames_received,
+        frames_skipped: outcomes.iter().map(|o| o.skipped).sum(),
+        regressions: outcomes.iter().map(|o| o.regressions).sum(),
+        stalls: outcomes.iter().map(|o| o.stalls).sum(),
+        viewers_without_frames: outcomes.iter().filter(|o| o.frames == 0).count() + args.viewers
+            - outcomes.len(),
+        latency_ms: LatencySummary {
+            samples: latencies.samples(),
+            p50: latencies.quantile(0.5),
+            p90: latencies.quantile(0.9),
+            p99: latencies.quantile(0.99),
+            max: latencies.max_ms(),
+        },
+        bytes_per_frame: bytes as f64 / frames_received.max(1) as f64,
+        failures: tally(failures),
+        server: ServerSample::usage(before, after, elapsed),
+        note: "generator and server on one machine share its cores; latency is from the producer's send to the viewer's receipt, on the generator's clock",
+    })
+}
+
+/// Registers the MakeHuman head (embedded) for the run and waits until it is ready.
+async fn register(
+    http: &reqwest::Client,
+    base: &str,
+    with_token: &impl Fn(&str) -> String,
+) -> Result<String, Box<dyn std::error::Error + Send + Sync>> {
+    let (_, obj, fit) = crate::server::demo::DEMO_HEADS
+        .iter()
+        .find(|h| h.0 == "makehuman")
+        .ok_or("the embedded MakeHuman head is missing")?;
+    let id = format!("load-{}", std::process::id());
+    let body = serde_json::json!({
+        "id": id,
+        "obj": String::from_utf8_lossy(obj),
+        "fit": fit,
+    });
+    let response = http
+        .post(with_token(&format!("{base}/v1/heads")))
+        .json(&body)
+        .send()
+        .await
+        .map_err(|e| format!("cannot reach {base}: {e}"))?;
+    if !response.status().is_success() {
+        return Err(format!(
+            "registering the MakeHuman head: {} {}",
+            response.status(),
+            response.text().await?
+        )
+        .into());
+    }
+    for _ in 0..600 {
+        let info: serde_json::Value = http
+            .get(with_token(&format!("{base}/v1/heads/{id}")))
+            .send()
+            .await?
+            .json()
+            .await?;
+        match info["status"].as_str() {
+            Some("ready") => return Ok(id),
+            Some("failed") => {
+                return Err(format!("registering the MakeHuman head failed: {}", info["error"]).into())
+            }
+            _ => tokio::time::sleep(Duration::from_millis(50)).await,
+        }
+    }
+    Err("the MakeHuman head was not ready within 30 s".into())
+}
+
+/// The syllable stream at `fps` as JSONL objects.
+fn syllable_frames(fps: f64) -> Result<Vec<serde_json::Value>, Box<dyn std::error::Error + Send + Sync>> {
+    let mask = Mask::candide3();
+    let mut frames = Vec::new();
+    for frame in syllables::generate(fps)? {
+        let mut writer = JsonlWriter::new(Vec::new(), &mask);
+        writer.write_frame(&frame)?;
+        frames.push(serde_json::from_slice(&writer.into_inner()?)?);
+    }
+    Ok(frames)
+}
+
+/// `[4.0/10 s] sent 1200, received 4790` on stderr once a second.
+async fn progress_line(start: Instant, length: Duration, sent: Arc<AtomicU64>, received: Arc<AtomicU64>) {
+    tokio::time::sleep_until(start).await;
+    let mut tick = tokio::time::interval(Duration::from_secs(1));
+    loop {
+        tick.tick().await;
+        eprint!(
+            "\r[{:.0}/{:.0} s] sent {}, received {}   ",
+            start.elapsed().as_secs_f64().min(length.as_secs_f64()),
+            length.as_secs_f64(),
+            sent.load(Ordering::Relaxed),
+            received.load(Ordering::Relaxed)
+        );
+    }
+}
+
+/// Distinct messages with their counts, most frequent first, at most 20.
+fn tally(messages: Vec<String>) -> Vec<(String, usize)> {
+    let mut counts: Vec<(String, usize)> = Vec::new();
+    for message in messages {
+        match counts.iter_mut().find(|(m, _)| *m == message) {
+            Some((_, n)) => *n += 1,
+            None => counts.push((message, 1)),
+        }
+    }
+    counts.sort_by_key(|c| std::cmp::Reverse(c.1));
+    counts.truncate(20);
+    counts
+}
+
+fn print(r: &LoadReport) {
+    println!(
+        "{} streams x {} viewers at {} fps for {} s ({}), head {}",
+        r.streams,
+        r.viewers,
+        r.fps,
+        r.seconds,
+        r.algorithm
+            .as_deref()
+            .unwrap_or("no algorithm: no viewer connected"),
+        r.head
+    );
+    println!(
+        "  frames: sent {}, received {} of {} expected ({:.1} %), skipped {}, stalls {}, older than shown {}, viewers with none {}",
+        r.frames_sent,
+        r.frames_received,
+        r.frames_expected,
+        100.0 * r.frames_received as f64 / r.frames_expected.max(1) as f64,
+        r.frames_skipped,
+        r.stalls,
+        r.regressions,
+        r.viewers_without_frames
+    );
+    println!(
+        "  producer-to-viewer latency ms: p50 {:.2}  p90 {:.2}  p99 {:.2}  max {:.2}; {:.0} bytes/frame",
+        r.latency_ms.p50, r.latency_ms.p90, r.latency_ms.p99, r.latency_ms.max, r.bytes_per_frame
+    );
+    match &r.server {
+        Some(s) => println!(
+            "  server: {:.0} % of one core, resident {:.1} -> {:.1} MiB",
+            s.cpu_percent, s.resident_mib_before, s.resident_mib_after
+        ),
+        None => println!("  server: /metrics not readable"),
+    }
+    for (failure, count) in &r.failures {
+        println!("  {count} x {failure}");
+    }
+}

@@ -1,0 +1,120 @@
+//! One load viewer: a WebSocket reading a stream's frames until the stream ends or the run
+//! is over, counting what a person watching would notice: latency from the producer,
+//! skipped frames, stalls and frames that arrive older than one already shown.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use futures_util::StreamExt;
+use tokio::time::Instant;
+use tokio_tungstenite::tungstenite::Message;
+
+use super::latency::Latencies;
+use super::send_times::SendTimes;
+use facewire_proto::frame::decode;
+use facewire_proto::messages::ServerMessage;
+
+/// What one viewer saw.
+#[derive(Debug, Default)]
+pub struct ViewerOutcome {
+    pub algorithm: Option<String>,
+    pub frames: u64,
+    pub bytes: u64,
+    /// Frames the stream had that this viewer never got (sequence gaps).
+    pub skipped: u64,
+    /// Frames older than one already received.
+    pub regressions: u64,
+    /// Gaps of more than `stall_after` between two frames.
+    pub stalls: u64,
+    pub latencies: Latencies,
+    /// The refusal or failure that ended it early, if any.
+    pub failure: Option<String>,
+}
+
+pub struct ViewerPlan {
+    pub url: String,
+    pub times: Arc<SendTimes>,
+    /// Frames received by every viewer, for the progress line.
+    pub received: Arc<AtomicU64>,
+    pub stall_after: Duration,
+    /// When to stop if the stream has not ended.
+    pub deadline: Instant,
+}
+
+/// Connects and waits for the snapshot; the socket and the algorithm it runs, or why it
+/// failed.
+pub async fn connect(plan: &ViewerPlan) -> Result<(Socket, String), String> {
+    let (mut socket, _) = tokio_tungstenite::connect_async(plan.url.as_str())
+        .await
+        .map_err(|e| format!("cannot connect: {e}"))?;
+    match tokio::time::timeout(Duration::from_secs(10), socket.next()).await {
+        Ok(Some(Ok(Message::Text(text)))) => match serde_json::from_str::<ServerMessage>(text.as_str()) {
+            Ok(ServerMessage::Snapshot(snapshot)) => Ok((socket, snapshot.algorithm)),
+            Ok(ServerMessage::Error { code, message, .. }) => Err(format!("{code}: {message}")),
+            other => Err(format!("expected a snapshot, got {other:?}")),
+        },
+        other => Err(format!("expected a snapshot, got {other:?}")),
+    }
+}
+
+pub type Socket =
+    tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+
+/// Reads frames until the stream ends, the socket closes or the deadline passes.
+pub async fn watch(plan: ViewerPlan, mut socket: Socket, algorithm: String) -> ViewerOutcome {
+    let mut outcome = ViewerOutcome {
+        algorithm: Some(algorithm),
+        ..ViewerOutcome::default()
+    };
+    let mut last: Option<(u64, Instant)> = None;
+    loop {
+        let message = match tokio::time::timeout_at(plan.deadline, socket.next()).await {
+            Err(_) | Ok(None) => break,
+            Ok(Some(Err(e))) => {
+                outcome.failure = Some(format!("connection failed: {e}"));
+                break;
+            }
+            Ok(Some(Ok(message))) => message,
+        };
+        match message {
+            Message::Binary(bytes) => {
+                let now = Instant::now();
+                let Ok(frame) = decode(&bytes) else {
+                    outcome.failure = Some("a frame did not decode".into());
+                    break;
+                };
+                let seq = frame.header.seq;
+                outcome.frames += 1;
+                outcome.bytes += bytes.len() as u64;
+                plan.received.fetch_add(1, Ordering::Relaxed);
+                if let Some(age) = plan.times.age_ms(seq) {
+                    outcome.latencies.record(age);
+                }
+                match last {
+                    Some((previous, _)) if seq <= previous => outcome.regressions += 1,
+                    Some((previous, at)) => {
+                        outcome.skipped += seq - previous - 1;
+                        outcome.stalls += u64::from(now - at > plan.stall_after);
+                    }
+                    None => {}
+                }
+                if last.is_none_or(|(previous, _)| seq > previous) {
+                    last = Some((seq, now));
+                }
+            }
+            Message::Text(text) => match serde_json::from_str::<ServerMessage>(text.as_str()) {
+                Ok(ServerMessage::End { .. }) => break,
+                Ok(ServerMessage::Error { code, message, .. }) => {
+                    outcome.failure = Some(format!("{code}: {message}"));
+                    break;
+                }
+                _ => {}
+            },
+            Message::Close(_) => break,
+            _ => {}
+        }
+    }
+    let _ = socket.close(None).await;
+    outcome
+}

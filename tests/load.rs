@@ -1,0 +1,104 @@
+//! `facewire load` against a real `facewire serve`: the smoke run of docs/PERFORMANCE.md's
+//! load section, small and short, asserting what a viewer must never see (no frames, a
+//! stall, a frame older than one already shown), and the bounds the tool keeps.
+
+mod common;
+
+use std::process::Command;
+
+use common::service::Server;
+
+fn load(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_facewire"))
+        .arg("load")
+        .args(args)
+        .output()
+        .expect("facewire runs")
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_short_load_run_reaches_every_viewer_in_order_without_stalls() {
+    let server = Server::spawn("[limits]\nmax_streams_per_head = 100\n").await;
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("load.json");
+    let args: Vec<String> = [
+        "--url",
+        &server.http(""),
+        "--streams",
+        "3",
+        "--viewers",
+        "9",
+        "--seconds",
+        "2",
+        "--fps",
+        "20",
+        "--json",
+        json.to_str().unwrap(),
+    ]
+    .map(str::to_string)
+    .to_vec();
+    let out = tokio::task::spawn_blocking(move || load(&args.iter().map(String::as_str).collect::<Vec<_>>()))
+        .await
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let count = |key: &str| report[key].as_u64().unwrap_or_else(|| panic!("{key}: {report}"));
+    assert_eq!(count("frames_sent"), 3 * 40, "{report}");
+    assert_eq!(count("frames_expected"), 9 * 40, "{report}");
+    assert_eq!(count("viewers_without_frames"), 0, "{report}");
+    assert_eq!(count("stalls"), 0, "{report}");
+    assert_eq!(count("regressions"), 0, "{report}");
+    assert!(count("frames_received") > 9 * 40 * 9 / 10, "{report}");
+    assert_eq!(report["failures"], serde_json::json!([]), "{report}");
+    let latency = &report["latency_ms"];
+    assert!(latency["samples"].as_u64().unwrap() > 0, "{report}");
+    assert!(latency["p50"].as_f64().unwrap() > 0.0, "{report}");
+    assert!(
+        latency["p99"].as_f64().unwrap() <= latency["max"].as_f64().unwrap(),
+        "{report}"
+    );
+    assert!(report["bytes_per_frame"].as_f64().unwrap() > 100.0, "{report}");
+    let usage = &report["server"];
+    assert!(usage["cpu_percent"].as_f64().unwrap() > 0.0, "{report}");
+    assert!(usage["resident_mib_after"].as_f64().unwrap() > 1.0, "{report}");
+    // The head it registered for the run is gone again.
+    let heads: serde_json::Value = reqwest::get(server.http("/v1/heads"))
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    assert_eq!(heads.as_array().map(Vec::len), Some(0), "{heads}");
+    server.stop().await;
+}
+
+#[test]
+fn counts_durations_and_remote_targets_are_refused_by_name() {
+    for (args, wanted) in [
+        (vec!["--url", "http://10.1.2.3:8480"], "--allow-remote"),
+        (
+            vec!["--url", "http://127.0.0.1:1", "--streams", "0"],
+            "--streams 0: must be 1 to 10000",
+        ),
+        (
+            vec!["--url", "http://127.0.0.1:1", "--viewers", "100001"],
+            "--viewers 100001",
+        ),
+        (
+            vec!["--url", "http://127.0.0.1:1", "--seconds", "4000"],
+            "--seconds 4000",
+        ),
+        (vec!["--url", "http://127.0.0.1:1", "--fps", "0"], "--fps 0"),
+        (vec!["--url", "ws://127.0.0.1:1"], "expected http://HOST:PORT"),
+    ] {
+        let out = load(&args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} should fail");
+        assert!(stderr.contains(wanted), "{args:?}: {stderr}");
+    }
+}
