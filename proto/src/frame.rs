@@ -270,9 +270,14 @@ fn inflate(stored: &[u8], limit: usize, at: usize) -> Result<Vec<u8>, DecodeErro
     }
 }
 
-/// Decodes a viewer frame, checking every length.
-pub fn decode(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
-    let mut r = Reader::new(bytes);
+/// Decodes only a frame's header (its first 40 bytes), for clients that count frames
+/// rather than draw them, such as a load generator.
+pub fn decode_header(bytes: &[u8]) -> Result<FrameHeader, DecodeError> {
+    read_header(&mut Reader::new(bytes)).map(|(_, header)| header)
+}
+
+/// The magic, the flags and the header.
+fn read_header(r: &mut Reader<'_>) -> Result<(u8, FrameHeader), DecodeError> {
     let magic = r.array::<4>("magic")?;
     if magic != FRAME_MAGIC {
         return Err(DecodeError::Magic {
@@ -288,6 +293,13 @@ pub fn decode(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
         server_receive_us: r.u64("server_receive_us")?,
         server_send_us: r.u64("server_send_us")?,
     };
+    Ok((flags, header))
+}
+
+/// Decodes a viewer frame, checking every length.
+pub fn decode(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
+    let mut r = Reader::new(bytes);
+    let (flags, header) = read_header(&mut r)?;
     let step = r.f32("step")?;
     let vertex_count = r.u32("vertex_count")?;
     let moved_count = r.u32("moved")?;
@@ -446,6 +458,13 @@ mod tests {
                 .to_vec();
             let frame = decode(&bytes).unwrap();
             assert_eq!(frame.header, header());
+            assert_eq!(decode_header(&bytes).unwrap(), header());
+            assert_eq!(decode_header(&bytes[..40]).unwrap(), header());
+            assert!(decode_header(&bytes[..39]).is_err());
+            assert!(matches!(
+                decode_header(b"FWP1xxxx"),
+                Err(DecodeError::Magic { .. })
+            ));
             assert_eq!(frame.label.as_deref(), Some("pa"));
             assert_eq!(frame.lip, lip);
             // vertex 3 moves less than half a step: not sent

@@ -27,7 +27,7 @@ mod ingest;
 mod listen;
 mod ops;
 mod pipeline;
-mod process;
+pub mod process;
 mod producer;
 mod rate;
 mod registration;

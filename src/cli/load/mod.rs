@@ -22,7 +22,6 @@ use std::time::{Duration, Instant as StdInstant};
 use serde::Serialize;
 use tokio::time::Instant;
 
-use super::serve::runtime;
 use super::{CliResult, FilePath};
 use crate::mask::Mask;
 use crate::stream::{syllables, JsonlWriter};
@@ -132,7 +131,13 @@ pub struct ServerUse {
 pub fn run(args: Args) -> CliResult {
     check(&args)?;
     let base = args.url.trim_end_matches('/').to_string();
-    let report = runtime()?.block_on(load(&args, &base))?;
+    // One worker thread: on a machine the server shares, a second one mostly competes with
+    // the server for the same cores (measured: docs/PERFORMANCE.md, "Load").
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()?;
+    let report = runtime.block_on(load(&args, &base))?;
     print(&report);
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&report)?;
