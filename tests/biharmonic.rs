@@ -8,7 +8,7 @@ mod common;
 
 use std::sync::OnceLock;
 
-use common::{data, deform_with, register};
+use common::{anchor_target, data, deform_with, register};
 use facewire::deform::{bind, AlgoSpec, Registration};
 use facewire::metrics::{ground_truth_error, FaceVertices};
 use facewire::targets::ExpressionTarget;
@@ -49,17 +49,7 @@ fn anchors_move_by_their_controls_and_the_held_head_stays_still() {
     // An anchor moves by the mean displacement of the controls it anchors.
     for &j in &reg.controls {
         let anchor = reg.anchors.vertex[j as usize];
-        let members: Vec<u32> = reg
-            .controls
-            .iter()
-            .copied()
-            .filter(|&k| reg.anchors.vertex[k as usize] == anchor)
-            .collect();
-        let wanted = members
-            .iter()
-            .map(|&k| mask_now[k as usize] - reg.mask_rest()[k as usize])
-            .sum::<Vec3>()
-            / members.len() as f32;
+        let wanted = anchor_target(reg, &mask_now, anchor);
         let got = out[anchor as usize] - reg.head.positions[anchor as usize];
         assert!(
             (got - wanted).length() < 1e-4 * wanted.length().max(1e-3),

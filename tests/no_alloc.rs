@@ -1,6 +1,7 @@
 //! Per-frame code allocates nothing: a counting global allocator watches one thread while
 //! the per-frame job (`animate::FrameJob`) turns stream frames into deformed heads and
-//! encoded viewer frames, with every preset and `biharmonic`, with and without face roughness.
+//! encoded viewer frames, with every preset and `biharmonic`, with and without face
+//! roughness.
 
 mod common;
 

@@ -12,7 +12,7 @@
 
 mod common;
 
-use common::{deform_with, posed, register, upper_lip_vertices};
+use common::{anchor_target, deform_with, posed, register, upper_lip_vertices};
 
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
@@ -107,13 +107,7 @@ fn anchor_error(reg: &Registration, binding: &Binding, mask_now: &[Vec3]) -> f32
     let mut worst = 0.0f32;
     for &j in &reg.controls {
         let anchor = reg.anchors.vertex[j as usize];
-        let sharing: Vec<u32> = reg
-            .controls
-            .iter()
-            .copied()
-            .filter(|&k| reg.anchors.vertex[k as usize] == anchor)
-            .collect();
-        let mean = sharing.iter().map(|&k| delta(k)).sum::<Vec3>() / sharing.len() as f32;
+        let mean = anchor_target(reg, mask_now, anchor);
         let moved = out[anchor as usize] - reg.head.positions[anchor as usize];
         worst = worst.max((moved - mean).length());
     }

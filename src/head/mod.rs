@@ -117,6 +117,25 @@ impl Head {
     }
 }
 
+/// A flat grid of `squares` x `squares` unit squares in z = 0, two triangles each, for the
+/// hand-checked tests of mesh measures.
+#[cfg(test)]
+pub(crate) fn flat_grid(squares: u32) -> Head {
+    let side = squares + 1;
+    let positions = (0..side)
+        .flat_map(|y| (0..side).map(move |x| Vec3::new(x as f32, y as f32, 0.0)))
+        .collect();
+    let mut triangles = Vec::new();
+    for y in 0..squares {
+        for x in 0..squares {
+            let v = y * side + x;
+            triangles.push([v, v + 1, v + side + 1]);
+            triangles.push([v, v + side + 1, v + side]);
+        }
+    }
+    Head::new("grid", positions, triangles)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -66,21 +66,7 @@ mod tests {
 
     /// A 3 x 3 grid of unit squares in z = 0, two triangles each.
     fn grid() -> Head {
-        let mut positions = Vec::new();
-        for y in 0..4 {
-            for x in 0..4 {
-                positions.push(Vec3::new(x as f32, y as f32, 0.0));
-            }
-        }
-        let mut triangles = Vec::new();
-        for y in 0..3u32 {
-            for x in 0..3u32 {
-                let v = y * 4 + x;
-                triangles.push([v, v + 1, v + 5]);
-                triangles.push([v, v + 5, v + 4]);
-            }
-        }
-        Head::new("grid", positions, triangles)
+        crate::head::flat_grid(3)
     }
 
     #[test]

@@ -175,21 +175,7 @@ mod tests {
 
     /// A 4 x 4 grid of unit squares in z = 0, two triangles each (32 triangles).
     fn grid() -> Head {
-        let mut positions = Vec::new();
-        for y in 0..5 {
-            for x in 0..5 {
-                positions.push(Vec3::new(x as f32, y as f32, 0.0));
-            }
-        }
-        let mut triangles = Vec::new();
-        for y in 0..4u32 {
-            for x in 0..4u32 {
-                let v = y * 5 + x;
-                triangles.push([v, v + 1, v + 6]);
-                triangles.push([v, v + 6, v + 5]);
-            }
-        }
-        Head::new("grid", positions, triangles)
+        crate::head::flat_grid(4)
     }
 
     fn every_triangle(head: &Head) -> Vec<u32> {

@@ -34,6 +34,22 @@ pub fn register(name: &str) -> Registration {
     Registration::new(head, FittedMask::new(mask, fit))
 }
 
+/// What an interpolating algorithm must move head vertex `anchor` by: the mean
+/// displacement of the controls it anchors (controls sharing an anchor are one constraint).
+pub fn anchor_target(reg: &Registration, mask_now: &[Vec3], anchor: u32) -> Vec3 {
+    let sharing: Vec<u32> = reg
+        .controls
+        .iter()
+        .copied()
+        .filter(|&k| reg.anchors.vertex[k as usize] == anchor)
+        .collect();
+    sharing
+        .iter()
+        .map(|&k| mask_now[k as usize] - reg.mask_rest()[k as usize])
+        .sum::<Vec3>()
+        / sharing.len() as f32
+}
+
 /// The head deformed by `binding` for the moved mask `mask_now` (head units).
 pub fn deform_with(reg: &Registration, binding: &Binding, mask_now: &[Vec3]) -> Vec<Vec3> {
     let mut scratch = binding.scratch(mask_now.len(), reg.mask_triangles().len());

@@ -219,36 +219,36 @@ async fn load(args: &Args, base: &str) -> Result<LoadReport, Box<dyn std::error:
     let (sent, received) = (Arc::new(AtomicU64::new(0)), Arc::new(AtomicU64::new(0)));
     let period = Duration::from_secs_f64(1.0 / args.fps);
     // Viewers first, so that every one sees the first frame; streams come to life with them.
-    let setup_deadline = Instant::now() + Duration::from_secs(60);
     let run_length = Duration::from_secs_f64(args.seconds);
-    let mut viewers = Vec::with_capacity(args.viewers);
     let mut failures: Vec<String> = Vec::new();
     eprint!("facewire load: connecting {} viewers", args.viewers);
     let mut connected = Vec::with_capacity(args.viewers);
     for v in 0..args.viewers {
         let s = v % args.streams;
-        let plan = ViewerPlan {
-            url: with_token(&format!(
-                "{ws_base}/v1/heads/{head}/streams/{}/view{algo}",
-                stream_name(s)
-            )),
-            times: times[s].clone(),
-            received: received.clone(),
-            stall_after: period.mul_f64(STALL_PERIODS),
-            deadline: setup_deadline,
-        };
-        match viewer::connect(&plan).await {
-            Ok((socket, algorithm)) => connected.push((plan, socket, algorithm)),
+        let url = with_token(&format!(
+            "{ws_base}/v1/heads/{head}/streams/{}/view{algo}",
+            stream_name(s)
+        ));
+        match viewer::connect(&url).await {
+            Ok((socket, algorithm)) => connected.push((s, socket, algorithm)),
             Err(e) => failures.push(format!("viewer: {e}")),
         }
     }
     eprintln!(", {} connected", connected.len());
     let start = Instant::now() + Duration::from_millis(200);
     let deadline = start + run_length + Duration::from_secs(3);
-    for (mut plan, socket, algorithm) in connected {
-        plan.deadline = deadline;
-        viewers.push(tokio::spawn(viewer::watch(plan, socket, algorithm)));
-    }
+    let viewers: Vec<_> = connected
+        .into_iter()
+        .map(|(s, socket, algorithm)| {
+            let plan = ViewerPlan {
+                times: times[s].clone(),
+                received: received.clone(),
+                stall_after: period.mul_f64(STALL_PERIODS),
+                deadline,
+            };
+            tokio::spawn(viewer::watch(plan, socket, algorithm))
+        })
+        .collect();
     let count = (args.seconds * args.fps).round() as u64;
     let producers: Vec<_> = (0..args.streams)
         .map(|s| {

@@ -10,6 +10,7 @@ use tokio::time::Instant;
 use tokio_tungstenite::tungstenite::Message;
 
 use super::send_times::SendTimes;
+use facewire_proto::messages::ServerMessage;
 
 pub struct ProducerPlan {
     pub url: String,
@@ -34,10 +35,9 @@ pub async fn produce(plan: ProducerPlan) -> Result<u64, String> {
     // Acks and refusals: the first refusal is the producer's failure.
     let refusals = tokio::spawn(async move {
         while let Some(Ok(message)) = rx.next().await {
-            if let Message::Text(text) = message {
-                if text.contains(r#""type":"error""#) {
-                    return Some(text.to_string());
-                }
+            let Message::Text(text) = message else { continue };
+            if let Ok(ServerMessage::Error { code, message, .. }) = serde_json::from_str(text.as_str()) {
+                return Some(format!("{code}: {message}"));
             }
         }
         None

@@ -33,7 +33,6 @@ pub struct ViewerOutcome {
 }
 
 pub struct ViewerPlan {
-    pub url: String,
     pub times: Arc<SendTimes>,
     /// Frames received by every viewer, for the progress line.
     pub received: Arc<AtomicU64>,
@@ -42,10 +41,10 @@ pub struct ViewerPlan {
     pub deadline: Instant,
 }
 
-/// Connects and waits for the snapshot; the socket and the algorithm it runs, or why it
-/// failed.
-pub async fn connect(plan: &ViewerPlan) -> Result<(Socket, String), String> {
-    let (mut socket, _) = tokio_tungstenite::connect_async(plan.url.as_str())
+/// Connects to viewer `url` and waits for the snapshot; the socket and the algorithm it
+/// runs, or why it failed.
+pub async fn connect(url: &str) -> Result<(Socket, String), String> {
+    let (mut socket, _) = tokio_tungstenite::connect_async(url)
         .await
         .map_err(|e| format!("cannot connect: {e}"))?;
     match tokio::time::timeout(Duration::from_secs(10), socket.next()).await {
