@@ -332,10 +332,16 @@ where
     S: SinkExt<Message> + StreamExt<Item = tokio_tungstenite::tungstenite::Result<Message>> + Unpin,
     <S as futures_util::Sink<Message>>::Error: std::fmt::Debug,
 {
-    producer
-        .send(Message::Text(jaw_line(seq, seq as f64 / 30.0).into()))
-        .await
-        .unwrap();
+    produce_line(producer, jaw_line(seq, seq as f64 / 30.0)).await
+}
+
+/// One JSONL frame as a producer sends it, and the server's ack.
+async fn produce_line<S>(producer: &mut S, line: String)
+where
+    S: SinkExt<Message> + StreamExt<Item = tokio_tungstenite::tungstenite::Result<Message>> + Unpin,
+    <S as futures_util::Sink<Message>>::Error: std::fmt::Debug,
+{
+    producer.send(Message::Text(line.into())).await.unwrap();
     let reply = producer.next().await.expect("an ack").unwrap();
     assert!(reply.to_text().unwrap().contains("\"ack\""), "{reply:?}");
 }
@@ -382,6 +388,25 @@ async fn check_a_stalled_stream(browser: &Browser, url: &str, long: Duration) {
     browser
         .wait_for("live again", &state_is("status-0", "live"), long)
         .await;
+
+    // The head's own motion: the same jaw drop with the head turned 0.6 rad. The deltas
+    // are those of the frame before, so only a page that applies the motion draws it.
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let still = browser.screenshot("#canvas-0").await;
+    produce_line(
+        &mut producer,
+        r#"{"seq":4,"t":0.2,"au":{"jaw_drop":0.3},"head_rotation_rad":[0,0.6,0]}"#.to_string(),
+    )
+    .await;
+    let mut turned = false;
+    for _ in 0..20 {
+        tokio::time::sleep(Duration::from_millis(250)).await;
+        if browser.screenshot("#canvas-0").await != still {
+            turned = true;
+            break;
+        }
+    }
+    assert!(turned, "the page did not turn the head in 5 s");
     producer.close(None).await.unwrap();
 }
 

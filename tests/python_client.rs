@@ -21,12 +21,13 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use facewire::animate::STEP_MM;
+use facewire::animate::{HeadMotion, STEP_MM};
 use facewire::deform::{bind, AlgoSpec};
 use facewire::mask::fap::FAPS;
 use facewire::mask::Mask;
 
 use facewire::stream::{open_stream, ArkitBasis, Frame, FramePoser, JsonlWriter, ARKIT_BLENDSHAPES};
+use glam::{Quat, Vec3};
 use serde::Deserialize;
 
 /// The Python interpreter and package the client needs, or a failure that says what to
@@ -129,6 +130,10 @@ struct Decoded {
     vertex_count: u32,
     lip_per_vertex: usize,
     positions: Vec<f64>,
+    head_rotation: [f32; 4],
+    head_translation: [f32; 3],
+    /// Vertex 0 moved by the head motion, as the client places it.
+    placed_first: [f64; 3],
 }
 
 #[derive(Debug, Deserialize)]
@@ -289,6 +294,31 @@ async fn the_python_client_decodes_what_the_library_computes() {
         assert_eq!(decoded.vertex_count, 4352);
         assert_eq!(decoded.lip_per_vertex, 18);
         assert_eq!(decoded.positions.len(), 3 * reg.vertex_count());
+        // The head's motion, as the library finds it, and vertex 0 placed by it.
+        let motion = HeadMotion::of_frame(frame, &reg.fitted.fit.pose);
+        assert_eq!(
+            frame.head_rotation_rad.is_some(),
+            !motion.is_identity(),
+            "seq {}",
+            decoded.seq
+        );
+        let sent = HeadMotion {
+            rotation: Quat::from_array(decoded.head_rotation),
+            translation: Vec3::from_array(decoded.head_translation),
+        };
+        assert!(
+            sent.rotation.abs_diff_eq(motion.rotation, 1e-6)
+                && sent.translation.abs_diff_eq(motion.translation, 1e-4),
+            "seq {}: head motion {sent:?}, expected {motion:?}",
+            decoded.seq
+        );
+        let first = Vec3::from_array([0, 1, 2].map(|k| decoded.positions[k] as f32));
+        let placed = Vec3::from_array(decoded.placed_first.map(|x| x as f32));
+        assert!(
+            placed.abs_diff_eq(motion.apply(first), 1e-4),
+            "seq {}: {placed}",
+            decoded.seq
+        );
         let expected = common::deform_with(&reg, &binding, poser.pose(&reg.fitted, &basis, frame));
         let (mut worst, mut worst_at, mut farthest) = (0.0f64, 0, 0.0f64);
         for (v, (e, rest)) in expected.iter().zip(&reg.head.positions).enumerate() {

@@ -1,6 +1,6 @@
 //! The browser's decoder (`web/decode.js`) against the server's own encoder: frames encoded
-//! by `facewire_proto::frame::FrameEncoder` (with and without label, face roughness and
-//! deflate; negative and large deltas; malformed ones) and a `mesh.bin`, written with the
+//! by `facewire_proto::frame::FrameEncoder` (with and without label, face roughness, head
+//! motion and deflate; negative and large deltas; malformed ones) and a `mesh.bin`, written with the
 //! values the Rust decoder reads from them to a JSON file that `node web/decode.test.mjs`
 //! checks.
 
@@ -10,7 +10,7 @@ use common::repo_path;
 
 use std::process::Command;
 
-use facewire_proto::frame::{decode, FrameContent, FrameEncoder, FrameHeader, LipRoughness};
+use facewire_proto::frame::{decode, FrameContent, FrameEncoder, FrameHeader, HeadMotion, LipRoughness};
 use facewire_proto::DecodeError;
 use serde_json::{json, Value};
 
@@ -27,6 +27,7 @@ struct Case<'a> {
     lip: LipRoughness,
     label: Option<&'a str>,
     face: Option<Vec<f32>>,
+    head: Option<HeadMotion>,
 }
 
 fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8>, Value) {
@@ -40,6 +41,7 @@ fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8
                 label: case.label,
                 face: case.face.as_deref(),
                 deflate,
+                head: case.head,
             },
         )
         .to_vec();
@@ -47,8 +49,9 @@ fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8
     let rest: Vec<f32> = (0..case.deltas.len() * 3)
         .map(|i| i as f32 * 0.37 - 5.0)
         .collect();
-    let mut positions = Vec::new();
+    let (mut positions, mut placed) = (Vec::new(), Vec::new());
     frame.apply(&rest, &mut positions);
+    frame.place(&rest, &mut placed);
     let h = frame.header;
     let value = json!({
         "name": format!("{}{}", case.name, if deflate { ", deflated" } else { "" }),
@@ -72,8 +75,13 @@ fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8
         "movedIndices": frame.moved.iter().map(|m| m.0).collect::<Vec<_>>(),
         "movedCounts": frame.moved.iter().flat_map(|m| m.1).collect::<Vec<_>>(),
         "face": frame.face.as_deref().map(exact),
+        "head": {
+            "rotation": exact(&frame.head.rotation),
+            "translation": exact(&frame.head.translation),
+        },
         "rest": exact(&rest),
         "positions": exact(&positions),
+        "placed": exact(&placed),
     });
     (bytes, value)
 }
@@ -127,6 +135,12 @@ fn cases() -> Value {
     deltas[130] = [1.5, -2.75, 0.01]; // a gap over 127: a two-byte index varint
     deltas[299] = [-0.02, 0.0, 0.02];
     let face: Vec<f32> = (0..300).map(|v| (v % 17) as f32 * 0.011).collect();
+    // 0.7 rad about (1, 2, 2) / 3, and a shift.
+    let (sin, cos) = (0.35f32.sin(), 0.35f32.cos());
+    let turn = HeadMotion {
+        rotation: [sin / 3.0, 2.0 * sin / 3.0, 2.0 * sin / 3.0, cos],
+        translation: [0.5, -12.0, 3.25],
+    };
     let cases = [
         Case {
             name: "plain",
@@ -136,6 +150,7 @@ fn cases() -> Value {
             lip: lip.clone(),
             label: None,
             face: None,
+            head: None,
         },
         Case {
             name: "label and face roughness",
@@ -144,7 +159,8 @@ fn cases() -> Value {
             deltas: deltas.clone(),
             lip: lip.clone(),
             label: Some("pa"),
-            face: Some(face),
+            face: Some(face.clone()),
+            head: None,
         },
         Case {
             name: "large deltas, a multi-byte label, flat face",
@@ -162,6 +178,7 @@ fn cases() -> Value {
             lip: LipRoughness::default(),
             label: Some("ʃa"),
             face: Some(vec![0.0; 4]),
+            head: None,
         },
         Case {
             name: "nothing moved",
@@ -171,6 +188,7 @@ fn cases() -> Value {
             lip: lip.clone(),
             label: Some("rest"),
             face: None,
+            head: None,
         },
         Case {
             name: "every vertex moved",
@@ -182,6 +200,27 @@ fn cases() -> Value {
             lip: lip.clone(),
             label: None,
             face: None,
+            head: None,
+        },
+        Case {
+            name: "head motion, label and face roughness",
+            header: header(6),
+            step: 0.001,
+            deltas: deltas.clone(),
+            lip: lip.clone(),
+            label: Some("ta"),
+            face: Some(face),
+            head: Some(turn),
+        },
+        Case {
+            name: "head motion only",
+            header: header(7),
+            step: 0.001,
+            deltas: vec![[0.0; 3]; 20],
+            lip: LipRoughness::default(),
+            label: None,
+            face: None,
+            head: Some(turn),
         },
     ];
     let mut encoder = FrameEncoder::default();
@@ -202,6 +241,13 @@ fn cases() -> Value {
     trailing.push(0);
     let mut huge_moved = good.clone();
     huge_moved[48..52].copy_from_slice(&u32::MAX.to_le_bytes());
+    // The head-motion case with label: its motion follows the label "ta".
+    let with_head = &encoded[10];
+    let head_at = 65 + 18 * 4 + 3;
+    let mut long_quaternion = with_head.clone();
+    long_quaternion[head_at + 12..head_at + 16].copy_from_slice(&2.0f32.to_le_bytes());
+    let mut nan_translation = with_head.clone();
+    nan_translation[head_at + 16..head_at + 20].copy_from_slice(&f32::NAN.to_le_bytes());
     let mut bad_label = good.clone();
     let label_at = 65 + 18 * 4 + 1;
     bad_label[label_at] = 0xff;
@@ -221,7 +267,7 @@ fn cases() -> Value {
     let mut extra_entry = plain_block.to_vec();
     extra_entry.extend_from_slice(&[0, 0, 0, 0]);
     // Claims one entry (40 bytes at most) but inflates to 300 entries.
-    let mut bomb = encoded[encoded.len() - 1].clone();
+    let mut bomb = encoded[9].clone(); // every vertex moved, deflated
     bomb[48..52].copy_from_slice(&1u32.to_le_bytes());
     let malformed_frames = vec![
         malformed("truncated header", good[..10].to_vec()),
@@ -231,6 +277,9 @@ fn cases() -> Value {
         malformed("trailing byte", trailing),
         malformed("moved count larger than the message", huge_moved),
         malformed("label not UTF-8", bad_label),
+        malformed("head rotation not a unit quaternion", long_quaternion),
+        malformed("head translation not finite", nan_translation),
+        malformed("truncated head motion", with_head[..head_at + 10].to_vec()),
         malformed(
             "truncated deflated face roughness",
             good_deflated[..good_deflated.len() - 1].to_vec(),

@@ -70,3 +70,48 @@ fn default_algorithm_frames_are_a_tenth_of_raw_deltas() {
         }
     }
 }
+
+#[test]
+fn a_turning_head_compresses_like_a_still_one() {
+    let head = Arc::new(AnimatedHead::new(register("lee_perry_smith_head")).unwrap());
+    let reg = &head.registration;
+    let spec: AlgoSpec = facewire::server::config::DEFAULT_ALGORITHM.parse().unwrap();
+    let binding = Arc::new(bind(reg, &spec));
+    let basis = Arc::new(ArkitBasis::shipped());
+    let mut still = FrameJob::new(head.clone(), binding.clone(), basis.clone(), false).unwrap();
+    let mut turning = FrameJob::new(head.clone(), binding, basis, false).unwrap();
+    let rest: Vec<f32> = reg.head.positions.iter().flat_map(|p| p.to_array()).collect();
+    let mut placed = Vec::new();
+    let frames = open_stream(&data("streams/syllables.jsonl"), &reg.fitted.mask).unwrap();
+    for frame in frames.map(Result::unwrap) {
+        let t = frame.time_s as f32;
+        let moving = facewire::stream::Frame {
+            head_rotation_rad: Some([0.1 * (2.0 * t).sin(), 0.4 * t.sin(), 0.05]),
+            head_translation: Some([0.0, 0.02 * t.cos(), 0.0]),
+            ..frame.clone()
+        };
+        still.deform(&frame);
+        let still_bytes = still.encode(&frame, FrameTimes::default()).unwrap().to_vec();
+        let deformed = turning.deform(&moving).to_vec();
+        let motion = turning.head_motion();
+        let turning_bytes = turning.encode(&moving, FrameTimes::default()).unwrap();
+        // The same deltas, byte for byte; 28 bytes of motion beside them.
+        assert_eq!(turning_bytes.len(), still_bytes.len() + 28, "frame {}", frame.seq);
+        let decoded = decode(turning_bytes).unwrap();
+        assert_eq!(
+            decoded.moved,
+            decode(&still_bytes).unwrap().moved,
+            "frame {}",
+            frame.seq
+        );
+        decoded.place(&rest, &mut placed);
+        for (v, p) in deformed.iter().enumerate() {
+            let error = Vec3::from_slice(&placed[v * 3..v * 3 + 3]).distance(motion.apply(*p));
+            assert!(
+                error * reg.mm_per_unit() < 0.07,
+                "frame {} vertex {v}: {error}",
+                frame.seq
+            );
+        }
+    }
+}

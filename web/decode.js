@@ -10,6 +10,11 @@ const FRAME_MAGIC = "FWF1";
 const FLAG_FACE = 1;
 const FLAG_LABEL = 2;
 const FLAG_DEFLATE = 4;
+const FLAG_HEAD = 8;
+/** How far from 1 a head rotation quaternion's length may be. */
+const UNIT_QUATERNION_TOLERANCE = 1e-4;
+/** The head at rest: rotation quaternion x, y, z, w and translation (head units). */
+export const HEAD_AT_REST = Object.freeze({ rotation: [0, 0, 0, 1], translation: [0, 0, 0] });
 const I32_MIN = -(2 ** 31);
 const I32_MAX = 2 ** 31 - 1;
 /** Zigzag of the largest difference of two i32 counts. */
@@ -187,11 +192,30 @@ async function inflateRaw(bytes, limit, at) {
   return out;
 }
 
+/** The head's motion: 7 x f32, finite, with a unit rotation quaternion. */
+function readHeadMotion(r) {
+  const at = r.at;
+  const values = [];
+  for (let i = 0; i < 7; i++) {
+    values.push(r.f32("head motion"));
+  }
+  if (!values.every(Number.isFinite)) {
+    throw new DecodeError("head motion", at, `not finite: ${values.join(", ")}`);
+  }
+  const rotation = values.slice(0, 4);
+  const length = Math.hypot(...rotation);
+  if (Math.abs(length - 1) > UNIT_QUATERNION_TOLERANCE) {
+    throw new DecodeError("head motion", at, `rotation quaternion of length ${length}, not 1`);
+  }
+  return { rotation, translation: values.slice(4) };
+}
+
 /**
  * Decodes a whole frame (a promise: a deflated delta block inflates asynchronously).
  * `movedIndices[i]` is a vertex and `movedCounts[3i..3i+3]` its quantized delta:
  * delta = counts x step, head units. `face` is per-vertex roughness (Float32Array) or
- * null, `label` a string or null.
+ * null, `label` a string or null, `head` the head's rigid motion ({rotation: quaternion
+ * x, y, z, w; translation: head units}), HEAD_AT_REST when the frame has none.
  */
 export async function decodeFrame(buffer) {
   const r = new Reader(new Uint8Array(buffer));
@@ -212,6 +236,7 @@ export async function decodeFrame(buffer) {
       throw new DecodeError("label", at, "not UTF-8");
     }
   }
+  const head = flags & FLAG_HEAD ? readHeadMotion(r) : HEAD_AT_REST;
   if (moved > vertexCount) {
     throw new DecodeError("moved", 48, `${moved} moved of ${vertexCount} vertices`);
   }
@@ -231,7 +256,7 @@ export async function decodeFrame(buffer) {
     }
   }
   r.finish();
-  return { ...header, lip: { ...header.lip, perVertex: lipPerVertex }, label, movedIndices, movedCounts, face };
+  return { ...header, lip: { ...header.lip, perVertex: lipPerVertex }, label, head, movedIndices, movedCounts, face };
 }
 
 /**
@@ -269,6 +294,19 @@ function readDeltaBlock(block, blockAt, { vertexCount, moved }) {
     throw new DecodeError("delta block", blockAt, `${block.length - r.at} byte(s) left after ${moved} entries`);
   }
   return { movedIndices, movedCounts };
+}
+
+/**
+ * The head's motion as a column-major 4x4 matrix (WebGL's order): rotation, then
+ * translation, applied to rest + delta positions.
+ */
+export function headMatrix({ rotation: [x, y, z, w], translation: [tx, ty, tz] }) {
+  return new Float32Array([
+    1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y), 0,
+    2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x), 0,
+    2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y), 0,
+    tx, ty, tz, 1,
+  ]);
 }
 
 /**

@@ -1,8 +1,9 @@
 // render.js: draws one head with plain WebGL2: smooth vertex normals recomputed from the
-// deformed positions every frame, a key, fill and rim light that move with the camera (the
+// deformed positions every frame, placed by the head's own rigid motion, a key, fill and rim light that move with the camera (the
 // face is always lit), and an optional roughness heat-map in place of the skin colour.
 
 const VERTEX_SHADER = `#version 300 es
+uniform mat4 u_model; // the head's own motion (rigid)
 uniform mat4 u_view;
 uniform mat4 u_projection;
 in vec3 a_position;
@@ -13,9 +14,10 @@ out vec3 v_normal;
 out float v_heat;
 
 void main() {
-  vec4 p = u_view * vec4(a_position, 1.0);
+  mat4 model_view = u_view * u_model;
+  vec4 p = model_view * vec4(a_position, 1.0);
   v_position = p.xyz;
-  v_normal = mat3(u_view) * a_normal;
+  v_normal = mat3(model_view) * a_normal;
   v_heat = a_heat;
   gl_Position = u_projection * p;
 }`;
@@ -64,6 +66,8 @@ void main() {
     + light(n, to_eye, vec3(0.2, 0.5, -1.0), vec3(1.0) * 0.25, 8.0);
   out_colour = vec4(pow(lit, vec3(1.0 / 2.2)), 1.0);
 }`;
+
+const IDENTITY = new Float32Array([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]);
 
 /** Area-weighted vertex normals of a triangle mesh (not normalized: the shader does it). */
 export function vertexNormals(positions, indices, out) {
@@ -121,6 +125,7 @@ export class HeadRenderer {
     }
     this.program = program;
     this.uniforms = {
+      model: gl.getUniformLocation(program, "u_model"),
       view: gl.getUniformLocation(program, "u_view"),
       projection: gl.getUniformLocation(program, "u_projection"),
       heatScale: gl.getUniformLocation(program, "u_heat_scale"),
@@ -134,6 +139,7 @@ export class HeadRenderer {
     };
     this.indexCount = 0;
     this.heatScale = 0;
+    this.model = IDENTITY;
     gl.enable(gl.DEPTH_TEST);
   }
 
@@ -165,6 +171,7 @@ export class HeadRenderer {
     gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.heat);
     gl.bufferData(gl.ARRAY_BUFFER, mesh.vertexCount * 4, gl.DYNAMIC_DRAW);
     this.indexCount = mesh.indices.length;
+    this.model = IDENTITY;
     this.setPositions(mesh.positions);
   }
 
@@ -176,6 +183,11 @@ export class HeadRenderer {
     gl.bufferSubData(gl.ARRAY_BUFFER, 0, positions);
     gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.normal);
     gl.bufferSubData(gl.ARRAY_BUFFER, 0, this.normals);
+  }
+
+  /** The head's motion (column-major 4x4, from decode.js headMatrix). */
+  setModel(matrix) {
+    this.model = matrix;
   }
 
   /** Per-vertex roughness coloured on a ramp from 0 to `scale`; null shows skin. */
@@ -224,6 +236,7 @@ export class HeadRenderer {
     }
     const { view, projection } = camera.matrices(this.canvas.width / this.canvas.height);
     gl.useProgram(this.program);
+    gl.uniformMatrix4fv(this.uniforms.model, false, this.model);
     gl.uniformMatrix4fv(this.uniforms.view, false, view);
     gl.uniformMatrix4fv(this.uniforms.projection, false, projection);
     gl.uniform1f(this.uniforms.heatScale, this.heatScale);

@@ -462,13 +462,33 @@ class LipRoughness:
 
 
 @dataclass
+class HeadMotion:
+    """The head's own rigid motion in a frame: ``world = rotate(rotation, p) + translation``
+    for a deformed position ``p`` (head units). ``rotation`` is a unit quaternion
+    ``(x, y, z, w)``."""
+
+    rotation: Tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
+    translation: Tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def apply(self, p: Tuple[float, float, float]) -> Tuple[float, float, float]:
+        x, y, z, w = self.rotation
+        px, py, pz = p
+        # v' = v + 2 w (q x v) + 2 q x (q x v), q = (x, y, z)
+        cx, cy, cz = y * pz - z * py, z * px - x * pz, x * py - y * px
+        ccx, ccy, ccz = y * cz - z * cy, z * cx - x * cz, x * cy - y * cx
+        tx, ty, tz = self.translation
+        return (px + 2 * (w * cx + ccx) + tx, py + 2 * (w * cy + ccy) + ty,
+                pz + 2 * (w * cz + ccz) + tz)
+
+
+@dataclass
 class ViewerFrame:
     """A decoded ``FWF1`` frame.
 
     ``moved`` holds ``(vertex, cx, cy, cz)``: the quantized delta of every vertex that
     moved, in counts of ``step`` head units. ``positions`` is filled by :class:`Viewer`
     (or :meth:`apply`): one ``(x, y, z)`` tuple per vertex, head units, ``rest + counts x
-    step``. Times: ``producer_time_s`` is the producer's ``t``; the ``_us`` fields are µs
+    step``, before the head's own motion ``head`` (:meth:`place` applies it). Times: ``producer_time_s`` is the producer's ``t``; the ``_us`` fields are µs
     since the Unix epoch on the server's clock."""
 
     seq: int
@@ -481,6 +501,7 @@ class ViewerFrame:
     lip: LipRoughness
     label: Optional[str]
     face: Optional[List[float]] = None
+    head: HeadMotion = field(default_factory=HeadMotion)
     positions: Optional[List[Tuple[float, float, float]]] = None
 
     def apply(self, rest: Sequence[Tuple[float, float, float]]) -> List[Tuple[float, float, float]]:
@@ -496,6 +517,11 @@ class ViewerFrame:
             x, y, z = out[index]
             out[index] = (x + cx * step, y + cy * step, z + cz * step)
         return out
+
+    def place(self, positions: Sequence[Tuple[float, float, float]]) -> List[Tuple[float, float, float]]:
+        """Deformed positions (from :meth:`apply`) moved by the head's motion: where the
+        head is in the world."""
+        return [self.head.apply(p) for p in positions]
 
 
 @dataclass
@@ -588,6 +614,7 @@ def decode_fwf1(data: bytes) -> ViewerFrame:
     (lip_count,) = r.unpack("B", "lip_count")
     per_vertex = list(r.unpack("%df" % lip_count, "lip roughness per vertex"))
     label = r.label() if flags & 2 else None
+    head = _head_motion(r) if flags & 8 else HeadMotion()
     if moved_count > vertex_count:
         raise ProtocolError("%d moved of %d vertices" % (moved_count, vertex_count),
                             field="moved", at=48)
@@ -652,7 +679,21 @@ def decode_fwf1(data: bytes) -> ViewerFrame:
         lip=LipRoughness(lip_min, lip_max, lip_mean, per_vertex),
         label=label,
         face=face,
+        head=head,
     )
+
+
+def _head_motion(r: "_Reader") -> HeadMotion:
+    """7 x f32: a unit rotation quaternion x, y, z, w and a translation, all finite."""
+    at = r.at
+    values = r.unpack("7f", "head motion")
+    if not all(math.isfinite(v) for v in values):
+        raise ProtocolError("head motion not finite: %r" % (values,), field="head motion", at=at)
+    length = math.sqrt(sum(v * v for v in values[:4]))
+    if abs(length - 1.0) > 1e-4:
+        raise ProtocolError("head rotation quaternion of length %g, not 1" % length,
+                            field="head motion", at=at)
+    return HeadMotion(rotation=tuple(values[:4]), translation=tuple(values[4:]))
 
 
 def decode_mesh(data: bytes) -> RestMesh:

@@ -5,7 +5,7 @@ Registers a head over HTTP, connects a viewer, pushes the frames of a JSONL file
 producer (even-numbered frames as JSON text, odd-numbered ones as binary FWP1), repeats
 one frame to provoke an ``out_of_order`` refusal, ends the stream, collects the viewer's
 decoded frames until ``end``, posts the same frames as a batch, and writes everything
-(acks, the refusal, seq/label/step/positions of every decoded frame, the client's name
+(acks, the refusal, seq/label/step/positions/head motion of every decoded frame, the client's name
 tables) to a JSON file. It checks nothing itself beyond what the client raises:
 tests/python_client.rs runs it against an in-process server and compares the decoded
 positions with what the library computes.
@@ -52,6 +52,9 @@ def collect(viewer: fw.Viewer, result: Dict[str, Any], timeout_s: float) -> None
                     "moved": len(event.moved),
                     "lip_per_vertex": len(event.lip.per_vertex),
                     "positions": [c for p in event.positions for c in p],
+                    "head_rotation": list(event.head.rotation),
+                    "head_translation": list(event.head.translation),
+                    "placed_first": list(event.place(event.positions[:1])[0]),
                 })
             elif isinstance(event, fw.StreamEnd):
                 result["end"] = event.reason

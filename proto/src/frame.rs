@@ -1,11 +1,13 @@
 //! The binary frame a viewer receives for every deformed frame: vertex deltas against the
 //! rest mesh, quantized and sent only for vertices that moved, plus the lip roughness and,
-//! on request, per-vertex face roughness. All numbers little-endian; see PROTOCOL.md.
+//! on request, per-vertex face roughness, and the head's own rigid motion, which is never
+//! baked into the deltas. All numbers little-endian; see PROTOCOL.md.
 //!
 //! ```text
 //! offset  size  field
 //!      0     4  magic "FWF1"
-//!      4     1  flags: bit 0 face roughness present, bit 1 label present, bit 2 deltas deflated
+//!      4     1  flags: bit 0 face roughness present, bit 1 label present, bit 2 deltas deflated,
+//!                bit 3 head motion present
 //!      5     3  reserved, 0
 //!      8     8  seq (u64): the producer's sequence number
 //!     16     8  producer_time_s (f64): the producer's timestamp
@@ -17,6 +19,7 @@
 //!     52    12  lip roughness min, max, mean (3 x f32)
 //!     64     1  lip_count n (u8), then n x f32: mean roughness around each lip vertex
 //!      .     .  if label: u8 length, then that many UTF-8 bytes
+//!      .    28  if head motion: rotation quaternion x, y, z, w, translation x, y, z (7 x f32)
 //!      .     4  delta block length in bytes (u32), then the block:
 //!               moved x { varint index gap, 3 x zigzag varint count differences },
 //!               raw-deflated (RFC 1951) when flag bit 2 is set
@@ -35,6 +38,9 @@ pub const FRAME_MAGIC: [u8; 4] = *b"FWF1";
 const FLAG_FACE: u8 = 1;
 const FLAG_LABEL: u8 = 2;
 const FLAG_DEFLATE: u8 = 4;
+const FLAG_HEAD: u8 = 8;
+/// How far from 1 a head rotation quaternion's length may be (f32 rounding is 1e-7).
+const UNIT_QUATERNION_TOLERANCE: f32 = 1e-4;
 
 /// Timing and identity of one frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -55,6 +61,40 @@ pub struct LipRoughness {
     pub per_vertex: Vec<f32>,
 }
 
+/// The head's own motion in a frame, a rigid transform of head units:
+/// `world = rotate(rotation, local) + translation`, where local is rest + delta.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeadMotion {
+    /// Unit quaternion x, y, z, w.
+    pub rotation: [f32; 4],
+    /// Head units.
+    pub translation: [f32; 3],
+}
+
+impl HeadMotion {
+    pub const IDENTITY: HeadMotion = HeadMotion {
+        rotation: [0.0, 0.0, 0.0, 1.0],
+        translation: [0.0; 3],
+    };
+
+    /// `rotation` applied to `p`, then `translation` added.
+    pub fn apply(&self, p: [f32; 3]) -> [f32; 3] {
+        let [x, y, z, w] = self.rotation;
+        // v' = v + 2 w (q x v) + 2 q x (q x v), q = (x, y, z)
+        let cross = |a: [f32; 3], b: [f32; 3]| {
+            [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ]
+        };
+        let q = [x, y, z];
+        let c = cross(q, p);
+        let cc = cross(q, c);
+        [0, 1, 2].map(|k| p[k] + 2.0 * (w * c[k] + cc[k]) + self.translation[k])
+    }
+}
+
 /// A decoded viewer frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ViewerFrame {
@@ -67,10 +107,13 @@ pub struct ViewerFrame {
     pub label: Option<String>,
     /// Per-vertex face roughness, when the viewer asked for it.
     pub face: Option<Vec<f32>>,
+    /// The head's own motion; [`HeadMotion::IDENTITY`] when the frame has none.
+    pub head: HeadMotion,
 }
 
 impl ViewerFrame {
-    /// Rest positions plus the decoded deltas (flat xyz arrays, head units).
+    /// Rest positions plus the decoded deltas (flat xyz arrays, head units), before the
+    /// head's motion: [`ViewerFrame::place`] applies that.
     pub fn apply(&self, rest: &[f32], out: &mut Vec<f32>) {
         out.clear();
         out.extend_from_slice(rest);
@@ -78,6 +121,15 @@ impl ViewerFrame {
             for (k, &count) in q.iter().enumerate() {
                 out[v as usize * 3 + k] += count as f32 * self.step;
             }
+        }
+    }
+
+    /// Rest positions plus deltas, moved by the head's motion (flat xyz, head units): where
+    /// the head is in the viewer's world.
+    pub fn place(&self, rest: &[f32], out: &mut Vec<f32>) {
+        self.apply(rest, out);
+        for p in out.chunks_exact_mut(3) {
+            p.copy_from_slice(&self.head.apply([p[0], p[1], p[2]]));
         }
     }
 }
@@ -93,6 +145,8 @@ pub struct FrameContent<'a> {
     pub face: Option<&'a [f32]>,
     /// Deflate the delta block (about a third of the size, a little slower to encode).
     pub deflate: bool,
+    /// The head's own motion, sent beside the deltas; `None` for a head at rest.
+    pub head: Option<HeadMotion>,
 }
 
 /// Encodes frames into reused buffers.
@@ -111,7 +165,7 @@ impl FrameEncoder {
     pub fn for_head(vertices: usize, lip_values: usize) -> FrameEncoder {
         // Gap and three counts, each a LEB128 varint of at most 5 bytes (u32 and zigzag i32).
         let block = vertices * 20;
-        let header = 64 + 1 + 4 * lip_values + 256 + 4;
+        let header = 64 + 1 + 4 * lip_values + 256 + 28 + 4;
         // Deflate's worst case stays under the stored size plus its 5-byte block headers;
         // the loop reserves half a block and 64 bytes more before each call.
         let deflated = block + block / 2 + 64 + 5 * (block / 16_384 + 1);
@@ -138,6 +192,9 @@ impl FrameEncoder {
         if content.deflate {
             flags |= FLAG_DEFLATE;
         }
+        if content.head.is_some() {
+            flags |= FLAG_HEAD;
+        }
         out.extend_from_slice(&[flags, 0, 0, 0]);
         out.extend_from_slice(&header.seq.to_le_bytes());
         out.extend_from_slice(&header.producer_time_s.to_le_bytes());
@@ -157,6 +214,11 @@ impl FrameEncoder {
         }
         if let Some(label) = label {
             write_label(label, out);
+        }
+        if let Some(head) = content.head {
+            for x in head.rotation.iter().chain(&head.translation) {
+                out.extend_from_slice(&x.to_le_bytes());
+            }
         }
 
         let block = &mut self.block;
@@ -313,6 +375,11 @@ pub fn decode(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
     } else {
         None
     };
+    let head = if flags & FLAG_HEAD != 0 {
+        read_head_motion(&mut r)?
+    } else {
+        HeadMotion::IDENTITY
+    };
     if moved_count > vertex_count {
         return Err(DecodeError::Invalid {
             field: "moved",
@@ -397,6 +464,33 @@ pub fn decode(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
         },
         label,
         face,
+        head,
+    })
+}
+
+/// A head motion: finite numbers, a unit rotation quaternion.
+fn read_head_motion(r: &mut Reader<'_>) -> Result<HeadMotion, DecodeError> {
+    let at = r.position();
+    let mut values = [0.0f32; 7];
+    for x in &mut values {
+        *x = r.f32("head motion")?;
+    }
+    let invalid = |problem: String| DecodeError::Invalid {
+        field: "head motion",
+        at,
+        problem,
+    };
+    if values.iter().any(|x| !x.is_finite()) {
+        return Err(invalid(format!("not finite: {values:?}")));
+    }
+    let rotation = [values[0], values[1], values[2], values[3]];
+    let length = rotation.iter().map(|x| x * x).sum::<f32>().sqrt();
+    if (length - 1.0).abs() > UNIT_QUATERNION_TOLERANCE {
+        return Err(invalid(format!("rotation quaternion of length {length}, not 1")));
+    }
+    Ok(HeadMotion {
+        rotation,
+        translation: [values[4], values[5], values[6]],
     })
 }
 
@@ -421,6 +515,7 @@ mod tests {
             label: None,
             face: None,
             deflate,
+            head: None,
         }
     }
 
@@ -453,6 +548,7 @@ mod tests {
                         label: Some("pa"),
                         face: Some(&face),
                         deflate,
+                        head: None,
                     },
                 )
                 .to_vec();
@@ -481,6 +577,75 @@ mod tests {
             assert!((face_back[1] - 0.5).abs() < 1.0 / 255.0);
             assert_eq!(face_back[2], 1.0);
         }
+    }
+
+    /// A quarter turn about +y (yaw) and a shift.
+    const QUARTER_YAW: HeadMotion = HeadMotion {
+        rotation: [
+            0.0,
+            std::f32::consts::FRAC_1_SQRT_2,
+            0.0,
+            std::f32::consts::FRAC_1_SQRT_2,
+        ],
+        translation: [1.0, 2.0, 3.0],
+    };
+
+    #[test]
+    fn head_motion_rotates_then_translates() {
+        let p = QUARTER_YAW.apply([1.0, 0.0, 0.0]);
+        // +x turns onto -z about +y, then shifts.
+        for (got, want) in p.iter().zip([1.0, 2.0, 2.0]) {
+            assert!((got - want).abs() < 1e-6, "{p:?}");
+        }
+        assert_eq!(HeadMotion::IDENTITY.apply([4.0, 5.0, 6.0]), [4.0, 5.0, 6.0]);
+    }
+
+    #[test]
+    fn head_motion_travels_beside_the_deltas() {
+        let deltas = [[0.0, 0.0, 0.0], [0.5, 0.0, 0.0]];
+        let lip = LipRoughness::default();
+        let still = FrameEncoder::default()
+            .encode(&header(), &content(&deltas, &lip, true))
+            .to_vec();
+        let mut moving = content(&deltas, &lip, true);
+        moving.head = Some(QUARTER_YAW);
+        let moving = FrameEncoder::default().encode(&header(), &moving).to_vec();
+        // 28 bytes of motion; the deltas are the same bytes.
+        assert_eq!(moving.len(), still.len() + 28);
+        assert_eq!(moving[4], still[4] | FLAG_HEAD);
+        let frame = decode(&moving).unwrap();
+        assert_eq!(frame.head, QUARTER_YAW);
+        assert_eq!(decode(&still).unwrap().head, HeadMotion::IDENTITY);
+        let (mut local, mut placed) = (Vec::new(), Vec::new());
+        let rest = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0];
+        frame.apply(&rest, &mut local);
+        frame.place(&rest, &mut placed);
+        assert_eq!(local, [0.0, 0.0, 0.0, 1.5, 0.0, 0.0]);
+        let expected = [1.0, 2.0, 3.0, 1.0, 2.0, 1.5];
+        for (got, want) in placed.iter().zip(expected) {
+            assert!((got - want).abs() < 1e-6, "{placed:?}");
+        }
+
+        // The motion starts after the 65 fixed bytes (no lip values, no label).
+        for (bad, problem) in [(f32::NAN, "not finite"), (2.0, "length")] {
+            let mut broken = moving.clone();
+            broken[65..69].copy_from_slice(&bad.to_le_bytes());
+            match decode(&broken) {
+                Err(DecodeError::Invalid {
+                    field: "head motion",
+                    at: 65,
+                    problem: text,
+                }) => assert!(text.contains(problem), "{text}"),
+                other => panic!("{other:?}"),
+            }
+        }
+        assert!(matches!(
+            decode(&moving[..80]),
+            Err(DecodeError::Truncated {
+                field: "head motion",
+                ..
+            })
+        ));
     }
 
     #[test]

@@ -1,12 +1,12 @@
 //! The per-frame job for one head and one algorithm: pose the mask from a frame, deform
-//! the head, measure lip (and optionally whole-face) roughness, quantize the deltas and
+//! the head, find the head's own rigid motion (kept apart from the deformation), measure lip (and optionally whole-face) roughness, quantize the deltas and
 //! encode the viewer frame. Every buffer is made once, in [`FrameJob::new`].
 
 use std::sync::Arc;
 
 use glam::Vec3;
 
-use super::AnimatedHead;
+use super::{AnimatedHead, HeadMotion};
 use crate::deform::{Binding, DeformScratch};
 use crate::mask::LIP_VERTICES;
 use crate::metrics::{LipRoughness, Roughness, RoughnessError};
@@ -40,6 +40,7 @@ pub struct FrameJob {
     poser: FramePoser,
     scratch: DeformScratch,
     deformed: Vec<Vec3>,
+    head_motion: HeadMotion,
     deltas: Vec<[f32; 3]>,
     lip: LipRoughness,
     lip_wire: WireLip,
@@ -67,6 +68,7 @@ impl FrameJob {
             poser: FramePoser::new(&reg.fitted),
             scratch: binding.scratch(reg.mask_rest().len(), reg.mask_triangles().len()),
             deformed: vec![Vec3::ZERO; n],
+            head_motion: HeadMotion::IDENTITY,
             deltas: vec![[0.0; 3]; n],
             lip,
             lip_wire: WireLip {
@@ -86,9 +88,11 @@ impl FrameJob {
     }
 
     /// Poses the mask from `frame` and deforms the head: the deformed vertices, head
-    /// units, in the head's vertex order.
+    /// units, in the head's vertex order, before the head's own motion
+    /// ([`FrameJob::head_motion`] has that).
     pub fn deform(&mut self, frame: &Frame) -> &[Vec3] {
         let reg = &self.head.registration;
+        self.head_motion = HeadMotion::of_frame(frame, &reg.fitted.fit.pose);
         let mask_now = self.poser.pose(&reg.fitted, &self.basis, frame);
         self.binding.deform(
             &reg.head.positions,
@@ -101,18 +105,27 @@ impl FrameJob {
         &self.deformed
     }
 
-    /// The head as the last [`FrameJob::deform`] left it (head units).
+    /// The head's own motion in the frame of the last [`FrameJob::deform`]: where the
+    /// deformed head is placed.
+    pub fn head_motion(&self) -> HeadMotion {
+        self.head_motion
+    }
+
+    /// The head as the last [`FrameJob::deform`] left it, before the head's motion (head
+    /// units).
     pub fn deformed(&self) -> &[Vec3] {
         &self.deformed
     }
 
-    /// The moved mask of the last [`FrameJob::deform`] (head units).
+    /// The moved mask of the last [`FrameJob::deform`], before the head's motion (head
+    /// units).
     pub fn mask(&self) -> &[Vec3] {
         self.poser.posed()
     }
 
     /// Encodes the head as [`FrameJob::deform`] left it, for `frame`: quantized deltas
-    /// against the rest mesh, lip roughness, the label, face roughness if asked for.
+    /// against the rest mesh, the head's motion, lip roughness, the label, face roughness
+    /// if asked for.
     pub fn encode(&mut self, frame: &Frame, times: FrameTimes) -> Result<&[u8], FrameJobError> {
         let rest = &self.head.registration.head.positions;
         if let Some(vertex) = self.deformed.iter().position(|p| !p.is_finite()) {
@@ -154,6 +167,7 @@ impl FrameJob {
                 label: frame.label.as_deref(),
                 face,
                 deflate: true,
+                head: self.head_motion.to_wire(),
             },
         ))
     }

@@ -1,11 +1,13 @@
 //! A registered head animated frame by frame: the job the service runs once per frame for
 //! every (stream, algorithm) that has viewers, and that `facewire deform`, the tests and
 //! the benchmarks run offline. Parameter frame in; moved mask, deformed head, lip
-//! roughness and an encoded viewer frame (`FWF1`) out. Plain synchronous Rust: no
+//! roughness, the head's own rigid motion and an encoded viewer frame (`FWF1`) out. Plain synchronous Rust: no
 //! runtime, no allocation per frame.
 
 mod head;
+mod head_motion;
 mod job;
 
 pub use head::{AnimatedHead, AnimatedHeadError, STEP_MM};
+pub use head_motion::{HeadMotion, NECK_PIVOT_MASK};
 pub use job::{FrameJob, FrameJobError, FrameTimes};

@@ -1,5 +1,5 @@
 //! `facewire deform`: bind an algorithm to a head and write the deformed head of every
-//! frame of a stream as OBJ, with the control displacements and the lip roughness table
+//! frame of a stream as OBJ (placed by the head's own motion), with the control displacements and the lip roughness table
 //! (the thesis's `dataMetrics.txt`, docs/METRICS.md section 3) as TSV, for offline study and
 //! for checking the live service against.
 
@@ -26,7 +26,9 @@ pub struct Args {
     /// Parameter stream (.jsonl, .fap, .fau).
     #[arg(long)]
     stream: FilePath,
-    /// Output directory (created if missing): frame_NNNNN.obj, control.tsv, metrics.tsv.
+    /// Output directory (created if missing): frame_NNNNN.obj (the head deformed and moved by
+    /// the frame's head rotation and translation), control.tsv (the mask before that
+    /// motion), metrics.tsv.
     #[arg(long)]
     out: FilePath,
     /// Only frames A..B (0-based, B excluded; either end may be left out: `10..`, `..50`).
@@ -103,6 +105,7 @@ pub fn run(args: Args) -> CliResult {
             args.stream.display()
         ),
     ];
+    let mut placed = vec![glam::Vec3::ZERO; registration.vertex_count()];
     let mut written = 0usize;
     for (index, frame) in open_stream(&args.stream, &mask)?.enumerate() {
         if index >= range.end {
@@ -114,9 +117,10 @@ pub fn run(args: Args) -> CliResult {
         }
         job.deform(&frame);
         let (deformed, mask_now) = (job.deformed(), job.mask());
+        job.head_motion().apply_into(deformed, &mut placed);
         let path = args.out.join(format!("frame_{index:05}.obj"));
         let mut file = BufWriter::new(create(&path)?);
-        obj::write(&mut file, &header, deformed, &registration.head.triangles)?;
+        obj::write(&mut file, &header, &placed, &registration.head.triangles)?;
         file.flush()?;
         let rows = lips.rows(deformed, index as u64, frame.time_s)?;
         metrics.write_rows(&rows).map_err(in_metrics)?;
