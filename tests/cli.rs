@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::data;
+use common::{data, obj_positions};
 
 use std::path::Path;
 use std::process::{Command, Output};
@@ -71,7 +71,7 @@ fn inspect_refuses_bad_files_with_the_line() {
 #[test]
 fn fit_reproduces_the_shipped_fits() {
     let dir = tempfile::tempdir().unwrap();
-    for name in ["makehuman_head", "lee_perry_smith_head"] {
+    for name in ["makehuman_head", "lee_perry_smith_head", "ict_head"] {
         let out_path = dir.path().join(format!("{name}.fit.toml"));
         let head = data(&format!("heads/{name}.obj"));
         let landmarks = data(&format!("heads/{name}.landmarks.toml"));
@@ -135,18 +135,6 @@ fn deform(stream: &Path, frames: &str, dir: &Path) -> Output {
         "--frames",
         frames,
     ])
-}
-
-fn obj_positions(path: &Path) -> Vec<[f32; 3]> {
-    std::fs::read_to_string(path)
-        .unwrap()
-        .lines()
-        .filter_map(|l| l.strip_prefix("v "))
-        .map(|l| {
-            let v: Vec<f32> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
-            [v[0], v[1], v[2]]
-        })
-        .collect()
 }
 
 #[test]

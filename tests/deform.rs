@@ -1,4 +1,4 @@
-//! Every interpolation variant on both shipped heads: invariants, lips, ground truth.
+//! Every interpolation variant on the three shipped heads: invariants, lips, ground truth.
 
 mod common;
 
@@ -8,7 +8,7 @@ use std::sync::OnceLock;
 
 use facewire::deform::{bind, AlgoSpec, Registration};
 use facewire::head::Head;
-use facewire::mask::{Mask, LOWER_LIP};
+use facewire::mask::{Mask, LOWER_LIP, LOWER_LIP_INNER, UPPER_LIP_INNER};
 use facewire::stream::{open_stream, ArkitBasis, Frame, FramePoser};
 use glam::{Mat3, Vec3};
 
@@ -22,8 +22,13 @@ fn makehuman() -> &'static Registration {
     REG.get_or_init(|| register("makehuman_head"))
 }
 
-fn heads() -> [(&'static str, &'static Registration); 2] {
-    [("scan", scan()), ("makehuman", makehuman())]
+fn ict() -> &'static Registration {
+    static REG: OnceLock<Registration> = OnceLock::new();
+    REG.get_or_init(|| register("ict_head"))
+}
+
+fn heads() -> [(&'static str, &'static Registration); 3] {
+    [("scan", scan()), ("makehuman", makehuman()), ("ict", ict())]
 }
 
 /// Every preset (A-U) plus a few non-preset variants, biharmonic among them.
@@ -194,6 +199,29 @@ fn lip_leak(reg: &Registration, spec: &AlgoSpec) -> f32 {
         .sum::<f32>()
         / upper.len() as f32
         / lower
+}
+
+/// The lips are apart along the surface distances the algorithms use on every head, the
+/// ICT head's mouth socket (which joins the lips from inside) included: facing inner-lip
+/// anchors touch in space but are centimetres apart along the surface.
+#[test]
+fn facing_inner_lip_anchors_are_far_apart_along_the_surface() {
+    for (name, reg) in heads() {
+        for (upper, lower) in UPPER_LIP_INNER.into_iter().zip(LOWER_LIP_INNER) {
+            let (a, b) = (reg.anchors.vertex[upper], reg.anchors.vertex[lower]);
+            let along = reg.distance_to_control(upper as u32, b);
+            let space =
+                reg.head.positions[a as usize].distance(reg.head.positions[b as usize]) * reg.mm_per_unit();
+            eprintln!(
+                "{name} {upper}/{lower}: {space:.1} mm apart in space, {along:.1} mm along the surface"
+            );
+            assert!(space < 5.0, "{name} {upper}/{lower}: {space} mm apart in space");
+            assert!(
+                along > 20.0,
+                "{name} {upper}/{lower}: only {along} mm along the surface"
+            );
+        }
+    }
 }
 
 #[test]

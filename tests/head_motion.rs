@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{data, register};
+use common::{data, obj_positions, register};
 
 use std::process::Command;
 use std::sync::Arc;
@@ -116,18 +116,6 @@ fn the_xface_stream_turns_the_head() {
     assert!(largest > 0.01, "{largest} rad");
 }
 
-fn obj_positions(path: &std::path::Path) -> Vec<Vec3> {
-    std::fs::read_to_string(path)
-        .unwrap()
-        .lines()
-        .filter_map(|l| l.strip_prefix("v "))
-        .map(|l| {
-            let v: Vec<f32> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
-            Vec3::new(v[0], v[1], v[2])
-        })
-        .collect()
-}
-
 #[test]
 fn facewire_deform_writes_the_head_where_its_motion_puts_it() {
     let reg = register("makehuman_head");
@@ -153,7 +141,10 @@ fn facewire_deform_writes_the_head_where_its_motion_puts_it() {
         .output()
         .unwrap();
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
-    let written = obj_positions(&out.join("frame_00000.obj"));
+    let written: Vec<Vec3> = obj_positions(&out.join("frame_00000.obj"))
+        .into_iter()
+        .map(Vec3::from_array)
+        .collect();
     assert_eq!(written.len(), reg.vertex_count());
     let mm = reg.mm_per_unit();
     let (mut worst, mut largest_move) = (0.0f32, 0.0f32);

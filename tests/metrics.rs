@@ -285,7 +285,7 @@ fn a_rigid_motion_leaves_every_roughness_value_unchanged() {
 
 #[test]
 fn each_lip_patch_is_the_triangles_within_5_mm_along_the_surface() {
-    for name in ["makehuman_head", "lee_perry_smith_head"] {
+    for name in ["makehuman_head", "lee_perry_smith_head", "ict_head"] {
         let Fitted {
             head, anchors, mm, ..
         } = load_fitted(name);
@@ -526,7 +526,7 @@ fn targets_load_and_jaw_open_rebuilds_the_shipped_open_mouth_head() {
 
 #[test]
 fn face_vertices_cover_the_mask_and_the_targets_motion_but_not_the_back_of_the_head() {
-    for name in ["makehuman_head", "lee_perry_smith_head"] {
+    for name in ["makehuman_head", "lee_perry_smith_head", "ict_head"] {
         let Fitted {
             head,
             fitted,

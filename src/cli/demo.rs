@@ -1,4 +1,4 @@
-//! `facewire demo`: the service with both shipped heads registered and a built-in
+//! `facewire demo`: the service with the three shipped heads registered and a built-in
 //! producer looping the syllable stream, in memory, printing the URL to open. Everything
 //! it needs is embedded in the binary.
 
@@ -38,7 +38,7 @@ pub fn run(args: Args) -> CliResult {
         ));
         serve(state, |addr| {
             println!("facewire demo: open http://{addr}/ in a browser (Ctrl-C to stop)");
-            println!("heads: scan, makehuman; stream: main (the syllable stream, looping)");
+            println!("heads: scan, makehuman, ict; stream: main (the syllable stream, looping)");
         })
         .await?;
         Ok::<(), Box<dyn std::error::Error + Send + Sync>>(())

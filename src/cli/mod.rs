@@ -39,7 +39,7 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Run the demo: the service with both shipped heads and a looping syllable stream.
+    /// Run the demo: the service with the three shipped heads and a looping syllable stream.
     Demo(demo::Args),
     /// Run the service.
     Serve(serve::Args),

@@ -9,7 +9,7 @@ use super::AppState;
 use crate::stream::{syllables, Frame};
 
 /// Shipped heads the demo registers: (id, OBJ, fit).
-pub const DEMO_HEADS: [(&str, &[u8], &str); 2] = [
+pub const DEMO_HEADS: [(&str, &[u8], &str); 3] = [
     (
         "scan",
         include_bytes!("../../data/heads/lee_perry_smith_head.obj"),
@@ -19,6 +19,11 @@ pub const DEMO_HEADS: [(&str, &[u8], &str); 2] = [
         "makehuman",
         include_bytes!("../../data/heads/makehuman_head.obj"),
         include_str!("../../data/heads/makehuman_head.fit.toml"),
+    ),
+    (
+        "ict",
+        include_bytes!("../../data/heads/ict_head.obj"),
+        include_str!("../../data/heads/ict_head.fit.toml"),
     ),
 ];
 

@@ -23,6 +23,19 @@ pub fn data(path: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path)
 }
 
+/// The `v x y z` lines of an OBJ file, in order.
+pub fn obj_positions(path: &Path) -> Vec<[f32; 3]> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .map(|l| {
+            let v: Vec<f32> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
+            [v[0], v[1], v[2]]
+        })
+        .collect()
+}
+
 /// A shipped head (`lee_perry_smith_head`, `makehuman_head`) registered with its fit.
 pub fn register(name: &str) -> Registration {
     let head = Head::load(&data(&format!("heads/{name}.obj"))).unwrap();
