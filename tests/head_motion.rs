@@ -9,7 +9,7 @@ use common::{data, obj_positions, register};
 use std::process::Command;
 use std::sync::Arc;
 
-use facewire::animate::{AnimatedHead, FrameJob, FrameTimes, HeadMotion, NECK_PIVOT_MASK};
+use facewire::animate::{head_motion, AnimatedHead, FrameJob, FrameTimes, NECK_PIVOT_MASK};
 use facewire::deform::{bind, AlgoSpec, Registration};
 use facewire::mask::MaskPose;
 use facewire::stream::{open_stream, ArkitBasis, Frame};
@@ -101,7 +101,7 @@ fn the_xface_stream_turns_the_head() {
     let angles: Vec<f32> = frames
         .iter()
         .map(|f| {
-            HeadMotion::of_frame(f, &reg.fitted.fit.pose)
+            head_motion(f, &reg.fitted.fit.pose)
                 .rotation
                 .angle_between(glam::Quat::IDENTITY)
         })

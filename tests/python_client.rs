@@ -21,7 +21,7 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use facewire::animate::{HeadMotion, STEP_MM};
+use facewire::animate::{head_motion, RigidMotion, STEP_MM};
 use facewire::deform::{bind, AlgoSpec};
 use facewire::mask::fap::FAPS;
 use facewire::mask::Mask;
@@ -295,14 +295,14 @@ async fn the_python_client_decodes_what_the_library_computes() {
         assert_eq!(decoded.lip_per_vertex, 18);
         assert_eq!(decoded.positions.len(), 3 * reg.vertex_count());
         // The head's motion, as the library finds it, and vertex 0 placed by it.
-        let motion = HeadMotion::of_frame(frame, &reg.fitted.fit.pose);
+        let motion = head_motion(frame, &reg.fitted.fit.pose);
         assert_eq!(
             frame.head_rotation_rad.is_some(),
             !motion.is_identity(),
             "seq {}",
             decoded.seq
         );
-        let sent = HeadMotion {
+        let sent = RigidMotion {
             rotation: Quat::from_array(decoded.head_rotation),
             translation: Vec3::from_array(decoded.head_translation),
         };

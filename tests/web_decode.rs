@@ -10,7 +10,7 @@ use common::repo_path;
 
 use std::process::Command;
 
-use facewire_proto::frame::{decode, FrameContent, FrameEncoder, FrameHeader, HeadMotion, LipRoughness};
+use facewire_proto::frame::{decode, FrameContent, FrameEncoder, FrameHeader, LipRoughness, RigidMotion};
 use facewire_proto::DecodeError;
 use serde_json::{json, Value};
 
@@ -27,7 +27,7 @@ struct Case<'a> {
     lip: LipRoughness,
     label: Option<&'a str>,
     face: Option<Vec<f32>>,
-    head: Option<HeadMotion>,
+    head: Option<RigidMotion>,
 }
 
 fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8>, Value) {
@@ -137,7 +137,7 @@ fn cases() -> Value {
     let face: Vec<f32> = (0..300).map(|v| (v % 17) as f32 * 0.011).collect();
     // 0.7 rad about (1, 2, 2) / 3, and a shift.
     let (sin, cos) = (0.35f32.sin(), 0.35f32.cos());
-    let turn = HeadMotion {
+    let turn = RigidMotion {
         rotation: [sin / 3.0, 2.0 * sin / 3.0, 2.0 * sin / 3.0, cos],
         translation: [0.5, -12.0, 3.25],
     };

@@ -192,20 +192,20 @@ async function inflateRaw(bytes, limit, at) {
   return out;
 }
 
-/** The head's motion: 7 x f32, finite, with a unit rotation quaternion. */
-function readHeadMotion(r) {
+/** A rigid motion: 7 x f32, finite, with a unit rotation quaternion. */
+function readRigidMotion(r, field) {
   const at = r.at;
   const values = [];
   for (let i = 0; i < 7; i++) {
-    values.push(r.f32("head motion"));
+    values.push(r.f32(field));
   }
   if (!values.every(Number.isFinite)) {
-    throw new DecodeError("head motion", at, `not finite: ${values.join(", ")}`);
+    throw new DecodeError(field, at, `not finite: ${values.join(", ")}`);
   }
   const rotation = values.slice(0, 4);
   const length = Math.hypot(...rotation);
   if (Math.abs(length - 1) > UNIT_QUATERNION_TOLERANCE) {
-    throw new DecodeError("head motion", at, `rotation quaternion of length ${length}, not 1`);
+    throw new DecodeError(field, at, `rotation quaternion of length ${length}, not 1`);
   }
   return { rotation, translation: values.slice(4) };
 }
@@ -236,7 +236,7 @@ export async function decodeFrame(buffer) {
       throw new DecodeError("label", at, "not UTF-8");
     }
   }
-  const head = flags & FLAG_HEAD ? readHeadMotion(r) : HEAD_AT_REST;
+  const head = flags & FLAG_HEAD ? readRigidMotion(r, "head motion") : HEAD_AT_REST;
   if (moved > vertexCount) {
     throw new DecodeError("moved", 48, `${moved} moved of ${vertexCount} vertices`);
   }

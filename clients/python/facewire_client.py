@@ -462,9 +462,9 @@ class LipRoughness:
 
 
 @dataclass
-class HeadMotion:
-    """The head's own rigid motion in a frame: ``world = rotate(rotation, p) + translation``
-    for a deformed position ``p`` (head units). ``rotation`` is a unit quaternion
+class RigidMotion:
+    """A rigid motion of head units, ``world = rotate(rotation, p) + translation``: the
+    head's own motion in a frame, for a deformed position ``p``. ``rotation`` is a unit quaternion
     ``(x, y, z, w)``."""
 
     rotation: Tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
@@ -501,7 +501,7 @@ class ViewerFrame:
     lip: LipRoughness
     label: Optional[str]
     face: Optional[List[float]] = None
-    head: HeadMotion = field(default_factory=HeadMotion)
+    head: RigidMotion = field(default_factory=RigidMotion)
     positions: Optional[List[Tuple[float, float, float]]] = None
 
     def apply(self, rest: Sequence[Tuple[float, float, float]]) -> List[Tuple[float, float, float]]:
@@ -614,7 +614,7 @@ def decode_fwf1(data: bytes) -> ViewerFrame:
     (lip_count,) = r.unpack("B", "lip_count")
     per_vertex = list(r.unpack("%df" % lip_count, "lip roughness per vertex"))
     label = r.label() if flags & 2 else None
-    head = _head_motion(r) if flags & 8 else HeadMotion()
+    head = _rigid_motion(r, "head motion") if flags & 8 else RigidMotion()
     if moved_count > vertex_count:
         raise ProtocolError("%d moved of %d vertices" % (moved_count, vertex_count),
                             field="moved", at=48)
@@ -683,17 +683,17 @@ def decode_fwf1(data: bytes) -> ViewerFrame:
     )
 
 
-def _head_motion(r: "_Reader") -> HeadMotion:
+def _rigid_motion(r: "_Reader", name: str) -> RigidMotion:
     """7 x f32: a unit rotation quaternion x, y, z, w and a translation, all finite."""
     at = r.at
-    values = r.unpack("7f", "head motion")
+    values = r.unpack("7f", name)
     if not all(math.isfinite(v) for v in values):
-        raise ProtocolError("head motion not finite: %r" % (values,), field="head motion", at=at)
+        raise ProtocolError("%s not finite: %r" % (name, values), field=name, at=at)
     length = math.sqrt(sum(v * v for v in values[:4]))
     if abs(length - 1.0) > 1e-4:
-        raise ProtocolError("head rotation quaternion of length %g, not 1" % length,
-                            field="head motion", at=at)
-    return HeadMotion(rotation=tuple(values[:4]), translation=tuple(values[4:]))
+        raise ProtocolError("%s: rotation quaternion of length %g, not 1" % (name, length),
+                            field=name, at=at)
+    return RigidMotion(rotation=tuple(values[:4]), translation=tuple(values[4:]))
 
 
 def decode_mesh(data: bytes) -> RestMesh:

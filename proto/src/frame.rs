@@ -61,18 +61,18 @@ pub struct LipRoughness {
     pub per_vertex: Vec<f32>,
 }
 
-/// The head's own motion in a frame, a rigid transform of head units:
-/// `world = rotate(rotation, local) + translation`, where local is rest + delta.
+/// A rigid motion of head units, `world = rotate(rotation, local) + translation`: the
+/// head's own motion in a frame (local = rest + delta).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HeadMotion {
+pub struct RigidMotion {
     /// Unit quaternion x, y, z, w.
     pub rotation: [f32; 4],
     /// Head units.
     pub translation: [f32; 3],
 }
 
-impl HeadMotion {
-    pub const IDENTITY: HeadMotion = HeadMotion {
+impl RigidMotion {
+    pub const IDENTITY: RigidMotion = RigidMotion {
         rotation: [0.0, 0.0, 0.0, 1.0],
         translation: [0.0; 3],
     };
@@ -107,8 +107,8 @@ pub struct ViewerFrame {
     pub label: Option<String>,
     /// Per-vertex face roughness, when the viewer asked for it.
     pub face: Option<Vec<f32>>,
-    /// The head's own motion; [`HeadMotion::IDENTITY`] when the frame has none.
-    pub head: HeadMotion,
+    /// The head's own motion; [`RigidMotion::IDENTITY`] when the frame has none.
+    pub head: RigidMotion,
 }
 
 impl ViewerFrame {
@@ -146,7 +146,7 @@ pub struct FrameContent<'a> {
     /// Deflate the delta block (about a third of the size, a little slower to encode).
     pub deflate: bool,
     /// The head's own motion, sent beside the deltas; `None` for a head at rest.
-    pub head: Option<HeadMotion>,
+    pub head: Option<RigidMotion>,
 }
 
 /// Encodes frames into reused buffers.
@@ -376,9 +376,9 @@ pub fn decode(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
         None
     };
     let head = if flags & FLAG_HEAD != 0 {
-        read_head_motion(&mut r)?
+        read_rigid_motion(&mut r, "head motion")?
     } else {
-        HeadMotion::IDENTITY
+        RigidMotion::IDENTITY
     };
     if moved_count > vertex_count {
         return Err(DecodeError::Invalid {
@@ -468,18 +468,14 @@ pub fn decode(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
     })
 }
 
-/// A head motion: finite numbers, a unit rotation quaternion.
-fn read_head_motion(r: &mut Reader<'_>) -> Result<HeadMotion, DecodeError> {
+/// A rigid motion: finite numbers, a unit rotation quaternion.
+fn read_rigid_motion(r: &mut Reader<'_>, field: &'static str) -> Result<RigidMotion, DecodeError> {
     let at = r.position();
     let mut values = [0.0f32; 7];
     for x in &mut values {
-        *x = r.f32("head motion")?;
+        *x = r.f32(field)?;
     }
-    let invalid = |problem: String| DecodeError::Invalid {
-        field: "head motion",
-        at,
-        problem,
-    };
+    let invalid = |problem: String| DecodeError::Invalid { field, at, problem };
     if values.iter().any(|x| !x.is_finite()) {
         return Err(invalid(format!("not finite: {values:?}")));
     }
@@ -488,7 +484,7 @@ fn read_head_motion(r: &mut Reader<'_>) -> Result<HeadMotion, DecodeError> {
     if (length - 1.0).abs() > UNIT_QUATERNION_TOLERANCE {
         return Err(invalid(format!("rotation quaternion of length {length}, not 1")));
     }
-    Ok(HeadMotion {
+    Ok(RigidMotion {
         rotation,
         translation: [values[4], values[5], values[6]],
     })
@@ -580,7 +576,7 @@ mod tests {
     }
 
     /// A quarter turn about +y (yaw) and a shift.
-    const QUARTER_YAW: HeadMotion = HeadMotion {
+    const QUARTER_YAW: RigidMotion = RigidMotion {
         rotation: [
             0.0,
             std::f32::consts::FRAC_1_SQRT_2,
@@ -597,7 +593,7 @@ mod tests {
         for (got, want) in p.iter().zip([1.0, 2.0, 2.0]) {
             assert!((got - want).abs() < 1e-6, "{p:?}");
         }
-        assert_eq!(HeadMotion::IDENTITY.apply([4.0, 5.0, 6.0]), [4.0, 5.0, 6.0]);
+        assert_eq!(RigidMotion::IDENTITY.apply([4.0, 5.0, 6.0]), [4.0, 5.0, 6.0]);
     }
 
     #[test]
@@ -615,7 +611,7 @@ mod tests {
         assert_eq!(moving[4], still[4] | FLAG_HEAD);
         let frame = decode(&moving).unwrap();
         assert_eq!(frame.head, QUARTER_YAW);
-        assert_eq!(decode(&still).unwrap().head, HeadMotion::IDENTITY);
+        assert_eq!(decode(&still).unwrap().head, RigidMotion::IDENTITY);
         let (mut local, mut placed) = (Vec::new(), Vec::new());
         let rest = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0];
         frame.apply(&rest, &mut local);

@@ -9,78 +9,27 @@
 //! `H = g m g^-1`, so `H(x) = R_h (x - g(c)) + g(c) + L t` with `R_h = R_fit R R_fit^T`.
 //! `H` is rigid: the head turns, nothing in it bends.
 
-use glam::{Mat3, Quat, Vec3};
+use glam::Vec3;
 
+use super::RigidMotion;
 use crate::mask::MaskPose;
 use crate::stream::Frame;
-use facewire_proto::frame::HeadMotion as WireHeadMotion;
 
 /// Where the head turns about, mask units: on the mid-line, level with the mouth corners
 /// (CANDIDE-3 vertices 31 and 64 have y = -0.461) and 0.75 units (about 75 mm) behind the
 /// face plane z = 0, near where the skull sits on the spine.
 pub const NECK_PIVOT_MASK: Vec3 = Vec3::new(0.0, -0.461, -0.75);
 
-/// A rigid transform of head units, `x -> rotation x + translation`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HeadMotion {
-    pub rotation: Quat,
-    pub translation: Vec3,
-}
-
-impl Default for HeadMotion {
-    fn default() -> Self {
-        HeadMotion::IDENTITY
+/// The head's motion `frame` asks for, in the head units of a mask fitted with `pose`.
+/// Exactly [`RigidMotion::IDENTITY`] for a frame without head rotation or translation.
+pub fn head_motion(frame: &Frame, pose: &MaskPose) -> RigidMotion {
+    let rotation_rad = Vec3::from_array(frame.head_rotation());
+    let translation = Vec3::from_array(frame.head_translation.unwrap_or([0.0; 3]));
+    if rotation_rad == Vec3::ZERO && translation == Vec3::ZERO {
+        return RigidMotion::IDENTITY;
     }
-}
-
-impl HeadMotion {
-    pub const IDENTITY: HeadMotion = HeadMotion {
-        rotation: Quat::IDENTITY,
-        translation: Vec3::ZERO,
-    };
-
-    /// The motion `frame` asks for, in the head units of a mask fitted with `pose`.
-    /// Exactly [`HeadMotion::IDENTITY`] for a frame without head rotation or translation.
-    pub fn of_frame(frame: &Frame, pose: &MaskPose) -> HeadMotion {
-        let rotation_rad = Vec3::from_array(frame.head_rotation());
-        let translation = Vec3::from_array(frame.head_translation.unwrap_or([0.0; 3]));
-        if rotation_rad == Vec3::ZERO && translation == Vec3::ZERO {
-            return HeadMotion::IDENTITY;
-        }
-        let in_mask = MaskPose::similarity(rotation_rad, 1.0, Vec3::ZERO).rotation();
-        let fit_rotation = pose.rotation();
-        let linear = fit_rotation * Mat3::from_diagonal(pose.scale);
-        let pivot = linear * NECK_PIVOT_MASK + pose.translation;
-        let rotation = Quat::from_mat3(&(fit_rotation * in_mask * fit_rotation.transpose())).normalize();
-        HeadMotion {
-            rotation,
-            translation: pivot + linear * translation - rotation * pivot,
-        }
-    }
-
-    pub fn is_identity(&self) -> bool {
-        *self == HeadMotion::IDENTITY
-    }
-
-    pub fn apply(&self, p: Vec3) -> Vec3 {
-        self.rotation * p + self.translation
-    }
-
-    /// `out[i] = self.apply(points[i])`. Allocates nothing.
-    pub fn apply_into(&self, points: &[Vec3], out: &mut [Vec3]) {
-        for (o, p) in out.iter_mut().zip(points) {
-            *o = self.apply(*p);
-        }
-    }
-
-    /// The motion as a viewer frame carries it; `None` for the identity, which frames
-    /// leave out.
-    pub fn to_wire(&self) -> Option<WireHeadMotion> {
-        (!self.is_identity()).then(|| WireHeadMotion {
-            rotation: self.rotation.to_array(),
-            translation: self.translation.to_array(),
-        })
-    }
+    let in_mask = MaskPose::similarity(rotation_rad, 1.0, Vec3::ZERO).rotation();
+    RigidMotion::in_mask_frame(in_mask, NECK_PIVOT_MASK, translation, pose)
 }
 
 #[cfg(test)]
@@ -100,16 +49,16 @@ mod tests {
     #[test]
     fn no_rotation_no_translation_is_exactly_the_identity() {
         let pose = MaskPose::similarity(Vec3::new(0.1, 0.2, 0.3), 80.0, Vec3::ONE);
-        assert!(HeadMotion::of_frame(&Frame::default(), &pose).is_identity());
-        assert!(HeadMotion::of_frame(&frame([0.0; 3], Some([0.0; 3])), &pose).is_identity());
-        assert_eq!(HeadMotion::IDENTITY.to_wire(), None);
+        assert!(head_motion(&Frame::default(), &pose).is_identity());
+        assert!(head_motion(&frame([0.0; 3], Some([0.0; 3])), &pose).is_identity());
+        assert_eq!(RigidMotion::IDENTITY.to_wire(), None);
     }
 
     #[test]
     fn a_quarter_yaw_turns_about_the_neck_pivot() {
         // Mask units are head units here: the pivot stays, a point 1 unit in front of it
         // (+z) turns onto +x (yaw is a rotation about +y).
-        let motion = HeadMotion::of_frame(&frame([0.0, FRAC_PI_2, 0.0], None), &MaskPose::IDENTITY);
+        let motion = head_motion(&frame([0.0, FRAC_PI_2, 0.0], None), &MaskPose::IDENTITY);
         assert!(motion.apply(NECK_PIVOT_MASK).abs_diff_eq(NECK_PIVOT_MASK, 1e-6));
         let front = NECK_PIVOT_MASK + Vec3::Z;
         let turned = motion.apply(front);
@@ -125,8 +74,8 @@ mod tests {
             faps: vec![(49, 10_000.0)],
             ..Frame::default()
         };
-        let motion = HeadMotion::of_frame(&frame, &MaskPose::IDENTITY);
-        let expected = Quat::from_rotation_y(0.2);
+        let motion = head_motion(&frame, &MaskPose::IDENTITY);
+        let expected = glam::Quat::from_rotation_y(0.2);
         assert!(motion.rotation.abs_diff_eq(expected, 1e-6), "{}", motion.rotation);
         assert!(motion
             .apply(NECK_PIVOT_MASK)
@@ -138,7 +87,7 @@ mod tests {
         // H(g(p)) = g(m(p)) for points all over the mask's frame.
         let pose = MaskPose::similarity(Vec3::new(0.2, -0.4, 0.1), 85.0, Vec3::new(3.0, 160.0, -20.0));
         let (rotation, translation) = (Vec3::new(0.3, -0.5, 0.25), Vec3::new(0.1, -0.2, 0.05));
-        let motion = HeadMotion::of_frame(&frame(rotation.to_array(), Some(translation.to_array())), &pose);
+        let motion = head_motion(&frame(rotation.to_array(), Some(translation.to_array())), &pose);
         let in_mask = MaskPose::similarity(rotation, 1.0, Vec3::ZERO).rotation();
         for p in [
             Vec3::ZERO,

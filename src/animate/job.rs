@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use super::{AnimatedHead, HeadMotion};
+use super::{head_motion, AnimatedHead, RigidMotion};
 use crate::deform::{Binding, DeformScratch};
 use crate::mask::LIP_VERTICES;
 use crate::metrics::{LipRoughness, Roughness, RoughnessError};
@@ -40,7 +40,7 @@ pub struct FrameJob {
     poser: FramePoser,
     scratch: DeformScratch,
     deformed: Vec<Vec3>,
-    head_motion: HeadMotion,
+    head_motion: RigidMotion,
     deltas: Vec<[f32; 3]>,
     lip: LipRoughness,
     lip_wire: WireLip,
@@ -68,7 +68,7 @@ impl FrameJob {
             poser: FramePoser::new(&reg.fitted),
             scratch: binding.scratch(reg.mask_rest().len(), reg.mask_triangles().len()),
             deformed: vec![Vec3::ZERO; n],
-            head_motion: HeadMotion::IDENTITY,
+            head_motion: RigidMotion::IDENTITY,
             deltas: vec![[0.0; 3]; n],
             lip,
             lip_wire: WireLip {
@@ -92,7 +92,7 @@ impl FrameJob {
     /// ([`FrameJob::head_motion`] has that).
     pub fn deform(&mut self, frame: &Frame) -> &[Vec3] {
         let reg = &self.head.registration;
-        self.head_motion = HeadMotion::of_frame(frame, &reg.fitted.fit.pose);
+        self.head_motion = head_motion(frame, &reg.fitted.fit.pose);
         let mask_now = self.poser.pose(&reg.fitted, &self.basis, frame);
         self.binding.deform(
             &reg.head.positions,
@@ -107,7 +107,7 @@ impl FrameJob {
 
     /// The head's own motion in the frame of the last [`FrameJob::deform`]: where the
     /// deformed head is placed.
-    pub fn head_motion(&self) -> HeadMotion {
+    pub fn head_motion(&self) -> RigidMotion {
         self.head_motion
     }
 

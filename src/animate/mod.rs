@@ -6,8 +6,12 @@
 
 mod head;
 mod head_motion;
+mod jaw;
 mod job;
+mod rigid;
 
 pub use head::{AnimatedHead, AnimatedHeadError, STEP_MM};
-pub use head_motion::{HeadMotion, NECK_PIVOT_MASK};
+pub use head_motion::{head_motion, NECK_PIVOT_MASK};
+pub use jaw::{jaw_motion, CHIN_VERTICES, JAW_PIVOT_MASK};
 pub use job::{FrameJob, FrameJobError, FrameTimes};
+pub use rigid::RigidMotion;
