@@ -28,6 +28,7 @@ struct Case<'a> {
     label: Option<&'a str>,
     face: Option<Vec<f32>>,
     head: Option<RigidMotion>,
+    jaw: Option<RigidMotion>,
 }
 
 fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8>, Value) {
@@ -42,6 +43,7 @@ fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8
                 face: case.face.as_deref(),
                 deflate,
                 head: case.head,
+                jaw: case.jaw,
             },
         )
         .to_vec();
@@ -78,6 +80,10 @@ fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8
         "head": {
             "rotation": exact(&frame.head.rotation),
             "translation": exact(&frame.head.translation),
+        },
+        "jaw": {
+            "rotation": exact(&frame.jaw.rotation),
+            "translation": exact(&frame.jaw.translation),
         },
         "rest": exact(&rest),
         "positions": exact(&positions),
@@ -141,6 +147,11 @@ fn cases() -> Value {
         rotation: [sin / 3.0, 2.0 * sin / 3.0, 2.0 * sin / 3.0, cos],
         translation: [0.5, -12.0, 3.25],
     };
+    // A jaw opened 0.4 rad about x, and slid.
+    let open = RigidMotion {
+        rotation: [0.2f32.sin(), 0.0, 0.0, 0.2f32.cos()],
+        translation: [0.0, -0.75, 0.5],
+    };
     let cases = [
         Case {
             name: "plain",
@@ -151,6 +162,7 @@ fn cases() -> Value {
             label: None,
             face: None,
             head: None,
+            jaw: None,
         },
         Case {
             name: "label and face roughness",
@@ -161,6 +173,7 @@ fn cases() -> Value {
             label: Some("pa"),
             face: Some(face.clone()),
             head: None,
+            jaw: None,
         },
         Case {
             name: "large deltas, a multi-byte label, flat face",
@@ -179,6 +192,7 @@ fn cases() -> Value {
             label: Some("ʃa"),
             face: Some(vec![0.0; 4]),
             head: None,
+            jaw: None,
         },
         Case {
             name: "nothing moved",
@@ -189,6 +203,7 @@ fn cases() -> Value {
             label: Some("rest"),
             face: None,
             head: None,
+            jaw: None,
         },
         Case {
             name: "every vertex moved",
@@ -201,6 +216,7 @@ fn cases() -> Value {
             label: None,
             face: None,
             head: None,
+            jaw: None,
         },
         Case {
             name: "head motion, label and face roughness",
@@ -211,6 +227,7 @@ fn cases() -> Value {
             label: Some("ta"),
             face: Some(face),
             head: Some(turn),
+            jaw: None,
         },
         Case {
             name: "head motion only",
@@ -221,6 +238,7 @@ fn cases() -> Value {
             label: None,
             face: None,
             head: Some(turn),
+            jaw: Some(open),
         },
     ];
     let mut encoder = FrameEncoder::default();
@@ -248,6 +266,10 @@ fn cases() -> Value {
     long_quaternion[head_at + 12..head_at + 16].copy_from_slice(&2.0f32.to_le_bytes());
     let mut nan_translation = with_head.clone();
     nan_translation[head_at + 16..head_at + 20].copy_from_slice(&f32::NAN.to_le_bytes());
+    // The last case carries head and jaw motion; no lip values, no label.
+    let with_jaw = &encoded[12];
+    let mut long_jaw = with_jaw.clone();
+    long_jaw[65 + 28..65 + 32].copy_from_slice(&3.0f32.to_le_bytes());
     let mut bad_label = good.clone();
     let label_at = 65 + 18 * 4 + 1;
     bad_label[label_at] = 0xff;
@@ -280,6 +302,7 @@ fn cases() -> Value {
         malformed("head rotation not a unit quaternion", long_quaternion),
         malformed("head translation not finite", nan_translation),
         malformed("truncated head motion", with_head[..head_at + 10].to_vec()),
+        malformed("jaw rotation not a unit quaternion", long_jaw),
         malformed(
             "truncated deflated face roughness",
             good_deflated[..good_deflated.len() - 1].to_vec(),

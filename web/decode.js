@@ -11,10 +11,11 @@ const FLAG_FACE = 1;
 const FLAG_LABEL = 2;
 const FLAG_DEFLATE = 4;
 const FLAG_HEAD = 8;
+const FLAG_JAW = 16;
 /** How far from 1 a head rotation quaternion's length may be. */
 const UNIT_QUATERNION_TOLERANCE = 1e-4;
-/** The head at rest: rotation quaternion x, y, z, w and translation (head units). */
-export const HEAD_AT_REST = Object.freeze({ rotation: [0, 0, 0, 1], translation: [0, 0, 0] });
+/** No motion (the head or the jaw at rest): rotation quaternion x, y, z, w and translation (head units). */
+export const AT_REST = Object.freeze({ rotation: [0, 0, 0, 1], translation: [0, 0, 0] });
 const I32_MIN = -(2 ** 31);
 const I32_MAX = 2 ** 31 - 1;
 /** Zigzag of the largest difference of two i32 counts. */
@@ -215,7 +216,8 @@ function readRigidMotion(r, field) {
  * `movedIndices[i]` is a vertex and `movedCounts[3i..3i+3]` its quantized delta:
  * delta = counts x step, head units. `face` is per-vertex roughness (Float32Array) or
  * null, `label` a string or null, `head` the head's rigid motion ({rotation: quaternion
- * x, y, z, w; translation: head units}), HEAD_AT_REST when the frame has none.
+ * x, y, z, w; translation: head units}) and `jaw` the jaw's (applied before the head's to
+ * the parts that move with it), each AT_REST when the frame has none.
  */
 export async function decodeFrame(buffer) {
   const r = new Reader(new Uint8Array(buffer));
@@ -236,7 +238,8 @@ export async function decodeFrame(buffer) {
       throw new DecodeError("label", at, "not UTF-8");
     }
   }
-  const head = flags & FLAG_HEAD ? readRigidMotion(r, "head motion") : HEAD_AT_REST;
+  const head = flags & FLAG_HEAD ? readRigidMotion(r, "head motion") : AT_REST;
+  const jaw = flags & FLAG_JAW ? readRigidMotion(r, "jaw motion") : AT_REST;
   if (moved > vertexCount) {
     throw new DecodeError("moved", 48, `${moved} moved of ${vertexCount} vertices`);
   }
@@ -256,7 +259,7 @@ export async function decodeFrame(buffer) {
     }
   }
   r.finish();
-  return { ...header, lip: { ...header.lip, perVertex: lipPerVertex }, label, head, movedIndices, movedCounts, face };
+  return { ...header, lip: { ...header.lip, perVertex: lipPerVertex }, label, head, jaw, movedIndices, movedCounts, face };
 }
 
 /**
@@ -297,10 +300,10 @@ function readDeltaBlock(block, blockAt, { vertexCount, moved }) {
 }
 
 /**
- * The head's motion as a column-major 4x4 matrix (WebGL's order): rotation, then
- * translation, applied to rest + delta positions.
+ * A rigid motion as a column-major 4x4 matrix (WebGL's order): rotation, then
+ * translation.
  */
-export function headMatrix({ rotation: [x, y, z, w], translation: [tx, ty, tz] }) {
+export function motionMatrix({ rotation: [x, y, z, w], translation: [tx, ty, tz] }) {
   return new Float32Array([
     1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y), 0,
     2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x), 0,

@@ -4,7 +4,7 @@
 // verdict. Not served: the page never loads this file.
 
 import { readFileSync } from "node:fs";
-import { applyFrame, decodeFrame, DecodeError, headMatrix, parseMesh, readFrameHeader } from "./decode.js";
+import { applyFrame, decodeFrame, DecodeError, motionMatrix, parseMesh, readFrameHeader } from "./decode.js";
 
 const cases = JSON.parse(readFileSync(process.argv[2], "utf8"));
 const failures = [];
@@ -58,10 +58,11 @@ for (const [i, c] of cases.frames.entries()) {
   same(frame.movedCounts, c.movedCounts, `${path} movedCounts`);
   same(frame.face, c.face, `${path} face`);
   same(frame.head, c.head, `${path} head`);
+  same(frame.jaw, c.jaw, `${path} jaw`);
   const positions = applyFrame(new Float32Array(c.rest), frame, new Float32Array(c.rest.length));
   same(positions, c.positions, `${path} positions`);
   // The matrix the page draws with puts every vertex where the Rust client places it.
-  const m = headMatrix(frame.head);
+  const m = motionMatrix(frame.head);
   for (let v = 0; v < positions.length / 3; v++) {
     const [x, y, z] = positions.subarray(v * 3, v * 3 + 3);
     for (let k = 0; k < 3; k++) {

@@ -4,7 +4,7 @@
 // is read, for the numbers and the chart); the page decodes just the one it draws, so a
 // slow machine skips frames instead of falling behind.
 
-import { applyFrame, decodeFrame, headMatrix, readFrameHeader } from "./decode.js";
+import { applyFrame, decodeFrame, motionMatrix, readFrameHeader } from "./decode.js";
 import { HeadRenderer } from "./render.js";
 import { CLOSE } from "./codes.js";
 import { ViewerSocket } from "./stream.js";
@@ -256,7 +256,7 @@ export class Panel {
     }
     applyFrame(this.mesh.positions, frame, this.positions);
     this.renderer.setPositions(this.positions);
-    this.renderer.setModel(headMatrix(frame.head));
+    this.renderer.setModel(motionMatrix(frame.head));
     this.renderer.setHeat(frame.face, this.settings.heatMax);
     this.parts.syllable.textContent = frame.label ?? "–";
     this.parts.label.textContent = frame.label ?? "";

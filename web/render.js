@@ -185,7 +185,7 @@ export class HeadRenderer {
     gl.bufferSubData(gl.ARRAY_BUFFER, 0, this.normals);
   }
 
-  /** The head's motion (column-major 4x4, from decode.js headMatrix). */
+  /** The head's motion (column-major 4x4, from decode.js motionMatrix). */
   setModel(matrix) {
     this.model = matrix;
   }

@@ -488,7 +488,8 @@ class ViewerFrame:
     ``moved`` holds ``(vertex, cx, cy, cz)``: the quantized delta of every vertex that
     moved, in counts of ``step`` head units. ``positions`` is filled by :class:`Viewer`
     (or :meth:`apply`): one ``(x, y, z)`` tuple per vertex, head units, ``rest + counts x
-    step``, before the head's own motion ``head`` (:meth:`place` applies it). Times: ``producer_time_s`` is the producer's ``t``; the ``_us`` fields are µs
+    step``, before the head's own motion ``head`` (:meth:`place` applies it). ``jaw`` is the
+    jaw's motion, which places the parts that move with it (before ``head``). Times: ``producer_time_s`` is the producer's ``t``; the ``_us`` fields are µs
     since the Unix epoch on the server's clock."""
 
     seq: int
@@ -502,6 +503,7 @@ class ViewerFrame:
     label: Optional[str]
     face: Optional[List[float]] = None
     head: RigidMotion = field(default_factory=RigidMotion)
+    jaw: RigidMotion = field(default_factory=RigidMotion)
     positions: Optional[List[Tuple[float, float, float]]] = None
 
     def apply(self, rest: Sequence[Tuple[float, float, float]]) -> List[Tuple[float, float, float]]:
@@ -615,6 +617,7 @@ def decode_fwf1(data: bytes) -> ViewerFrame:
     per_vertex = list(r.unpack("%df" % lip_count, "lip roughness per vertex"))
     label = r.label() if flags & 2 else None
     head = _rigid_motion(r, "head motion") if flags & 8 else RigidMotion()
+    jaw = _rigid_motion(r, "jaw motion") if flags & 16 else RigidMotion()
     if moved_count > vertex_count:
         raise ProtocolError("%d moved of %d vertices" % (moved_count, vertex_count),
                             field="moved", at=48)
@@ -680,6 +683,7 @@ def decode_fwf1(data: bytes) -> ViewerFrame:
         label=label,
         face=face,
         head=head,
+        jaw=jaw,
     )
 
 

@@ -7,7 +7,7 @@
 //! offset  size  field
 //!      0     4  magic "FWF1"
 //!      4     1  flags: bit 0 face roughness present, bit 1 label present, bit 2 deltas deflated,
-//!                bit 3 head motion present
+//!                bit 3 head motion present, bit 4 jaw motion present
 //!      5     3  reserved, 0
 //!      8     8  seq (u64): the producer's sequence number
 //!     16     8  producer_time_s (f64): the producer's timestamp
@@ -20,6 +20,7 @@
 //!     64     1  lip_count n (u8), then n x f32: mean roughness around each lip vertex
 //!      .     .  if label: u8 length, then that many UTF-8 bytes
 //!      .    28  if head motion: rotation quaternion x, y, z, w, translation x, y, z (7 x f32)
+//!      .    28  if jaw motion: the same, for the parts that move with the jaw
 //!      .     4  delta block length in bytes (u32), then the block:
 //!               moved x { varint index gap, 3 x zigzag varint count differences },
 //!               raw-deflated (RFC 1951) when flag bit 2 is set
@@ -39,6 +40,7 @@ const FLAG_FACE: u8 = 1;
 const FLAG_LABEL: u8 = 2;
 const FLAG_DEFLATE: u8 = 4;
 const FLAG_HEAD: u8 = 8;
+const FLAG_JAW: u8 = 16;
 /// How far from 1 a head rotation quaternion's length may be (f32 rounding is 1e-7).
 const UNIT_QUATERNION_TOLERANCE: f32 = 1e-4;
 
@@ -109,6 +111,9 @@ pub struct ViewerFrame {
     pub face: Option<Vec<f32>>,
     /// The head's own motion; [`RigidMotion::IDENTITY`] when the frame has none.
     pub head: RigidMotion,
+    /// The jaw's motion (before the head's), for the parts that move with it;
+    /// [`RigidMotion::IDENTITY`] when the frame has none.
+    pub jaw: RigidMotion,
 }
 
 impl ViewerFrame {
@@ -147,6 +152,8 @@ pub struct FrameContent<'a> {
     pub deflate: bool,
     /// The head's own motion, sent beside the deltas; `None` for a head at rest.
     pub head: Option<RigidMotion>,
+    /// The jaw's motion, for heads with parts that move with it; `None` at rest.
+    pub jaw: Option<RigidMotion>,
 }
 
 /// Encodes frames into reused buffers.
@@ -165,7 +172,7 @@ impl FrameEncoder {
     pub fn for_head(vertices: usize, lip_values: usize) -> FrameEncoder {
         // Gap and three counts, each a LEB128 varint of at most 5 bytes (u32 and zigzag i32).
         let block = vertices * 20;
-        let header = 64 + 1 + 4 * lip_values + 256 + 28 + 4;
+        let header = 64 + 1 + 4 * lip_values + 256 + 2 * 28 + 4;
         // Deflate's worst case stays under the stored size plus its 5-byte block headers;
         // the loop reserves half a block and 64 bytes more before each call.
         let deflated = block + block / 2 + 64 + 5 * (block / 16_384 + 1);
@@ -195,6 +202,9 @@ impl FrameEncoder {
         if content.head.is_some() {
             flags |= FLAG_HEAD;
         }
+        if content.jaw.is_some() {
+            flags |= FLAG_JAW;
+        }
         out.extend_from_slice(&[flags, 0, 0, 0]);
         out.extend_from_slice(&header.seq.to_le_bytes());
         out.extend_from_slice(&header.producer_time_s.to_le_bytes());
@@ -215,8 +225,8 @@ impl FrameEncoder {
         if let Some(label) = label {
             write_label(label, out);
         }
-        if let Some(head) = content.head {
-            for x in head.rotation.iter().chain(&head.translation) {
+        for motion in [content.head, content.jaw].into_iter().flatten() {
+            for x in motion.rotation.iter().chain(&motion.translation) {
                 out.extend_from_slice(&x.to_le_bytes());
             }
         }
@@ -380,6 +390,11 @@ pub fn decode(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
     } else {
         RigidMotion::IDENTITY
     };
+    let jaw = if flags & FLAG_JAW != 0 {
+        read_rigid_motion(&mut r, "jaw motion")?
+    } else {
+        RigidMotion::IDENTITY
+    };
     if moved_count > vertex_count {
         return Err(DecodeError::Invalid {
             field: "moved",
@@ -465,6 +480,7 @@ pub fn decode(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
         label,
         face,
         head,
+        jaw,
     })
 }
 
@@ -512,6 +528,7 @@ mod tests {
             face: None,
             deflate,
             head: None,
+            jaw: None,
         }
     }
 
@@ -545,6 +562,7 @@ mod tests {
                         face: Some(&face),
                         deflate,
                         head: None,
+                        jaw: None,
                     },
                 )
                 .to_vec();
@@ -606,6 +624,18 @@ mod tests {
         let mut moving = content(&deltas, &lip, true);
         moving.head = Some(QUARTER_YAW);
         let moving = FrameEncoder::default().encode(&header(), &moving).to_vec();
+        let open = RigidMotion {
+            rotation: [0.2f32.sin(), 0.0, 0.0, 0.2f32.cos()],
+            translation: [0.0, -0.5, 0.25],
+        };
+        let mut with_jaw = content(&deltas, &lip, true);
+        with_jaw.head = Some(QUARTER_YAW);
+        with_jaw.jaw = Some(open);
+        let with_jaw = FrameEncoder::default().encode(&header(), &with_jaw).to_vec();
+        assert_eq!(with_jaw.len(), moving.len() + 28);
+        let both = decode(&with_jaw).unwrap();
+        assert_eq!((both.head, both.jaw), (QUARTER_YAW, open));
+        assert_eq!(decode(&moving).unwrap().jaw, RigidMotion::IDENTITY);
         // 28 bytes of motion; the deltas are the same bytes.
         assert_eq!(moving.len(), still.len() + 28);
         assert_eq!(moving[4], still[4] | FLAG_HEAD);

@@ -26,6 +26,22 @@ pub struct Snapshot {
     pub lip_vertices: Vec<u32>,
     /// Whether frames carry per-vertex face roughness.
     pub face_roughness: bool,
+    /// The head's parts (teeth, gums, tongue): drawn from their own meshes, placed by the
+    /// frames' head and jaw motion.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub parts: Vec<PartInfo>,
+}
+
+/// A part of a head: its mesh (`mesh.bin` format) and how it moves.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PartInfo {
+    pub name: String,
+    /// `skull`, `jaw` or `tongue`.
+    pub role: String,
+    pub vertices: u32,
+    pub triangles: u32,
+    /// Its rest mesh, binary (`mesh.bin`), head units.
+    pub mesh: String,
 }
 
 /// Messages the server sends as JSON text.
@@ -81,6 +97,9 @@ pub struct HeadInfo {
     pub streams: Vec<String>,
     /// Algorithms bound so far (canonical specs).
     pub algorithms: Vec<String>,
+    /// Its parts, once registered.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub parts: Vec<PartInfo>,
 }
 
 impl ServerMessage {

@@ -1,7 +1,10 @@
 //! What the per-frame job needs of a head besides its binding: the registration, the lip
-//! region the roughness is measured on, and the quantization step of viewer frames.
+//! region the roughness is measured on, the quantization step of viewer frames, and the
+//! parts (teeth, gums, tongue) that move with the skull or the jaw.
 
+use super::infer_role;
 use crate::deform::Registration;
+use crate::head::{Head, Part, PartRole, MAX_PARTS};
 use crate::metrics::{LipRegion, RegionError};
 
 /// Largest quantization error of viewer frames is half of this, in mm.
@@ -13,17 +16,62 @@ pub struct AnimatedHead {
     pub lip_region: LipRegion,
     /// Quantization step of viewer frames, head units per count ([`STEP_MM`] in mm).
     pub step: f32,
+    /// Teeth, gums, tongue: at most [`MAX_PARTS`], names unique.
+    pub parts: Vec<Part>,
+}
+
+/// A part mesh before its role is settled.
+pub struct PartInput {
+    pub name: String,
+    /// `None`: inferred ([`infer_role`]).
+    pub role: Option<PartRole>,
+    pub mesh: Head,
 }
 
 #[derive(Debug, thiserror::Error)]
 pub enum AnimatedHeadError {
     #[error("lip region: {0}")]
     LipRegion(#[from] RegionError),
+    #[error("{count} parts; a head carries at most {MAX_PARTS}")]
+    TooManyParts { count: usize },
+    #[error("part {name:?} is given twice")]
+    DuplicatePart { name: String },
+    #[error("part {name:?} has no vertices")]
+    EmptyPart { name: String },
 }
 
 impl AnimatedHead {
     /// Finds the lip region of `registration` (blocking; milliseconds).
     pub fn new(registration: Registration) -> Result<AnimatedHead, AnimatedHeadError> {
+        AnimatedHead::with_parts(registration, Vec::new())
+    }
+
+    /// Like [`AnimatedHead::new`], with part meshes (head units); a part without a role
+    /// gets the one [`infer_role`] finds.
+    pub fn with_parts(
+        registration: Registration,
+        parts: Vec<PartInput>,
+    ) -> Result<AnimatedHead, AnimatedHeadError> {
+        if parts.len() > MAX_PARTS {
+            return Err(AnimatedHeadError::TooManyParts { count: parts.len() });
+        }
+        let mut settled: Vec<Part> = Vec::with_capacity(parts.len());
+        for part in parts {
+            if settled.iter().any(|p| p.name == part.name) {
+                return Err(AnimatedHeadError::DuplicatePart { name: part.name });
+            }
+            if part.mesh.positions.is_empty() {
+                return Err(AnimatedHeadError::EmptyPart { name: part.name });
+            }
+            let role = part
+                .role
+                .unwrap_or_else(|| infer_role(&part.mesh, &registration.fitted));
+            settled.push(Part {
+                name: part.name,
+                role,
+                mesh: part.mesh,
+            });
+        }
         let lip_region = LipRegion::new(
             &registration.head,
             &registration.anchors,
@@ -34,6 +82,12 @@ impl AnimatedHead {
             registration,
             lip_region,
             step,
+            parts: settled,
         })
+    }
+
+    /// Whether any part moves with the jaw (then frames carry the jaw's motion).
+    pub fn has_jaw_parts(&self) -> bool {
+        self.parts.iter().any(|p| p.role.moves_with_jaw())
     }
 }

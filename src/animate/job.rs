@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use super::{head_motion, AnimatedHead, RigidMotion};
+use super::{head_motion, jaw_motion, AnimatedHead, RigidMotion};
 use crate::deform::{Binding, DeformScratch};
 use crate::mask::LIP_VERTICES;
 use crate::metrics::{LipRoughness, Roughness, RoughnessError};
@@ -41,6 +41,7 @@ pub struct FrameJob {
     scratch: DeformScratch,
     deformed: Vec<Vec3>,
     head_motion: RigidMotion,
+    jaw_motion: RigidMotion,
     deltas: Vec<[f32; 3]>,
     lip: LipRoughness,
     lip_wire: WireLip,
@@ -69,6 +70,7 @@ impl FrameJob {
             scratch: binding.scratch(reg.mask_rest().len(), reg.mask_triangles().len()),
             deformed: vec![Vec3::ZERO; n],
             head_motion: RigidMotion::IDENTITY,
+            jaw_motion: RigidMotion::IDENTITY,
             deltas: vec![[0.0; 3]; n],
             lip,
             lip_wire: WireLip {
@@ -102,6 +104,7 @@ impl FrameJob {
             &mut self.scratch,
             &mut self.deformed,
         );
+        self.jaw_motion = jaw_motion(reg.mask_rest(), mask_now, &reg.fitted.fit.pose);
         &self.deformed
     }
 
@@ -109,6 +112,12 @@ impl FrameJob {
     /// deformed head is placed.
     pub fn head_motion(&self) -> RigidMotion {
         self.head_motion
+    }
+
+    /// The jaw's motion in the frame of the last [`FrameJob::deform`], before the head's
+    /// (parts that move with the jaw are placed by the head's motion after it).
+    pub fn jaw_motion(&self) -> RigidMotion {
+        self.jaw_motion
     }
 
     /// The head as the last [`FrameJob::deform`] left it, before the head's motion (head
@@ -168,6 +177,10 @@ impl FrameJob {
                 face,
                 deflate: true,
                 head: self.head_motion.to_wire(),
+                jaw: match self.head.has_jaw_parts() {
+                    true => self.jaw_motion.to_wire(),
+                    false => None,
+                },
             },
         ))
     }

@@ -8,10 +8,12 @@ mod head;
 mod head_motion;
 mod jaw;
 mod job;
+mod part_role;
 mod rigid;
 
-pub use head::{AnimatedHead, AnimatedHeadError, STEP_MM};
+pub use head::{AnimatedHead, AnimatedHeadError, PartInput, STEP_MM};
 pub use head_motion::{head_motion, NECK_PIVOT_MASK};
 pub use jaw::{jaw_motion, CHIN_VERTICES, JAW_PIVOT_MASK};
 pub use job::{FrameJob, FrameJobError, FrameTimes};
+pub use part_role::infer_role;
 pub use rigid::RigidMotion;

@@ -33,7 +33,7 @@ pub fn run(args: Args) -> CliResult {
         register_heads(&state).await?;
         tokio::spawn(loop_syllables(
             state.clone(),
-            DEMO_HEADS.iter().map(|h| h.0.to_string()).collect(),
+            DEMO_HEADS.iter().map(|h| h.id.to_string()).collect(),
             "main".to_string(),
         ));
         serve(state, |addr| {

@@ -41,6 +41,8 @@ pub const LOWER_LIP_INNER: [usize; 3] = [83, 40, 84];
 /// Inner-lip midpoints: upper (MPEG-4 2.2) and lower (2.3).
 pub const INNER_LIP_MID_UPPER: usize = 87;
 pub const INNER_LIP_MID_LOWER: usize = 40;
+/// Inner-lip corners: left (MPEG-4 2.4) and right (2.5).
+pub const INNER_LIP_CORNERS: [usize; 2] = [88, 89];
 /// Every vertex facewire addresses by number (the lips above, the pupils and FAPU
 /// measures of [`fap::FapuValues::measure`]) is below this: the `.wfm` reader refuses a
 /// mask with fewer vertices rather than let a fit index past its end.

@@ -42,6 +42,10 @@ pub fn app(state: AppState) -> Router {
             get(heads::mesh_bin).route_layer(viewer()),
         )
         .route(
+            "/v1/heads/{id}/parts/{part}/mesh.bin",
+            get(heads::part_mesh_bin).route_layer(viewer()),
+        )
+        .route(
             "/v1/heads/{id}/mesh.obj",
             get(heads::mesh_obj).route_layer(viewer()),
         )

@@ -4,37 +4,80 @@
 use std::time::Duration;
 
 use super::error::ApiError;
-use super::store::{HeadMeta, HeadRecord};
+use super::store::{HeadMeta, HeadRecord, PartRecord};
 use super::AppState;
+use crate::head::PartRole;
 use crate::stream::{syllables, Frame};
 
-/// Shipped heads the demo registers: (id, OBJ, fit).
-pub const DEMO_HEADS: [(&str, &[u8], &str); 3] = [
-    (
-        "scan",
-        include_bytes!("../../data/heads/lee_perry_smith_head.obj"),
-        include_str!("../../data/heads/lee_perry_smith_head.fit.toml"),
-    ),
-    (
-        "makehuman",
-        include_bytes!("../../data/heads/makehuman_head.obj"),
-        include_str!("../../data/heads/makehuman_head.fit.toml"),
-    ),
-    (
-        "ict",
-        include_bytes!("../../data/heads/ict_head.obj"),
-        include_str!("../../data/heads/ict_head.fit.toml"),
-    ),
+/// A shipped head the demo registers.
+pub struct DemoHead {
+    pub id: &'static str,
+    pub obj: &'static [u8],
+    pub fit: &'static str,
+    /// (name, role or `None` to infer it, OBJ).
+    pub parts: &'static [(&'static str, Option<PartRole>, &'static [u8])],
+}
+
+pub const DEMO_HEADS: [DemoHead; 3] = [
+    DemoHead {
+        id: "scan",
+        obj: include_bytes!("../../data/heads/lee_perry_smith_head.obj"),
+        fit: include_str!("../../data/heads/lee_perry_smith_head.fit.toml"),
+        parts: &[],
+    },
+    DemoHead {
+        id: "makehuman",
+        obj: include_bytes!("../../data/heads/makehuman_head.obj"),
+        fit: include_str!("../../data/heads/makehuman_head.fit.toml"),
+        parts: &[],
+    },
+    DemoHead {
+        id: "ict",
+        obj: include_bytes!("../../data/heads/ict_head.obj"),
+        fit: include_str!("../../data/heads/ict_head.fit.toml"),
+        // Teeth and gums find their roles (skull or jaw) themselves; a tongue is named.
+        parts: &[
+            (
+                "teeth_upper",
+                None,
+                include_bytes!("../../data/heads/ict_head_teeth_upper.obj"),
+            ),
+            (
+                "teeth_lower",
+                None,
+                include_bytes!("../../data/heads/ict_head_teeth_lower.obj"),
+            ),
+            (
+                "gums_upper",
+                None,
+                include_bytes!("../../data/heads/ict_head_gums_upper.obj"),
+            ),
+            (
+                "gums_lower_tongue",
+                Some(PartRole::Tongue),
+                include_bytes!("../../data/heads/ict_head_gums_lower_tongue.obj"),
+            ),
+        ],
+    },
 ];
 
 /// Registers the demo heads (in memory) from the embedded files.
 pub async fn register_heads(state: &AppState) -> Result<(), ApiError> {
-    for (id, obj, fit) in DEMO_HEADS {
+    for head in DEMO_HEADS {
         let slot = state.registry.registration_slot(Duration::MAX).await?;
         let record = HeadRecord {
-            id: id.to_string(),
-            obj: obj.to_vec(),
-            fit_toml: fit.to_string(),
+            id: head.id.to_string(),
+            obj: head.obj.to_vec(),
+            fit_toml: head.fit.to_string(),
+            parts: head
+                .parts
+                .iter()
+                .map(|&(name, role, obj)| PartRecord {
+                    name: name.to_string(),
+                    role,
+                    obj: obj.to_vec(),
+                })
+                .collect(),
             meta: HeadMeta::default(),
         };
         state.registry.register(record, false, slot).await?;

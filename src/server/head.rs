@@ -19,7 +19,7 @@ use super::store::HeadMeta;
 use super::stream::Stream;
 use crate::animate::AnimatedHead;
 use facewire_proto::codes::EndReason;
-use facewire_proto::messages::HeadInfo;
+use facewire_proto::messages::{HeadInfo, PartInfo};
 
 /// A head ready to animate.
 pub struct ReadyHead {
@@ -27,7 +27,32 @@ pub struct ReadyHead {
     /// `mesh.bin` (FWM1) and OBJ of the rest mesh.
     pub rest_bin: Bytes,
     pub rest_obj: Bytes,
+    /// `mesh.bin` of each part, in `animated.parts` order.
+    pub part_bins: Vec<Bytes>,
     pub bindings: BindingCache,
+}
+
+impl ReadyHead {
+    /// The parts as the snapshot and head info list them.
+    pub fn part_infos(&self, head_id: &str) -> Vec<PartInfo> {
+        self.animated
+            .parts
+            .iter()
+            .map(|p| PartInfo {
+                name: p.name.clone(),
+                role: p.role.name().to_string(),
+                vertices: p.mesh.positions.len() as u32,
+                triangles: p.mesh.triangles.len() as u32,
+                mesh: format!("/v1/heads/{head_id}/parts/{}/mesh.bin", p.name),
+            })
+            .collect()
+    }
+
+    /// A part's `mesh.bin`, by name.
+    pub fn part_bin(&self, name: &str) -> Option<&Bytes> {
+        let index = self.animated.parts.iter().position(|p| p.name == name)?;
+        self.part_bins.get(index)
+    }
 }
 
 #[derive(Clone)]
@@ -180,6 +205,7 @@ impl HeadEntry {
             progress,
             error,
             streams,
+            parts: ready.as_ref().map(|r| r.part_infos(&self.id)).unwrap_or_default(),
             algorithms: ready.map(|r| r.bindings.bound()).unwrap_or_default(),
         }
     }

@@ -12,10 +12,12 @@ use axum::Json;
 use serde::{Deserialize, Serialize};
 
 use super::error::ApiError;
+use super::ids::valid_id;
 use super::registration::fit_from_landmarks;
-use super::store::{HeadMeta, HeadRecord};
+use super::store::{HeadMeta, HeadRecord, PartRecord};
 use super::AppState;
 use crate::deform::AlgoSpec;
+use crate::head::{PartRole, MAX_PARTS};
 use facewire_proto::messages::HeadInfo;
 
 /// How long a registration request waits for a free registration slot.
@@ -37,6 +39,60 @@ pub struct RegisterRequest {
     /// This head's own producer token (stored as a digest).
     #[serde(default)]
     pub producer_token: Option<String>,
+    /// Teeth, gums, tongue: at most `head::MAX_PARTS`.
+    #[serde(default)]
+    pub parts: Vec<PartUpload>,
+}
+
+/// A part in a registration request.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PartUpload {
+    /// 1-64 of `a-z 0-9 - _`, unique on the head.
+    pub name: String,
+    /// The part as OBJ text, in the head's units and frame.
+    pub obj: String,
+    /// `skull`, `jaw` or `tongue`; left out, it is inferred (skull or jaw).
+    #[serde(default)]
+    pub role: Option<String>,
+}
+
+/// The parts of a request, checked: names valid and unique, roles known, at most
+/// [`MAX_PARTS`].
+fn part_records(parts: Vec<PartUpload>) -> Result<Vec<PartRecord>, ApiError> {
+    if parts.len() > MAX_PARTS {
+        return Err(ApiError::BadRequest(format!(
+            "{} parts; a head carries at most {MAX_PARTS}",
+            parts.len()
+        )));
+    }
+    let mut records: Vec<PartRecord> = Vec::with_capacity(parts.len());
+    for part in parts {
+        if !valid_id(&part.name) {
+            return Err(ApiError::BadId {
+                what: "part name",
+                id: part.name,
+            });
+        }
+        if records.iter().any(|r| r.name == part.name) {
+            return Err(ApiError::BadRequest(format!(
+                "part {:?} is given twice",
+                part.name
+            )));
+        }
+        let role = part
+            .role
+            .as_deref()
+            .map(str::parse::<PartRole>)
+            .transpose()
+            .map_err(|e| ApiError::BadRequest(format!("part {:?}: {e}", part.name)))?;
+        records.push(PartRecord {
+            name: part.name,
+            role,
+            obj: part.obj.into_bytes(),
+        });
+    }
+    Ok(records)
 }
 
 pub async fn register_head(
@@ -51,6 +107,7 @@ pub async fn register_head(
     let request: RegisterRequest = serde_json::from_slice(&bytes)
         .map_err(|e| ApiError::BadRequest(format!("registration request: {e}")))?;
     drop(bytes);
+    let parts = part_records(request.parts)?;
     let fit_toml = match (request.fit, request.landmarks) {
         (Some(fit), None) => fit,
         (None, Some(landmarks)) => {
@@ -70,6 +127,7 @@ pub async fn register_head(
         id: request.id,
         obj: request.obj.into_bytes(),
         fit_toml,
+        parts,
         meta: HeadMeta::with_producer_token(request.producer_token.as_deref()),
     };
     let entry = state.registry.register(record, true, slot).await?;
@@ -104,6 +162,18 @@ pub async fn mesh_bin(State(state): State<AppState>, Path(id): Path<String>) -> 
         ready.rest_bin.clone(),
     )
         .into_response())
+}
+
+/// `GET /v1/heads/{id}/parts/{part}/mesh.bin`.
+pub async fn part_mesh_bin(
+    State(state): State<AppState>,
+    Path((id, part)): Path<(String, String)>,
+) -> Result<Response, ApiError> {
+    let ready = state.registry.head(&id)?.ready()?;
+    let bin = ready
+        .part_bin(&part)
+        .ok_or_else(|| ApiError::NotFound(format!("part {part} of head {id}")))?;
+    Ok(([(header::CONTENT_TYPE, "application/octet-stream")], bin.clone()).into_response())
 }
 
 pub async fn mesh_obj(State(state): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {

@@ -1,5 +1,6 @@
-//! The registration job: parse the head, resolve or solve its fit, compute surface
-//! distances and the lip region, and encode what viewers download. Blocking (seconds for
+//! The registration job: parse the head and its parts, resolve or solve its fit, compute
+//! surface distances and the lip region, settle the parts' roles, and encode what viewers
+//! download. Blocking (seconds for
 //! big heads), run on the blocking pool at most `max_registrations` at a time, with its
 //! progress visible in the head's status, and stopped between stages when its head is
 //! deleted or the server shuts down.
@@ -10,7 +11,8 @@ use bytes::Bytes;
 
 use super::bindings::BindingCache;
 use super::head::ReadyHead;
-use crate::animate::{AnimatedHead, AnimatedHeadError};
+use super::store::PartRecord;
+use crate::animate::{AnimatedHead, AnimatedHeadError, PartInput};
 use crate::deform::Registration;
 use crate::fit::{FitError, FitFile, FitFileError, FittedMask, Landmarks};
 use crate::head::{Head, ObjError};
@@ -25,6 +27,10 @@ pub enum RegistrationError {
     Obj(#[from] ObjError),
     #[error("head.obj has {count} vertices; this server accepts at most {limit}")]
     TooManyVertices { count: usize, limit: usize },
+    #[error("parts/{name}.obj: {source}")]
+    PartObj { name: String, source: ObjError },
+    #[error("the parts have {count} vertices together; this server accepts at most {limit}")]
+    TooManyPartVertices { count: usize, limit: usize },
     #[error("{0}")]
     Fit(#[from] FitFileError),
     #[error("{0}")]
@@ -47,6 +53,8 @@ pub enum LandmarkError {
 pub struct RegistrationInput {
     pub obj: Vec<u8>,
     pub fit_toml: String,
+    pub parts: Vec<PartRecord>,
+    /// For the head, and for its parts together.
     pub max_vertices: usize,
     pub max_bindings: usize,
 }
@@ -73,20 +81,49 @@ pub fn register(
             limit: input.max_vertices,
         });
     }
+    let mut parts = Vec::with_capacity(input.parts.len());
+    let mut part_vertices = 0;
+    for part in input.parts {
+        let mesh =
+            Head::from_obj_bytes(&format!("parts/{}.obj", part.name), &part.obj).map_err(|source| {
+                RegistrationError::PartObj {
+                    name: part.name.clone(),
+                    source,
+                }
+            })?;
+        part_vertices += mesh.positions.len();
+        if part_vertices > input.max_vertices {
+            return Err(RegistrationError::TooManyPartVertices {
+                count: part_vertices,
+                limit: input.max_vertices,
+            });
+        }
+        parts.push(PartInput {
+            name: part.name,
+            role: part.role,
+            mesh,
+        });
+    }
     stage(0.2)?;
     let mask = Mask::candide3();
     let fit = FitFile::parse("fit.toml", &input.fit_toml)?.resolve("fit.toml", &mask)?;
     stage(0.3)?;
     let registration = Registration::try_new(head, FittedMask::new(mask, fit))?;
     stage(0.9)?;
-    let animated = AnimatedHead::new(registration)?;
+    let animated = AnimatedHead::with_parts(registration, parts)?;
     let reg = &animated.registration;
-    let rest_bin = RestMesh {
-        mm_per_unit: reg.mm_per_unit(),
-        positions: reg.head.positions.iter().map(|p| p.to_array()).collect(),
-        triangles: reg.head.triangles.clone(),
-    }
-    .encode();
+    let mesh_bin = |mesh: &Head| {
+        Bytes::from(
+            RestMesh {
+                mm_per_unit: reg.mm_per_unit(),
+                positions: mesh.positions.iter().map(|p| p.to_array()).collect(),
+                triangles: mesh.triangles.clone(),
+            }
+            .encode(),
+        )
+    };
+    let rest_bin = mesh_bin(&reg.head);
+    let part_bins = animated.parts.iter().map(|p| mesh_bin(&p.mesh)).collect();
     let mut rest_obj = Vec::new();
     crate::head::obj::write(
         &mut rest_obj,
@@ -98,7 +135,8 @@ pub fn register(
     stage(1.0)?;
     Ok(ReadyHead {
         animated: Arc::new(animated),
-        rest_bin: Bytes::from(rest_bin),
+        rest_bin,
+        part_bins,
         rest_obj: Bytes::from(rest_obj),
         bindings: BindingCache::new(input.max_bindings),
     })

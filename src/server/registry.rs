@@ -144,6 +144,7 @@ impl Registry {
         let input = RegistrationInput {
             obj: record.obj,
             fit_toml: record.fit_toml,
+            parts: record.parts,
             max_vertices: self.inner.limits.max_vertices,
             max_bindings: self.inner.limits.max_bindings,
         };

@@ -1,5 +1,6 @@
 //! Where registered heads live between runs: one folder per head in the data directory
-//! (`heads/<id>/head.obj`, `fit.toml`, `head.json`), every file written atomically.
+//! (`heads/<id>/head.obj`, `fit.toml`, `parts/<name>.obj`, `head.json`), every file
+//! written atomically.
 //! `head.json` is written last and removed first, so a folder without it is an
 //! interrupted write: it is removed at start, with any temporary file left by a crash.
 //! Folders that cannot be loaded are reported, never fatal. Blocking: call it from the
@@ -11,6 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use super::auth::TokenDigest;
 use crate::atomic::write_atomic;
+use crate::head::PartRole;
 
 /// What a head was registered with: enough to register it again after a restart.
 #[derive(Debug, Clone, PartialEq)]
@@ -18,7 +20,27 @@ pub struct HeadRecord {
     pub id: String,
     pub obj: Vec<u8>,
     pub fit_toml: String,
+    /// Teeth, gums, tongue (`meta.parts` names them and their roles).
+    pub parts: Vec<PartRecord>,
     pub meta: HeadMeta,
+}
+
+/// A part mesh as registered.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PartRecord {
+    pub name: String,
+    /// `None`: inferred at registration.
+    pub role: Option<PartRole>,
+    pub obj: Vec<u8>,
+}
+
+/// A part in `head.json`: its mesh is `parts/<name>.obj`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StoredPart {
+    pub name: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub role: Option<PartRole>,
 }
 
 /// `head.json`.
@@ -32,6 +54,8 @@ pub struct HeadMeta {
     /// digest.
     #[serde(default, skip_serializing)]
     producer_token: Option<String>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub parts: Vec<StoredPart>,
 }
 
 impl HeadMeta {
@@ -41,6 +65,7 @@ impl HeadMeta {
                 .filter(|t| !t.is_empty())
                 .map(|t| TokenDigest::of(t).to_hex()),
             producer_token: None,
+            parts: Vec::new(),
         }
     }
 
@@ -106,7 +131,26 @@ impl Store {
         write_atomic(&obj, &record.obj).map_err(io(&obj))?;
         let fit = dir.join("fit.toml");
         write_atomic(&fit, record.fit_toml.as_bytes()).map_err(io(&fit))?;
-        self.save_meta(&record.id, &record.meta)
+        if !record.parts.is_empty() {
+            let parts = dir.join("parts");
+            std::fs::create_dir_all(&parts).map_err(io(&parts))?;
+            for part in &record.parts {
+                let path = parts.join(format!("{}.obj", part.name));
+                write_atomic(&path, &part.obj).map_err(io(&path))?;
+            }
+        }
+        let meta = HeadMeta {
+            parts: record
+                .parts
+                .iter()
+                .map(|p| StoredPart {
+                    name: p.name.clone(),
+                    role: p.role,
+                })
+                .collect(),
+            ..record.meta.clone()
+        };
+        self.save_meta(&record.id, &meta)
     }
 
     fn save_meta(&self, id: &str, meta: &HeadMeta) -> Result<(), StoreError> {
@@ -199,10 +243,26 @@ impl Store {
         }
         let obj_path = dir.join("head.obj");
         let fit_path = dir.join("fit.toml");
+        let mut parts = Vec::with_capacity(meta.parts.len());
+        for part in &meta.parts {
+            if !super::ids::valid_id(&part.name) {
+                return Err(StoreError::Invalid {
+                    path: meta_path.display().to_string(),
+                    message: format!("part name {:?} is not 1-64 of a-z 0-9 - _", part.name),
+                });
+            }
+            let path = dir.join("parts").join(format!("{}.obj", part.name));
+            parts.push(PartRecord {
+                name: part.name.clone(),
+                role: part.role,
+                obj: std::fs::read(&path).map_err(io(&path))?,
+            });
+        }
         Ok(HeadRecord {
             id: id.to_string(),
             obj: std::fs::read(&obj_path).map_err(io(&obj_path))?,
             fit_toml: std::fs::read_to_string(&fit_path).map_err(io(&fit_path))?,
+            parts,
             meta,
         })
     }
@@ -217,8 +277,37 @@ mod tests {
             id: id.into(),
             obj: b"v 0 0 0\n".to_vec(),
             fit_toml: "scale = 1.0\n".into(),
+            parts: Vec::new(),
             meta: HeadMeta::with_producer_token(Some("t")),
         }
+    }
+
+    #[test]
+    fn parts_are_stored_with_their_roles_and_loaded_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(dir.path()).unwrap();
+        let mut head = record("h2");
+        head.parts = vec![
+            PartRecord {
+                name: "teeth".into(),
+                role: None,
+                obj: b"v 1 0 0\n".to_vec(),
+            },
+            PartRecord {
+                name: "tongue".into(),
+                role: Some(PartRole::Tongue),
+                obj: b"v 2 0 0\n".to_vec(),
+            },
+        ];
+        store.save(&head).unwrap();
+        assert_eq!(
+            std::fs::read(dir.path().join("heads/h2/parts/tongue.obj")).unwrap(),
+            b"v 2 0 0\n"
+        );
+        let loaded = store.load_all().unwrap().records.remove(0);
+        assert_eq!(loaded.parts, head.parts);
+        assert_eq!(loaded.meta.parts.len(), 2);
+        assert_eq!(loaded.meta.parts[1].role, Some(PartRole::Tongue));
     }
 
     #[test]

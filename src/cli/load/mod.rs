@@ -342,10 +342,11 @@ async fn register(
     base: &str,
     with_token: &impl Fn(&str) -> String,
 ) -> Result<String, Box<dyn std::error::Error + Send + Sync>> {
-    let (_, obj, fit) = crate::server::demo::DEMO_HEADS
+    let head = crate::server::demo::DEMO_HEADS
         .iter()
-        .find(|h| h.0 == "makehuman")
+        .find(|h| h.id == "makehuman")
         .ok_or("the embedded MakeHuman head is missing")?;
+    let (obj, fit) = (head.obj, head.fit);
     let id = format!("load-{}", std::process::id());
     let body = serde_json::json!({
         "id": id,

@@ -1,0 +1,96 @@
+//! Meshes that belong to a head without being its skin (teeth, gums, a tongue), each with
+//! a role that says how it moves: with the skull (upper teeth and gums: the head's own
+//! motion only), with the jaw (lower teeth and gums: the jaw's motion, then the head's), or
+//! as the tongue (with the jaw, and shaped on top of that). They are drawn, never deformed
+//! by the skin's algorithm.
+
+use std::fmt;
+use std::str::FromStr;
+
+use serde::{Deserialize, Serialize};
+
+use super::Head;
+
+/// Parts one head may carry.
+pub const MAX_PARTS: usize = 8;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PartRole {
+    /// Moves with the skull: the head's motion only (upper teeth, upper gums).
+    Skull,
+    /// Moves with the jaw (lower teeth, lower gums).
+    Jaw,
+    /// Moves with the jaw and is shaped by the tongue's parameters.
+    Tongue,
+}
+
+impl PartRole {
+    pub const ALL: [PartRole; 3] = [PartRole::Skull, PartRole::Jaw, PartRole::Tongue];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            PartRole::Skull => "skull",
+            PartRole::Jaw => "jaw",
+            PartRole::Tongue => "tongue",
+        }
+    }
+
+    /// Whether the jaw carries it.
+    pub fn moves_with_jaw(self) -> bool {
+        self != PartRole::Skull
+    }
+}
+
+impl fmt::Display for PartRole {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("part role {found}: expected skull, jaw or tongue")]
+pub struct PartRoleError {
+    pub found: String,
+}
+
+impl FromStr for PartRole {
+    type Err = PartRoleError;
+
+    fn from_str(s: &str) -> Result<PartRole, PartRoleError> {
+        PartRole::ALL
+            .into_iter()
+            .find(|role| role.name() == s)
+            .ok_or_else(|| PartRoleError {
+                found: crate::quote::quote(s),
+            })
+    }
+}
+
+/// A part mesh (head units, the head's frame) and its role.
+#[derive(Debug, Clone)]
+pub struct Part {
+    /// Its name, unique on the head (`teeth_lower`).
+    pub name: String,
+    pub role: PartRole,
+    pub mesh: Head,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn roles_read_and_print_by_name() {
+        for role in PartRole::ALL {
+            assert_eq!(role.name().parse::<PartRole>(), Ok(role));
+        }
+        assert!("teeth"
+            .parse::<PartRole>()
+            .unwrap_err()
+            .to_string()
+            .contains("skull, jaw or tongue"));
+        assert!(!PartRole::Skull.moves_with_jaw());
+        assert!(PartRole::Jaw.moves_with_jaw() && PartRole::Tongue.moves_with_jaw());
+    }
+}

@@ -1,0 +1,185 @@
+//! Parts of a head (teeth, gums, tongue): roles given or inferred, registered over HTTP,
+//! served as meshes, listed in head info and the snapshot, stored and reloaded, placed on
+//! the wire by the jaw's motion.
+
+mod common;
+
+use common::service::{connect, next_frame, next_json, Server};
+use common::{data, register};
+
+use facewire::animate::{jaw_motion, AnimatedHead, PartInput};
+use facewire::head::{Head, PartRole};
+use facewire::server::Config;
+use facewire_proto::mesh::RestMesh;
+use facewire_proto::messages::{HeadInfo, ServerMessage};
+use futures_util::SinkExt;
+use glam::{Quat, Vec3};
+use serde_json::{json, Value};
+use tokio_tungstenite::tungstenite::Message;
+
+/// The ICT head's shipped parts: (name, file, role to give).
+const ICT_PARTS: [(&str, &str, Option<&str>); 4] = [
+    ("teeth_upper", "ict_head_teeth_upper.obj", None),
+    ("teeth_lower", "ict_head_teeth_lower.obj", None),
+    ("gums_upper", "ict_head_gums_upper.obj", None),
+    (
+        "gums_lower_tongue",
+        "ict_head_gums_lower_tongue.obj",
+        Some("tongue"),
+    ),
+];
+
+#[test]
+fn teeth_and_gums_find_their_roles_by_the_mouth_line() {
+    let parts = ICT_PARTS
+        .iter()
+        .map(|&(name, file, role)| PartInput {
+            name: name.into(),
+            role: role.map(|r| r.parse().unwrap()),
+            mesh: Head::load(&data(&format!("heads/{file}"))).unwrap(),
+        })
+        .collect();
+    let head = AnimatedHead::with_parts(register("ict_head"), parts).unwrap();
+    let roles: Vec<PartRole> = head.parts.iter().map(|p| p.role).collect();
+    assert_eq!(
+        roles,
+        [PartRole::Skull, PartRole::Jaw, PartRole::Skull, PartRole::Tongue]
+    );
+    assert!(head.has_jaw_parts());
+}
+
+fn ict_request(id: &str, parts: Value) -> Value {
+    json!({
+        "id": id,
+        "obj": std::fs::read_to_string(data("heads/ict_head.obj")).unwrap(),
+        "fit": std::fs::read_to_string(data("heads/ict_head.fit.toml")).unwrap(),
+        "parts": parts,
+    })
+}
+
+fn ict_parts() -> Value {
+    ICT_PARTS
+        .iter()
+        .map(|&(name, file, role)| {
+            let mut part = json!({
+                "name": name,
+                "obj": std::fs::read_to_string(data(&format!("heads/{file}"))).unwrap(),
+            });
+            if let Some(role) = role {
+                part["role"] = json!(role);
+            }
+            part
+        })
+        .collect()
+}
+
+async fn post(server: &Server, body: &Value) -> (u16, Value) {
+    let response = reqwest::Client::new()
+        .post(server.http("/v1/heads"))
+        .json(body)
+        .send()
+        .await
+        .unwrap();
+    (response.status().as_u16(), response.json().await.unwrap())
+}
+
+fn roles(info: &HeadInfo) -> Vec<(String, String)> {
+    info.parts
+        .iter()
+        .map(|p| (p.name.clone(), p.role.clone()))
+        .collect()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn parts_register_serve_travel_and_survive_a_restart() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = || Config {
+        data_dir: Some(dir.path().to_path_buf()),
+        ..Config::default()
+    };
+    let server = Server::start(config()).await;
+
+    // Refusals name the part.
+    let mut bad_role = ict_parts();
+    bad_role[1]["role"] = json!("incisors");
+    let (status, body) = post(&server, &ict_request("bad", bad_role)).await;
+    assert_eq!(
+        (status, body["error"].as_str()),
+        (400, Some("bad_request")),
+        "{body}"
+    );
+    assert!(
+        body["message"].as_str().unwrap().contains("teeth_lower"),
+        "{body}"
+    );
+    let mut bad_name = ict_parts();
+    bad_name[0]["name"] = json!("Upper Teeth");
+    let (status, body) = post(&server, &ict_request("bad", bad_name)).await;
+    assert_eq!((status, body["error"].as_str()), (400, Some("bad_id")), "{body}");
+    let nine: Vec<Value> = (0..9)
+        .map(|i| json!({"name": format!("p{i}"), "obj": "v 0 0 0\n"}))
+        .collect();
+    let (status, body) = post(&server, &ict_request("bad", json!(nine))).await;
+    assert_eq!(status, 400, "{body}");
+    assert!(body["message"].as_str().unwrap().contains("at most 8"), "{body}");
+
+    let (status, body) = post(&server, &ict_request("ict", ict_parts())).await;
+    assert_eq!(status, 202, "{body}");
+    let info = server.wait_ready("ict", "").await;
+    let expected_roles: Vec<(String, String)> = [
+        ("teeth_upper", "skull"),
+        ("teeth_lower", "jaw"),
+        ("gums_upper", "skull"),
+        ("gums_lower_tongue", "tongue"),
+    ]
+    .map(|(n, r)| (n.to_string(), r.to_string()))
+    .to_vec();
+    assert_eq!(roles(&info), expected_roles);
+
+    // Each part's mesh, as listed.
+    for part in &info.parts {
+        let bytes = reqwest::get(server.http(&part.mesh))
+            .await
+            .unwrap()
+            .bytes()
+            .await
+            .unwrap();
+        let mesh = RestMesh::decode(&bytes).unwrap();
+        assert_eq!(mesh.positions.len() as u32, part.vertices, "{}", part.name);
+        assert_eq!(mesh.triangles.len() as u32, part.triangles, "{}", part.name);
+    }
+    let missing = reqwest::get(server.http("/v1/heads/ict/parts/molars/mesh.bin"))
+        .await
+        .unwrap();
+    assert_eq!(missing.status(), 404);
+
+    // The snapshot lists them; a jaw drop's frame carries the jaw's motion.
+    let mut viewer = connect(&server.ws("/v1/heads/ict/streams/main/view")).await;
+    match next_json(&mut viewer).await {
+        ServerMessage::Snapshot(snapshot) => assert_eq!(snapshot.parts, info.parts),
+        other => panic!("{other:?}"),
+    }
+    let mut producer = connect(&server.ws("/v1/heads/ict/streams/main/produce")).await;
+    let line = r#"{"seq":0,"t":0,"au":{"jaw_drop":0.6}}"#;
+    producer.send(Message::Text(line.into())).await.unwrap();
+    let frame = next_frame(&mut viewer).await;
+    let reg = register("ict_head");
+    let mut weights = vec![0.0; 65];
+    weights[1] = 0.6;
+    let mask_now = common::posed(&reg, &weights);
+    let jaw = jaw_motion(reg.mask_rest(), &mask_now, &reg.fitted.fit.pose);
+    let sent = Quat::from_array(frame.jaw.rotation);
+    assert!(sent.abs_diff_eq(jaw.rotation, 1e-6), "{sent} vs {jaw:?}");
+    assert!(Vec3::from_array(frame.jaw.translation).abs_diff_eq(jaw.translation, 1e-4));
+    let degrees = sent.angle_between(Quat::IDENTITY).to_degrees();
+    eprintln!("jaw_drop 0.6 opens the ICT jaw {degrees:.1} degrees");
+    assert!((3.0..30.0).contains(&degrees), "{degrees}");
+    drop((viewer, producer));
+    server.stop().await;
+
+    // Stored and registered again, roles and all.
+    let server = Server::start(config()).await;
+    let info = server.wait_ready("ict", "").await;
+    assert_eq!(roles(&info), expected_roles);
+    server.stop().await;
+}
