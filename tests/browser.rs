@@ -312,6 +312,7 @@ async fn check_the_page(browser: &Browser) {
     println!("headless Chromium, two views: frames {fps}, bytes per frame {bytes}");
 
     check_the_heat_map_scale(browser, &url, long).await;
+    check_the_inner_mouth_close_up(browser, &url, long).await;
     check_a_stalled_stream(browser, &url, long).await;
 
     // An unknown head: the server's error and close 4404 end in the error state.
@@ -408,6 +409,60 @@ async fn check_a_stalled_stream(browser: &Browser, url: &str, long: Duration) {
     }
     assert!(turned, "the page did not turn the head in 5 s");
     producer.close(None).await.unwrap();
+}
+
+/// The ICT head's teeth, gums and tongue, in the mouth close-up that the URL asks for;
+/// the head keeps talking. `FACEWIRE_SCREENSHOTS=DIR` keeps twelve pictures 200 ms apart
+/// (`DIR/mouth-N.png.base64`, `base64 -d` decodes them; docs/img/mouth.png is one).
+async fn check_the_inner_mouth_close_up(browser: &Browser, url: &str, long: Duration) {
+    browser.open(&format!("{url}?head=ict&stream=main&mouth=1")).await;
+    browser
+        .wait_for("the ict head live", &state_is("status-0", "live"), long)
+        .await;
+    browser
+        .wait_for(
+            "the four parts drawn",
+            "return document.getElementById('inner-0')?.dataset.loaded === '4'",
+            long,
+        )
+        .await;
+    let inner = browser.js(&text_of("inner-0")).await;
+    assert!(
+        inner.as_str().unwrap().contains("teeth_lower (jaw)"),
+        "the view names the parts and their roles: {inner}"
+    );
+    let pressed = browser
+        .js("return document.getElementById('mouth-view').getAttribute('aria-pressed')")
+        .await;
+    assert_eq!(pressed, "true", "the close-up button shows the URL's choice");
+    let first = browser.screenshot("#canvas-0").await;
+    let mut moved = false;
+    for _ in 0..10 {
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        if browser.screenshot("#canvas-0").await != first {
+            moved = true;
+            break;
+        }
+    }
+    assert!(moved, "the mouth did not move in 3 s");
+    if let Some(dir) = std::env::var_os("FACEWIRE_SCREENSHOTS") {
+        for i in 0..12 {
+            let shot = browser.screenshot("#canvas-0").await;
+            std::fs::write(
+                std::path::Path::new(&dir).join(format!("mouth-{i}.png.base64")),
+                shot,
+            )
+            .unwrap();
+            tokio::time::sleep(Duration::from_millis(200)).await;
+        }
+    }
+    // The button turns the close-up off, and the URL follows.
+    browser.js("document.getElementById('mouth-view').click()").await;
+    let address = browser.js("return location.search").await;
+    assert!(
+        !address.as_str().unwrap().contains("mouth=1"),
+        "the URL drops the close-up: {address}"
+    );
 }
 
 /// The heat-map's scale: hidden until the heat-map is on, then picked, shown in the

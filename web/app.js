@@ -1,4 +1,4 @@
-// app.js: the page. Reads ?head=&stream=&algo=&algo2=&heat=&heat2=&heatmax=&heatmax2=&token=,
+// app.js: the page. Reads ?head=&stream=&algo=&algo2=&heat=&heat2=&heatmax=&heatmax2=&mouth=&token=,
 // fills the pickers from /v1/heads (read again every few seconds, so new heads and streams
 // appear) and /v1/algorithms, runs one view or two side by side (one shared camera), and
 // the drawing loop: once per animation frame each view decodes only its newest frame, and
@@ -22,6 +22,7 @@ const controls = {
   zoomIn: byId("zoom-in"),
   zoomOut: byId("zoom-out"),
   resetView: byId("reset-view"),
+  mouthView: byId("mouth-view"),
   views: byId("views"),
   message: byId("page-message"),
 };
@@ -125,6 +126,9 @@ function writeUrl() {
       query.set(`heatmax${suffix}`, String(panel.settings.heatMax));
     }
   });
+  if (camera.closeUp) {
+    query.set("mouth", "1");
+  }
   if (page.token) {
     query.set("token", page.token);
   }
@@ -158,10 +162,10 @@ function addPanel(algorithm, heat, heatMax) {
     algorithms: page.algorithms,
     chart,
     loadMesh,
-    onMesh: (url, mesh) => {
+    onMesh: (url, mesh, mouth) => {
       if (framedMesh !== url) {
         framedMesh = url;
-        camera.frame(mesh.positions, mesh.mmPerUnit);
+        camera.frame(mesh.positions, mesh.mmPerUnit, mouth);
       }
     },
     onSettings: writeUrl,
@@ -169,7 +173,10 @@ function addPanel(algorithm, heat, heatMax) {
   const canvas = panel.parts.canvas;
   attachPointerControls(canvas, camera);
   canvas.addEventListener("keydown", (event) => {
-    if (handleCameraKey(event, camera)) {
+    if (event.key === "m" && !event.altKey && !event.ctrlKey && !event.metaKey) {
+      setCloseUp(!camera.closeUp);
+      event.preventDefault();
+    } else if (handleCameraKey(event, camera)) {
       event.preventDefault();
     }
   });
@@ -191,6 +198,13 @@ function setCompare(on) {
   } else if (!on && page.panels.length === 2) {
     page.panels.pop().destroy();
   }
+  writeUrl();
+}
+
+/** The mouth close-up: the camera, the button and the URL (`mouth=1`). */
+function setCloseUp(on) {
+  camera.setCloseUp(on);
+  controls.mouthView.setAttribute("aria-pressed", String(on));
   writeUrl();
 }
 
@@ -253,6 +267,9 @@ async function start() {
   controls.zoomIn.addEventListener("click", () => camera.zoomIn());
   controls.zoomOut.addEventListener("click", () => camera.zoomOut());
   controls.resetView.addEventListener("click", () => camera.reset());
+  controls.mouthView.addEventListener("click", () => setCloseUp(!camera.closeUp));
+  camera.setCloseUp(params.get("mouth") === "1");
+  controls.mouthView.setAttribute("aria-pressed", String(camera.closeUp));
   controls.compare.addEventListener("click", () =>
     setCompare(controls.compare.getAttribute("aria-pressed") !== "true"),
   );

@@ -1,10 +1,14 @@
 // camera.js: the one orbit camera every view shares, so two algorithms are seen from the
-// same angle. It frames a mesh's bounding box (front +z, up +y), turns drag, wheel, pinch
-// and keys into orbit and zoom, and builds the matrices the renderer needs.
+// same angle. It frames a head's face (front +z, up +y), or its mouth from close by for
+// people who watch the lips, turns drag, wheel, pinch and keys into orbit and zoom, and
+// builds the matrices the renderer needs.
 
 const FIELD_OF_VIEW = (30 * Math.PI) / 180;
 const START_YAW = 0.35; // radians, a little to the head's left: depth reads better than head-on
 const START_PITCH = 0.08;
+const CLOSE_UP_YAW = 0.15; // nearly head-on: the lips and the teeth behind them read best
+const CLOSE_UP_PITCH = 0.05;
+const CLOSE_UP_HALF_HEIGHT_MM = 32; // a 64 mm tall view: the lips, the chin's top, the nose's base
 const MAX_PITCH = 1.45;
 const KEY_STEP = 0.08; // radians per arrow key press
 const ZOOM_STEP = 1.15;
@@ -15,6 +19,8 @@ export class OrbitCamera {
     this.radius = 1; // half the height framed
     this.depth = 0; // from the target to the front of the face
     this.extent = 1; // from the target to the farthest corner of the mesh's box
+    this.closeUp = false;
+    this.framings = { face: null, mouth: null };
     this.listeners = [];
     this.reset();
   }
@@ -24,7 +30,7 @@ export class OrbitCamera {
    * is taken as the nose tip, and the view shows about 240 mm around it, turning about a
    * point 80 mm behind it (roughly the centre of a head), inside the mesh's bounds.
    */
-  frame(positions, mmPerUnit) {
+  frame(positions, mmPerUnit, mouth) {
     const min = [Infinity, Infinity, Infinity];
     const max = [-Infinity, -Infinity, -Infinity];
     let nose = 0;
@@ -39,20 +45,48 @@ export class OrbitCamera {
     }
     const mm = 1 / mmPerUnit;
     const clamp = (x, k) => Math.max(min[k], Math.min(max[k], x));
-    this.target = [
+    const extent = (target) => Math.hypot(...[0, 1, 2].map((k) => Math.max(max[k] - target[k], target[k] - min[k])));
+    const target = [
       (min[0] + max[0]) / 2,
       clamp(positions[nose + 1] + 20 * mm, 1),
       clamp(positions[nose + 2] - 80 * mm, 2),
     ];
-    this.radius = Math.min(120 * mm, Math.max(max[0] - min[0], max[1] - min[1]) / 2);
-    this.depth = positions[nose + 2] - this.target[2];
-    this.extent = Math.hypot(...[0, 1, 2].map((k) => Math.max(max[k] - this.target[k], this.target[k] - min[k])));
+    this.framings.face = {
+      target,
+      radius: Math.min(120 * mm, Math.max(max[0] - min[0], max[1] - min[1]) / 2),
+      depth: positions[nose + 2] - target[2],
+      extent: extent(target),
+    };
+    // The mouth (head units, from the snapshot): looked at from just in front of the lips.
+    this.framings.mouth = mouth
+      ? { target: [...mouth], radius: CLOSE_UP_HALF_HEIGHT_MM * mm, depth: 8 * mm, extent: extent(mouth) }
+      : null;
+    this.useFraming();
+  }
+
+  /** Whether a mouth close-up is possible (the framed head gave its mouth). */
+  get hasMouth() {
+    return this.framings.mouth !== null;
+  }
+
+  /** Looks at the mouth from close by (`on`), or at the whole face. */
+  setCloseUp(on) {
+    this.closeUp = on;
+    this.useFraming();
+  }
+
+  useFraming() {
+    const framing = (this.closeUp && this.framings.mouth) || this.framings.face;
+    if (framing) {
+      ({ target: this.target, radius: this.radius, depth: this.depth, extent: this.extent } = framing);
+    }
     this.reset();
   }
 
   reset() {
-    this.yaw = START_YAW;
-    this.pitch = START_PITCH;
+    const closeUp = this.closeUp && this.framings.mouth;
+    this.yaw = closeUp ? CLOSE_UP_YAW : START_YAW;
+    this.pitch = closeUp ? CLOSE_UP_PITCH : START_PITCH;
     this.zoom = 1;
     this.changed();
   }

@@ -174,13 +174,36 @@ export class Panel {
         this.mesh = mesh;
         this.positions = new Float32Array(mesh.positions);
         this.renderer.setMesh(mesh);
-        this.onMesh(snapshot.rest_mesh, mesh);
+        this.onMesh(snapshot.rest_mesh, mesh, snapshot.mouth);
         this.needsDraw = true;
+        this.loadParts(snapshot);
       },
       (error) => {
         this.meshUrl = null;
         this.showMessage(`Cannot load the rest mesh ${snapshot.rest_mesh}: ${error.message}`);
       },
+    );
+  }
+
+  /**
+   * The snapshot's parts (teeth, gums, tongue), drawn once their meshes arrive; the
+   * "Inner mouth" line names them (`data-loaded` is set once they are drawn).
+   */
+  loadParts(snapshot) {
+    const parts = snapshot.parts ?? [];
+    const { inner } = this.parts;
+    inner.textContent = parts.length > 0 ? parts.map((p) => `${p.name} (${p.role})`).join(", ") : "none";
+    delete inner.dataset.loaded;
+    Promise.all(parts.map((p) => this.loadMesh(p.mesh))).then(
+      (meshes) => {
+        if (snapshot.rest_mesh !== this.meshUrl) {
+          return;
+        }
+        this.renderer.setParts(parts.map((p, i) => ({ name: p.name, role: p.role, mesh: meshes[i] })));
+        inner.dataset.loaded = String(parts.length);
+        this.needsDraw = true;
+      },
+      (error) => this.showMessage(`Cannot load the head's parts: ${error.message}`),
     );
   }
 
@@ -256,7 +279,7 @@ export class Panel {
     }
     applyFrame(this.mesh.positions, frame, this.positions);
     this.renderer.setPositions(this.positions);
-    this.renderer.setModel(motionMatrix(frame.head));
+    this.renderer.setMotion(motionMatrix(frame.head), motionMatrix(frame.jaw));
     this.renderer.setHeat(frame.face, this.settings.heatMax);
     this.parts.syllable.textContent = frame.label ?? "–";
     this.parts.label.textContent = frame.label ?? "";

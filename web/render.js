@@ -1,5 +1,6 @@
 // render.js: draws one head with plain WebGL2: smooth vertex normals recomputed from the
-// deformed positions every frame, placed by the head's own rigid motion, a key, fill and rim light that move with the camera (the
+// deformed positions every frame, placed by the head's own rigid motion, its parts (teeth,
+// gums, tongue) each in its own material and placed by the head's or the jaw's motion, a key, fill and rim light that move with the camera (the
 // face is always lit), and an optional roughness heat-map in place of the skin colour.
 
 const VERTEX_SHADER = `#version 300 es
@@ -26,7 +27,8 @@ void main() {
 // colour-blindness, dark to light), the same stops as the legend in style.css.
 const FRAGMENT_SHADER = `#version 300 es
 precision highp float;
-uniform float u_heat_scale; // roughness at the top of the ramp; 0 shows skin
+uniform float u_heat_scale; // roughness at the top of the ramp; 0 shows the albedo
+uniform vec3 u_albedo; // sRGB
 in vec3 v_position;
 in vec3 v_normal;
 in float v_heat;
@@ -57,7 +59,7 @@ void main() {
   vec3 n = length_n > 0.0 ? v_normal / length_n : vec3(0.0, 0.0, 1.0);
   if (!gl_FrontFacing) n = -n;
   vec3 to_eye = normalize(-v_position);
-  vec3 base = u_heat_scale > 0.0 ? viridis(v_heat / u_heat_scale) : vec3(0.86, 0.71, 0.62);
+  vec3 base = u_heat_scale > 0.0 ? viridis(v_heat / u_heat_scale) : u_albedo;
   vec3 albedo = pow(base, vec3(2.2));
   vec3 ambient = mix(vec3(0.10, 0.09, 0.08), vec3(0.22, 0.24, 0.28), n.y * 0.5 + 0.5);
   vec3 lit = albedo * ambient
@@ -68,6 +70,35 @@ void main() {
 }`;
 
 const IDENTITY = new Float32Array([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]);
+
+// Albedos, sRGB: skin, then the parts' materials.
+const SKIN = [0.86, 0.71, 0.62];
+const TEETH = [0.93, 0.9, 0.82];
+const GUMS = [0.78, 0.4, 0.42];
+const TONGUE = [0.74, 0.33, 0.36];
+
+/** A part's material: a tongue by its role, teeth and gums by their names, else teeth. */
+export function partAlbedo(name, role) {
+  if (role === "tongue") {
+    return TONGUE;
+  }
+  return /gum/i.test(name) ? GUMS : TEETH;
+}
+
+/** Column-major 4x4 product a b (b applied first). */
+export function multiply(a, b) {
+  const out = new Float32Array(16);
+  for (let column = 0; column < 4; column++) {
+    for (let row = 0; row < 4; row++) {
+      let sum = 0;
+      for (let k = 0; k < 4; k++) {
+        sum += a[k * 4 + row] * b[column * 4 + k];
+      }
+      out[column * 4 + row] = sum;
+    }
+  }
+  return out;
+}
 
 /** Area-weighted vertex normals of a triangle mesh (not normalized: the shader does it). */
 export function vertexNormals(positions, indices, out) {
@@ -129,6 +160,7 @@ export class HeadRenderer {
       view: gl.getUniformLocation(program, "u_view"),
       projection: gl.getUniformLocation(program, "u_projection"),
       heatScale: gl.getUniformLocation(program, "u_heat_scale"),
+      albedo: gl.getUniformLocation(program, "u_albedo"),
     };
     this.vao = gl.createVertexArray();
     this.buffers = {
@@ -140,14 +172,16 @@ export class HeadRenderer {
     this.indexCount = 0;
     this.heatScale = 0;
     this.model = IDENTITY;
+    this.jawModel = IDENTITY;
+    this.parts = [];
     gl.enable(gl.DEPTH_TEST);
   }
 
-  attribute(name, size) {
+  attribute(name, size, vao = this.vao) {
     const gl = this.gl;
     const buffer = gl.createBuffer();
     const location = gl.getAttribLocation(this.program, name);
-    gl.bindVertexArray(this.vao);
+    gl.bindVertexArray(vao);
     gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
     gl.enableVertexAttribArray(location);
     gl.vertexAttribPointer(location, size, gl.FLOAT, false, 0, 0);
@@ -172,7 +206,37 @@ export class HeadRenderer {
     gl.bufferData(gl.ARRAY_BUFFER, mesh.vertexCount * 4, gl.DYNAMIC_DRAW);
     this.indexCount = mesh.indices.length;
     this.model = IDENTITY;
+    this.jawModel = IDENTITY;
+    this.setParts([]);
     this.setPositions(mesh.positions);
+  }
+
+  /**
+   * The head's parts: `[{ name, role, mesh }]`, meshes from parseMesh. They are rigid:
+   * positions and normals go to the GPU once, and each frame only moves them.
+   */
+  setParts(parts) {
+    const gl = this.gl;
+    for (const part of this.parts) {
+      gl.deleteVertexArray(part.vao);
+      part.buffers.forEach((b) => gl.deleteBuffer(b));
+    }
+    this.parts = parts.map(({ name, role, mesh }) => {
+      const vao = gl.createVertexArray();
+      const position = this.attribute("a_position", 3, vao);
+      const normal = this.attribute("a_normal", 3, vao);
+      const index = gl.createBuffer();
+      gl.bindVertexArray(vao);
+      gl.vertexAttrib1f(gl.getAttribLocation(this.program, "a_heat"), 0);
+      gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, index);
+      gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, mesh.indices, gl.STATIC_DRAW);
+      gl.bindVertexArray(null);
+      gl.bindBuffer(gl.ARRAY_BUFFER, position);
+      gl.bufferData(gl.ARRAY_BUFFER, mesh.positions, gl.STATIC_DRAW);
+      gl.bindBuffer(gl.ARRAY_BUFFER, normal);
+      gl.bufferData(gl.ARRAY_BUFFER, vertexNormals(mesh.positions, mesh.indices, new Float32Array(mesh.positions.length)), gl.STATIC_DRAW);
+      return { vao, buffers: [position, normal, index], count: mesh.indices.length, role, albedo: partAlbedo(name, role) };
+    });
   }
 
   /** Deformed positions (flat xyz, same vertex count as the mesh). */
@@ -185,9 +249,14 @@ export class HeadRenderer {
     gl.bufferSubData(gl.ARRAY_BUFFER, 0, this.normals);
   }
 
-  /** The head's motion (column-major 4x4, from decode.js motionMatrix). */
-  setModel(matrix) {
-    this.model = matrix;
+  /**
+   * The head's motion and the jaw's (column-major 4x4, from decode.js motionMatrix): skin
+   * and skull parts are placed by the head's, jaw and tongue parts by the head's after
+   * the jaw's.
+   */
+  setMotion(head, jaw) {
+    this.model = head;
+    this.jawModel = multiply(head, jaw);
   }
 
   /** Per-vertex roughness coloured on a ramp from 0 to `scale`; null shows skin. */
@@ -240,8 +309,16 @@ export class HeadRenderer {
     gl.uniformMatrix4fv(this.uniforms.view, false, view);
     gl.uniformMatrix4fv(this.uniforms.projection, false, projection);
     gl.uniform1f(this.uniforms.heatScale, this.heatScale);
+    gl.uniform3fv(this.uniforms.albedo, SKIN);
     gl.bindVertexArray(this.vao);
     gl.drawElements(gl.TRIANGLES, this.indexCount, gl.UNSIGNED_INT, 0);
+    gl.uniform1f(this.uniforms.heatScale, 0);
+    for (const part of this.parts) {
+      gl.uniformMatrix4fv(this.uniforms.model, false, part.role === "skull" ? this.model : this.jawModel);
+      gl.uniform3fv(this.uniforms.albedo, part.albedo);
+      gl.bindVertexArray(part.vao);
+      gl.drawElements(gl.TRIANGLES, part.count, gl.UNSIGNED_INT, 0);
+    }
     gl.bindVertexArray(null);
   }
 }

@@ -26,6 +26,9 @@ pub struct Snapshot {
     pub lip_vertices: Vec<u32>,
     /// Whether frames carry per-vertex face roughness.
     pub face_roughness: bool,
+    /// The mouth at rest, head units: the midpoint of the inner-lip anchors (what a
+    /// close-up looks at).
+    pub mouth: [f32; 3],
     /// The head's parts (teeth, gums, tongue): drawn from their own meshes, placed by the
     /// frames' head and jaw motion.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

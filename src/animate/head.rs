@@ -5,6 +5,7 @@
 use super::infer_role;
 use crate::deform::Registration;
 use crate::head::{Head, Part, PartRole, MAX_PARTS};
+use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
 use crate::metrics::{LipRegion, RegionError};
 
 /// Largest quantization error of viewer frames is half of this, in mm.
@@ -84,6 +85,13 @@ impl AnimatedHead {
             step,
             parts: settled,
         })
+    }
+
+    /// The mouth at rest (head units): the midpoint of the inner-lip midpoint anchors.
+    pub fn mouth(&self) -> glam::Vec3 {
+        let reg = &self.registration;
+        let anchor = |j: usize| reg.head.positions[reg.anchors.vertex[j] as usize];
+        (anchor(INNER_LIP_MID_UPPER) + anchor(INNER_LIP_MID_LOWER)) / 2.0
     }
 
     /// Whether any part moves with the jaw (then frames carry the jaw's motion).

@@ -132,6 +132,7 @@ async fn open_view(
         step: ready.animated.step,
         lip_vertices: LIP_VERTICES.iter().map(|&v| v as u32).collect(),
         face_roughness: face,
+        mouth: ready.animated.mouth().to_array(),
         parts: ready.part_infos(id),
     };
     Ok(View {
