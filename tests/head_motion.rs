@@ -155,3 +155,43 @@ fn facewire_deform_writes_the_head_where_its_motion_puts_it() {
     assert!(largest_move > 20.0, "the head hardly moved: {largest_move} mm");
     assert!(worst < 0.01, "{worst} mm from the rigid motion");
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_xface_file_posted_as_a_batch_turns_the_head_on_the_wire() {
+    use common::service::{connect, memory_config, next_frame, next_json, Server};
+    let server = Server::start(memory_config()).await;
+    server.register("mh", "makehuman_head", "").await;
+    let mut viewer = connect(&server.ws("/v1/heads/mh/streams/joy/view")).await;
+    assert!(matches!(
+        next_json(&mut viewer).await,
+        facewire_proto::messages::ServerMessage::Snapshot(_)
+    ));
+    let response = reqwest::Client::new()
+        .post(server.http("/v1/heads/mh/streams/joy/batch"))
+        .header("content-type", "application/x-fap")
+        .body(std::fs::read(data("candide3/xface_joy.fap")).unwrap())
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(response.status(), 202, "{}", response.text().await.unwrap());
+    let reg = register("makehuman_head");
+    let frames: Vec<Frame> = open_stream(&data("candide3/xface_joy.fap"), &reg.fitted.mask)
+        .unwrap()
+        .map(Result::unwrap)
+        .collect();
+    let mut turned = 0;
+    for _ in 0..10 {
+        let frame = next_frame(&mut viewer).await;
+        let sent = frames.iter().find(|f| f.seq == frame.header.seq).unwrap();
+        let expected = head_motion(sent, &reg.fitted.fit.pose);
+        let rotation = glam::Quat::from_array(frame.head.rotation);
+        assert!(
+            rotation.abs_diff_eq(expected.rotation, 1e-6),
+            "seq {}",
+            frame.header.seq
+        );
+        turned += usize::from(rotation != glam::Quat::IDENTITY);
+    }
+    assert!(turned >= 5, "{turned} of 10 frames turned the head");
+    server.stop().await;
+}

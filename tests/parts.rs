@@ -183,3 +183,75 @@ async fn parts_register_serve_travel_and_survive_a_restart() {
     assert_eq!(roles(&info), expected_roles);
     server.stop().await;
 }
+
+#[test]
+fn facewire_deform_writes_the_parts_where_the_jaw_puts_them() {
+    let scratch = tempfile::tempdir().unwrap();
+    let stream = scratch.path().join("open.jsonl");
+    std::fs::write(
+        &stream,
+        "{\"seq\":0,\"t\":0,\"au\":{\"jaw_drop\":0.6},\"head_rotation_rad\":[0,0.2,0]}\n",
+    )
+    .unwrap();
+    let out = scratch.path().join("out");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_facewire"))
+        .args(["deform", "--head"])
+        .arg(data("heads/ict_head.obj"))
+        .arg("--fit")
+        .arg(data("heads/ict_head.fit.toml"))
+        .arg("--stream")
+        .arg(&stream)
+        .arg("--out")
+        .arg(&out)
+        .arg("--part")
+        .arg(data("heads/ict_head_teeth_upper.obj"))
+        .arg("--part")
+        .arg(data("heads/ict_head_teeth_lower.obj"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("part ict_head_teeth_lower: 2204 vertices, moves with the jaw"),
+        "{stderr}"
+    );
+    let written = std::fs::read_to_string(out.join("frame_00000.obj")).unwrap();
+    assert!(written.contains("\no ict_head_teeth_upper\n") && written.contains("\no ict_head_teeth_lower\n"));
+    let positions: Vec<Vec3> = common::obj_positions(&out.join("frame_00000.obj"))
+        .into_iter()
+        .map(Vec3::from_array)
+        .collect();
+    let reg = register("ict_head");
+    let upper = Head::load(&data("heads/ict_head_teeth_upper.obj")).unwrap();
+    let lower = Head::load(&data("heads/ict_head_teeth_lower.obj")).unwrap();
+    let n = reg.vertex_count();
+    assert_eq!(positions.len(), n + upper.positions.len() + lower.positions.len());
+    // The upper teeth turn with the head; the lower ones open with the jaw first.
+    let frame = facewire::stream::Frame {
+        head_rotation_rad: Some([0.0, 0.2, 0.0]),
+        ..Default::default()
+    };
+    let head = facewire::animate::head_motion(&frame, &reg.fitted.fit.pose);
+    let mut weights = vec![0.0; 65];
+    weights[1] = 0.6;
+    let jaw = jaw_motion(
+        reg.mask_rest(),
+        &common::posed(&reg, &weights),
+        &reg.fitted.fit.pose,
+    );
+    let mm = reg.mm_per_unit();
+    for (p, rest) in positions[n..].iter().zip(&upper.positions) {
+        assert!(
+            p.distance(head.apply(*rest)) * mm < 1e-3,
+            "{p} vs {}",
+            head.apply(*rest)
+        );
+    }
+    for (p, rest) in positions[n + upper.positions.len()..]
+        .iter()
+        .zip(&lower.positions)
+    {
+        let expected = head.apply(jaw.apply(*rest));
+        assert!(p.distance(expected) * mm < 1e-3, "{p} vs {expected}");
+    }
+}

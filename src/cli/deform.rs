@@ -1,18 +1,20 @@
 //! `facewire deform`: bind an algorithm to a head and write the deformed head of every
-//! frame of a stream as OBJ (placed by the head's own motion), with the control displacements and the lip roughness table
+//! frame of a stream as OBJ (placed by the head's own motion, with its parts placed by
+//! the head's and the jaw's), with the control displacements and the lip roughness table
 //! (the thesis's `dataMetrics.txt`, docs/METRICS.md section 3) as TSV, for offline study and
 //! for checking the live service against.
 
 use std::io::{BufWriter, Write};
 use std::path::Path;
+use std::str::FromStr;
 use std::sync::Arc;
 use std::time::Instant;
 
 use super::fitted_head::FittedHeadArgs;
 use super::{CliResult, FilePath};
-use crate::animate::{AnimatedHead, FrameJob};
+use crate::animate::{AnimatedHead, FrameJob, PartInput};
 use crate::deform::{bind, AlgoSpec, Registration};
-use crate::head::obj;
+use crate::head::{obj, Head, PartRole};
 use crate::metrics::{LipRoughness, RoughnessTsvWriter};
 use crate::stream::{open_stream, ArkitBasis};
 
@@ -34,6 +36,26 @@ pub struct Args {
     /// Only frames A..B (0-based, B excluded; either end may be left out: `10..`, `..50`).
     #[arg(long)]
     frames: Option<String>,
+    /// A part mesh (teeth, gums, tongue) in the head's units and frame, as `PATH` (its
+    /// role, skull or jaw, inferred) or `ROLE:PATH` (skull, jaw or tongue). Repeatable;
+    /// each is written after the head as an object named after its file.
+    #[arg(long = "part", value_name = "[ROLE:]PATH")]
+    parts: Vec<String>,
+}
+
+/// `[ROLE:]PATH` into a part to register.
+fn load_part(text: &str) -> Result<PartInput, String> {
+    let (role, path) = match text.split_once(':') {
+        Some((role, path)) if PartRole::from_str(role).is_ok() => (PartRole::from_str(role).ok(), path),
+        _ => (None, text),
+    };
+    let path = Path::new(path);
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .ok_or_else(|| format!("--part {text:?}: no file name"))?;
+    let mesh = Head::load(path).map_err(|e| format!("--part {text:?}: {e}"))?;
+    Ok(PartInput { name, role, mesh })
 }
 
 /// Parses `A..B`, `A..`, `..B` into a half-open range.
@@ -65,6 +87,11 @@ pub fn run(args: Args) -> CliResult {
         .map(parse_range)
         .transpose()?
         .unwrap_or(0..usize::MAX);
+    let parts = args
+        .parts
+        .iter()
+        .map(|p| load_part(p))
+        .collect::<Result<Vec<_>, _>>()?;
     let (head, fitted) = args.fitted.load()?;
     let mask = fitted.mask.clone();
     let started = Instant::now();
@@ -84,8 +111,17 @@ pub fn run(args: Args) -> CliResult {
     let mut control = BufWriter::new(create(&control_path)?);
     writeln!(control, "frame\tmask_vertex\tanchor\tx\ty\tz\tdx\tdy\tdz")?;
     let animated = Arc::new(
-        AnimatedHead::new(registration).map_err(|e| format!("{}: {e}", args.fitted.head.display()))?,
+        AnimatedHead::with_parts(registration, parts)
+            .map_err(|e| format!("{}: {e}", args.fitted.head.display()))?,
     );
+    for part in &animated.parts {
+        eprintln!(
+            "part {}: {} vertices, moves with the {}",
+            part.name,
+            part.mesh.positions.len(),
+            part.role
+        );
+    }
     let registration = &animated.registration;
     let mut lips = LipRoughness::new(&registration.head, &animated.lip_region)?;
     let metrics_path = args.out.join("metrics.tsv");
@@ -106,6 +142,11 @@ pub fn run(args: Args) -> CliResult {
         ),
     ];
     let mut placed = vec![glam::Vec3::ZERO; registration.vertex_count()];
+    let mut placed_parts: Vec<Vec<glam::Vec3>> = animated
+        .parts
+        .iter()
+        .map(|p| vec![glam::Vec3::ZERO; p.mesh.positions.len()])
+        .collect();
     let mut written = 0usize;
     for (index, frame) in open_stream(&args.stream, &mask)?.enumerate() {
         if index >= range.end {
@@ -121,6 +162,17 @@ pub fn run(args: Args) -> CliResult {
         let path = args.out.join(format!("frame_{index:05}.obj"));
         let mut file = BufWriter::new(create(&path)?);
         obj::write(&mut file, &header, &placed, &registration.head.triangles)?;
+        let (head_motion, jaw_motion) = (job.head_motion(), job.jaw_motion());
+        let mut first_vertex = placed.len() as u32;
+        for (part, out) in animated.parts.iter().zip(&mut placed_parts) {
+            let motion = match part.role.moves_with_jaw() {
+                true => head_motion.after(&jaw_motion),
+                false => head_motion,
+            };
+            motion.apply_into(&part.mesh.positions, out);
+            obj::write_object(&mut file, &part.name, out, &part.mesh.triangles, first_vertex)?;
+            first_vertex += out.len() as u32;
+        }
         file.flush()?;
         let rows = lips.rows(deformed, index as u64, frame.time_s)?;
         metrics.write_rows(&rows).map_err(in_metrics)?;

@@ -168,6 +168,26 @@ pub fn write(
     Ok(())
 }
 
+/// Another object after what [`write`] wrote: `o name`, its vertices, its triangles
+/// numbered after the `first_vertex` vertices already in the file.
+pub fn write_object(
+    out: &mut impl std::io::Write,
+    name: &str,
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    first_vertex: u32,
+) -> std::io::Result<()> {
+    writeln!(out, "o {name}")?;
+    for p in positions {
+        writeln!(out, "v {} {} {}", p.x, p.y, p.z)?;
+    }
+    let base = first_vertex + 1;
+    for t in triangles {
+        writeln!(out, "f {} {} {}", t[0] + base, t[1] + base, t[2] + base)?;
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
