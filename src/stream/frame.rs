@@ -19,9 +19,9 @@ pub const RADIANS_PER_ANGLE_COUNT: f32 = 1e-5;
 /// [`crate::mask::MaskPose`]'s rx, ry and rz, so the counts map with no sign change.
 pub const HEAD_ROTATION_FAPS: [u8; 3] = [48, 49, 50];
 
-/// MPEG-4 FAP 1, the high-level viseme: a blend of two of the standard's 14 visemes. Kept
-/// as read (integers as in a `.fap` file); CANDIDE-3 has no unit for it, so it does not
-/// move the mask.
+/// MPEG-4 FAP 1, the high-level viseme: a blend of two of the standard's 14 visemes, kept
+/// as read (integers as in a `.fap` file). It moves the mask through the mouth shapes of
+/// [`super::visemes::VISEMES`] (text-to-speech viseme IDs arrive as one of these).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub struct VisemeFap {
     /// `viseme_select1`: first viseme, 0..=14.
@@ -35,7 +35,7 @@ pub struct VisemeFap {
 }
 
 /// MPEG-4 FAP 2, the high-level expression: two of the six standard expressions with
-/// intensities. Kept as read; it does not move the mask.
+/// intensities. Kept as read; it does not move the mask yet.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub struct ExpressionFap {
     /// `expression_select1`: 0..=6 (neutral, joy, sadness, anger, fear, disgust, surprise).
@@ -120,7 +120,8 @@ impl Frame {
     /// Fills `out` with the animation-unit weights of this frame (`out` is zeroed first;
     /// pass one slot per animation unit of `mask`, 65 for CANDIDE-3). The weights are the
     /// sum of the `animation` entries and of the FAPs CANDIDE implements, each FAP count
-    /// converted with `fapu` (`FapuValues::weight`). FAPs the mask has no unit for (1-2,
+    /// converted with `fapu` (`FapuValues::weight`), and FAP 1's viseme as its mouth shape
+    /// ([`super::visemes::add_viseme`]). FAPs the mask has no unit for (the expression 2,
     /// the head rotation 48-50, which [`Frame::head_rotation`] returns, the tongue 43-47
     /// and the ears 65-68), ARKit weights ([`Frame::mask_offsets`] has them) and indices
     /// beyond `out` are left out.
@@ -141,6 +142,9 @@ impl Frame {
             {
                 *slot += fapu.weight(*kind, count);
             }
+        }
+        if let Some(viseme) = &self.viseme {
+            super::visemes::add_viseme(viseme, out);
         }
     }
 

@@ -23,6 +23,7 @@ mod reader;
 mod strict_json;
 pub mod summary;
 pub mod syllables;
+pub mod visemes;
 
 use std::fs::File;
 use std::io::BufReader;

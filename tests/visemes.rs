@@ -1,0 +1,114 @@
+//! Visemes as input: a text-to-speech viseme track (Oculus/Meta names, Microsoft IDs, MPEG-4
+//! FAP 1) drives the ICT head, and each viseme's mouth has its shape: closed for p/b/m,
+//! the lower lip at the upper teeth for f/v, open for aa.
+
+mod common;
+
+use common::{data, register};
+
+use std::sync::Arc;
+
+use facewire::animate::{AnimatedHead, FrameJob};
+use facewire::deform::{bind, AlgoSpec};
+use facewire::head::Head;
+use facewire::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
+use facewire::stream::{ArkitBasis, Frame, JsonlReader};
+
+/// (label, JSONL viseme), as a TTS engine's track would give them.
+const TRACK: [(&str, &str); 8] = [
+    ("sil", r#"{"oculus":"sil"}"#),
+    ("p", r#"{"oculus":"PP"}"#),
+    ("a", r#"{"oculus":10}"#),
+    ("m", r#"{"microsoft":21}"#),
+    ("f", r#"{"microsoft":18}"#),
+    ("v", r#"{"oculus":"FF"}"#),
+    ("aa", r#"{"microsoft":2}"#),
+    ("b", r#"{"select1":1,"select2":1,"blend":63,"definition":0}"#),
+];
+
+#[test]
+fn a_viseme_track_gives_each_sound_its_mouth() {
+    let text: String = TRACK
+        .iter()
+        .enumerate()
+        .map(|(seq, (label, viseme))| {
+            format!(
+                "{{\"seq\":{seq},\"t\":{},\"label\":\"{label}\",\"viseme\":{viseme}}}\n",
+                seq as f64 / 30.0
+            )
+        })
+        .collect();
+    let reg = register("ict_head");
+    let frames: Vec<Frame> = JsonlReader::new(text.as_bytes(), &reg.fitted.mask)
+        .map(Result::unwrap)
+        .collect();
+    let head = Arc::new(AnimatedHead::new(reg).unwrap());
+    let reg = &head.registration;
+    let mm = reg.mm_per_unit();
+    let spec: AlgoSpec = "U".parse().unwrap();
+    let mut job = FrameJob::new(
+        head.clone(),
+        Arc::new(bind(reg, &spec)),
+        Arc::new(ArkitBasis::shipped()),
+        false,
+    )
+    .unwrap();
+    let teeth = Head::load(&data("heads/ict_head_teeth_upper.obj")).unwrap();
+    for frame in &frames {
+        let deformed = job.deform(frame);
+        let gap = deformed[reg.anchors.vertex[INNER_LIP_MID_UPPER] as usize]
+            .distance(deformed[reg.anchors.vertex[INNER_LIP_MID_LOWER] as usize])
+            * mm;
+        // The lower lip's inner midpoint (anchor of mask vertex 40) to the upper teeth.
+        let lower_lip = deformed[reg.anchors.vertex[INNER_LIP_MID_LOWER] as usize];
+        let to_teeth = teeth
+            .positions
+            .iter()
+            .map(|t| t.distance(lower_lip))
+            .fold(f32::INFINITY, f32::min)
+            * mm;
+        let label = frame.label.as_deref().unwrap();
+        eprintln!("{label:>3}: lips {gap:5.1} mm apart, lower lip {to_teeth:4.1} mm from the upper teeth");
+        match label {
+            "p" | "b" | "m" | "sil" => {
+                assert!(gap < 2.0, "{label}: lips {gap} mm apart");
+                assert!(
+                    to_teeth > 4.0,
+                    "{label}: lower lip {to_teeth} mm from the upper teeth"
+                );
+            }
+            "a" | "aa" => assert!(gap > 10.0, "{label}: lips only {gap} mm apart"),
+            "f" | "v" => assert!(
+                to_teeth < 2.0,
+                "{label}: lower lip {to_teeth} mm from the upper teeth"
+            ),
+            _ => unreachable!(),
+        }
+    }
+}
+
+#[test]
+fn unknown_viseme_ids_are_refused_naming_the_scheme() {
+    let mask = facewire::mask::Mask::candide3();
+    for (viseme, field, expected) in [
+        (r#"{"oculus":"zz"}"#, "viseme.oculus", "or a name (sil, PP"),
+        (r#"{"oculus":15}"#, "viseme.oculus", "expected 0..=14"),
+        (r#"{"microsoft":22}"#, "viseme.microsoft", "expected 0..=21"),
+        (r#"{"microsoft":-1}"#, "viseme.microsoft", "expected 0..=21"),
+    ] {
+        let line = format!("{{\"seq\":0,\"t\":0,\"viseme\":{viseme}}}\n");
+        let error = JsonlReader::new(line.as_bytes(), &mask)
+            .next()
+            .unwrap()
+            .unwrap_err();
+        let message = error.to_string();
+        assert!(
+            message.contains(field) && message.contains(expected),
+            "{viseme}: {message}"
+        );
+    }
+    // The IDs become FAP 1 as MPEG-4 numbers it: Microsoft's 18 (f v) is viseme 2.
+    let line = "{\"seq\":0,\"t\":0,\"viseme\":{\"microsoft\":18}}\n";
+    let frame = JsonlReader::new(line.as_bytes(), &mask).next().unwrap().unwrap();
+    assert_eq!(frame.viseme, Some(facewire::stream::visemes::single(2)));
+}
