@@ -210,6 +210,7 @@ fn jsonl_and_fwp1_accept_the_same_frame_alike() {
         arkit: vec![(17, 0.5), (0, 2.0)],
         head_rotation_rad: Some([0.0, 0.0, 6.25]),
         label: Some("pa".into()),
+        viseme: None,
     };
     let frame = from_json(json, &mask).unwrap();
     assert_eq!(from_binary(&binary, &mask).unwrap(), frame);

@@ -37,7 +37,7 @@ use facewire::stream::{
     ArkitBasis, AuTextOptions, AuTextReader, FapReader, Frame, FramePoser, JsonlReader, JsonlWriter,
     StreamError,
 };
-use facewire_proto::params::ParamFrame;
+use facewire_proto::params::{ParamFrame, ParamViseme};
 
 /// Generous guard against inputs that make a parser crawl, in CPU time of the thread; the
 /// real inputs take microseconds to a millisecond.
@@ -608,6 +608,12 @@ fn fwp1_round_trip(frame: &Frame) {
         arkit: frame.arkit.clone(),
         head_rotation_rad: frame.head_rotation_rad,
         label: frame.label.clone(),
+        viseme: frame.viseme.map(|v| ParamViseme::Fap1 {
+            select1: v.select1 as u8,
+            select2: v.select2 as u8,
+            blend: v.blend as u8,
+            definition: v.definition as u8,
+        }),
     };
     let back = ParamFrame::decode(&p.encode()).unwrap();
     assert_eq!(&Frame::from_param_frame(back, candide3()).unwrap(), frame);

@@ -49,8 +49,8 @@ fn require_python() {
 }
 
 /// The frames pushed: the first 20 of the recorded syllable stream (`pa`: the lips close,
-/// press, then the jaw opens for the vowel), some given ARKit weights, FAPs or a head
-/// rotation so that every list of the binary format is exercised.
+/// press, then the jaw opens for the vowel), some given ARKit weights, FAPs, a viseme or a
+/// head rotation so that every list of the binary format is exercised.
 fn frames_to_push() -> Vec<Frame> {
     let frames: Vec<Frame> = open_stream(&repo_path("data/streams/syllables.jsonl"), &Mask::candide3())
         .unwrap()
@@ -64,6 +64,7 @@ fn frames_to_push() -> Vec<Frame> {
                 2 => frame.arkit = vec![(17, 0.25), (23, 0.4)], // jawOpen, mouthSmileLeft
                 3 => frame.faps = vec![(3, 150.0), (12, -80.0)], // open_jaw, raise_l_cornerlip
                 4 => frame.head_rotation_rad = Some([0.02, -0.05, 0.01]),
+                1 => frame.viseme = Some(facewire::stream::visemes::single(10)), // aa
                 _ => {}
             }
             frame

@@ -135,7 +135,10 @@ ANIMATION_UNITS: Tuple[str, ...] = tuple(names[0] for names in ANIMATION_UNIT_NA
 # The keys a JSONL frame object may have, and those FWP1 cannot carry.
 _FRAME_KEYS = ("seq", "t", "label", "au", "fap", "arkit", "head_rotation_rad",
                "head_translation", "controls", "viseme", "expression")
-_JSON_ONLY_KEYS = ("head_translation", "controls", "viseme", "expression")
+_JSON_ONLY_KEYS = ("head_translation", "controls", "expression")
+#: Oculus/Meta's viseme names, in their (and MPEG-4's) order.
+OCULUS_VISEMES: Tuple[str, ...] = ("sil", "PP", "FF", "TH", "DD", "kk", "CH", "SS", "nn", "RR",
+                                   "aa", "E", "ih", "oh", "ou")
 
 _U64_MAX = (1 << 64) - 1
 
@@ -371,11 +374,13 @@ def _label_bytes(label: str) -> bytes:
 
 def encode_fwp1(frame: Mapping[str, Any]) -> bytes:
     """Encodes a JSONL-style frame (``seq``, ``t``, ``label``, ``au``, ``fap``, ``arkit``,
-    ``head_rotation_rad``) as a binary ``FWP1`` message (PROTOCOL.md, little-endian).
+    ``head_rotation_rad``, ``viseme``) as a binary ``FWP1`` message (PROTOCOL.md,
+    little-endian).
 
-    Unit, FAP and blendshape keys may be names or indices, as in JSONL. Raises
-    :class:`FrameError` for anything FWP1 cannot carry (``head_translation``,
-    ``controls``, ``viseme``, ``expression``: send such frames as JSON text), for unknown
+    Unit, FAP and blendshape keys may be names or indices, as in JSONL; a viseme is FAP 1
+    (``{"select1","select2","blend","definition"}``), ``{"oculus": 10 or "aa"}`` or
+    ``{"microsoft": 21}``. Raises :class:`FrameError` for anything FWP1 cannot carry
+    (``head_translation``, ``controls``, ``expression``: send such frames as JSON text), for unknown
     keys and names, and for values that are not finite f32 numbers. A label longer than
     255 UTF-8 bytes is cut at a character boundary, as the server cuts labels."""
     seq = _frame_seq(frame)
@@ -402,7 +407,8 @@ def encode_fwp1(frame: Mapping[str, Any]) -> bytes:
     if label is not None and not isinstance(label, str):
         raise FrameError("frame seq %d: label must be a string or null" % seq)
 
-    flags = (1 if rotation is not None else 0) | (2 if label is not None else 0)
+    viseme = _viseme_bytes(seq, frame.get("viseme"))
+    flags = (1 if rotation is not None else 0) | (2 if label is not None else 0) | (4 if viseme else 0)
     out = bytearray(b"FWP1")
     out += struct.pack("<QdBH", seq, t, flags, len(au))
     for unit, weight in au:
@@ -416,7 +422,36 @@ def encode_fwp1(frame: Mapping[str, Any]) -> bytes:
     if label is not None:
         data = _label_bytes(label)
         out += struct.pack("<B", len(data)) + data
-    return bytes(out)
+    return bytes(out + viseme)
+
+
+def _viseme_bytes(seq: int, viseme: Any) -> bytes:
+    """FWP1's 5 viseme bytes (scheme, then 4 values), or b"" for none."""
+    if viseme is None:
+        return b""
+    if not isinstance(viseme, Mapping):
+        raise FrameError("frame seq %d: viseme must be an object or null" % seq)
+    if set(viseme) == {"oculus"}:
+        value = viseme["oculus"]
+        if isinstance(value, str):
+            if value not in OCULUS_VISEMES:
+                raise FrameError("frame seq %d: viseme.oculus %r: expected one of %s"
+                                 % (seq, value, ", ".join(OCULUS_VISEMES)))
+            value = OCULUS_VISEMES.index(value)
+        return bytes([1, _byte(seq, "viseme.oculus", value), 0, 0, 0])
+    if set(viseme) == {"microsoft"}:
+        return bytes([2, _byte(seq, "viseme.microsoft", viseme["microsoft"]), 0, 0, 0])
+    fields = ("select1", "select2", "blend", "definition")
+    if set(viseme) != set(fields):
+        raise FrameError("frame seq %d: viseme needs %s, or oculus, or microsoft"
+                         % (seq, ", ".join(fields)))
+    return bytes([0] + [_byte(seq, "viseme." + f, viseme[f]) for f in fields])
+
+
+def _byte(seq: int, field: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 255:
+        raise FrameError("frame seq %d: %s must be an integer 0..255, got %r" % (seq, field, value))
+    return value
 
 
 def encode_json(frame: Mapping[str, Any]) -> str:

@@ -11,11 +11,12 @@
 
 use std::f32::consts::TAU;
 
-use facewire_proto::params::ParamFrame;
+use facewire_proto::params::{ParamFrame, ParamViseme};
 
 use super::blendshapes::ARKIT_BLENDSHAPES;
 use super::error::{Location, StreamError};
-use super::frame::{Frame, RADIANS_PER_ANGLE_COUNT};
+use super::frame::{Frame, VisemeFap, RADIANS_PER_ANGLE_COUNT};
+use super::visemes::VisemeScheme;
 use crate::mask::fap::{fap_info, Fapu};
 use crate::mask::{Mask, UnknownUnit};
 
@@ -86,12 +87,35 @@ impl Frame {
     /// refuse the same content with the same error and field. The lists may come in any
     /// order (they are sorted by index); an index given twice is refused.
     pub fn from_param_frame(p: ParamFrame, mask: &Mask) -> Result<Frame, StreamError> {
+        let at = Location::Frame { seq: p.seq };
+        let tts = |scheme: VisemeScheme, id: u8| {
+            scheme
+                .fap1(i64::from(id), &id.to_string())
+                .map_err(|message| StreamError::syntax(&at, &format!("viseme.{}", scheme.key()), message))
+        };
+        let viseme = match p.viseme {
+            None => None,
+            Some(ParamViseme::Fap1 {
+                select1,
+                select2,
+                blend,
+                definition,
+            }) => Some(VisemeFap {
+                select1: select1.into(),
+                select2: select2.into(),
+                blend: blend.into(),
+                definition: definition.into(),
+            }),
+            Some(ParamViseme::Oculus(id)) => Some(tts(VisemeScheme::Oculus, id)?),
+            Some(ParamViseme::Microsoft(id)) => Some(tts(VisemeScheme::Microsoft, id)?),
+        };
         let mut frame = Frame {
             label: p.label,
             animation: p.animation,
             faps: p.faps,
             arkit: p.arkit,
             head_rotation_rad: p.head_rotation_rad,
+            viseme,
             ..Frame::at(p.seq, p.time_s)
         };
         frame.animation.sort_unstable_by_key(|&(unit, _)| unit);
@@ -500,8 +524,21 @@ mod tests {
             arkit: vec![(24, 1.0), (17, 0.5)],
             head_rotation_rad: Some([0.1, 0.0, 0.0]),
             label: Some("pa".into()),
+            viseme: Some(ParamViseme::Microsoft(18)),
         };
         let frame = Frame::from_param_frame(p.clone(), &mask).unwrap();
+        assert_eq!(frame.viseme, Some(crate::stream::visemes::single(2)));
+        let unknown = ParamFrame {
+            viseme: Some(ParamViseme::Oculus(15)),
+            ..p.clone()
+        };
+        let err = Frame::from_param_frame(unknown, &mask).unwrap_err();
+        assert_eq!(err.field(), Some("viseme"));
+        assert!(
+            err.to_string()
+                .contains("viseme.oculus: 15 is not a viseme: expected 0..=14"),
+            "{err}"
+        );
         assert_eq!(frame.animation, [(1, 0.3), (11, 0.01)]);
         assert_eq!(frame.faps, [(3, 120.0), (48, 10.0)]);
         assert_eq!(frame.arkit, [(17, 0.5), (24, 1.0)]);

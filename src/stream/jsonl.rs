@@ -14,7 +14,7 @@ use super::frame::{ExpressionFap, Frame, VisemeFap};
 use super::lines::{Decoding, LineReader};
 use super::reader::{FrameReader, LineFormat};
 use super::strict_json::{self, StrictJsonError};
-use super::visemes::{self, VisemeScheme, VISEMES};
+use super::visemes::{VisemeScheme, VISEMES};
 use crate::mask::fap::{fap_by_name, fap_info, FAPS};
 use crate::mask::Mask;
 
@@ -391,38 +391,25 @@ fn parse_viseme(at: &Location, value: &Value) -> Result<Option<VisemeFap>, Strea
         return Ok(None);
     }
     // A text-to-speech viseme: {"oculus": 10} or {"oculus": "aa"}, {"microsoft": 21}.
-    if let Some(object) = value.as_object().filter(|o| o.len() == 1) {
-        let (key, id) = object.iter().next().expect("one entry");
-        let scheme = match key.as_str() {
-            "oculus" => Some(VisemeScheme::Oculus),
-            "microsoft" => Some(VisemeScheme::Microsoft),
-            _ => None,
-        };
+    if let Some((key, id)) = value
+        .as_object()
+        .filter(|o| o.len() == 1)
+        .and_then(|o| o.iter().next())
+    {
+        let scheme = [VisemeScheme::Oculus, VisemeScheme::Microsoft]
+            .into_iter()
+            .find(|s| s.key() == key);
         if let Some(scheme) = scheme {
-            let field = format!("viseme.{key}");
             let by_name = id
                 .as_str()
                 .filter(|_| scheme == VisemeScheme::Oculus)
                 .and_then(|name| VISEMES.iter().find(|v| v.oculus == name))
-                .map(|v| v.number);
-            let number = by_name.or_else(|| id.as_i64().and_then(|n| scheme.to_mpeg4(n)));
-            return match number {
-                Some(number) => Ok(Some(visemes::single(number))),
-                None => Err(StreamError::syntax(
-                    at,
-                    &field,
-                    format!(
-                        "{} is not a viseme: expected 0..={}{}",
-                        crate::quote::clip(&id.to_string()),
-                        scheme.last(),
-                        match scheme {
-                            VisemeScheme::Oculus =>
-                                " or a name (sil, PP, FF, TH, DD, kk, CH, SS, nn, RR, aa, E, ih, oh, ou)",
-                            VisemeScheme::Microsoft => "",
-                        }
-                    ),
-                )),
-            };
+                .map(|v| i64::from(v.number));
+            let number = by_name.or_else(|| id.as_i64()).unwrap_or(-1);
+            return scheme
+                .fap1(number, &crate::quote::clip(&id.to_string()))
+                .map(Some)
+                .map_err(|message| StreamError::syntax(at, &format!("viseme.{key}"), message));
         }
     }
     let [select1, select2, blend, definition] = parse_int_fields(at, value, "viseme", VISEME_FIELDS)?;

@@ -100,12 +100,34 @@ impl VisemeScheme {
         }
     }
 
+    /// Its key in a JSONL `viseme` object.
+    pub fn key(self) -> &'static str {
+        match self {
+            VisemeScheme::Oculus => "oculus",
+            VisemeScheme::Microsoft => "microsoft",
+        }
+    }
+
     /// The highest ID.
     pub fn last(self) -> usize {
         match self {
             VisemeScheme::Oculus => VISEMES.len() - 1,
             VisemeScheme::Microsoft => MICROSOFT_TO_MPEG4.len() - 1,
         }
+    }
+
+    /// FAP 1 holding the viseme `id` names, or what to tell a producer whose `id` (as
+    /// written) names none.
+    pub fn fap1(self, id: i64, written: &str) -> Result<VisemeFap, String> {
+        self.to_mpeg4(id).map(single).ok_or_else(|| {
+            let names = match self {
+                VisemeScheme::Oculus => {
+                    " or a name (sil, PP, FF, TH, DD, kk, CH, SS, nn, RR, aa, E, ih, oh, ou)"
+                }
+                VisemeScheme::Microsoft => "",
+            };
+            format!("{written} is not a viseme: expected 0..={}{names}", self.last())
+        })
     }
 }
 
