@@ -198,6 +198,19 @@ impl Browser {
         shot.as_str().unwrap().to_string()
     }
 
+    /// Whether the element's picture differs from `before` (a [`Browser::screenshot`])
+    /// within `limit`, looking every 250 ms.
+    async fn picture_changes(&self, css: &str, before: &str, limit: Duration) -> bool {
+        let start = Instant::now();
+        while start.elapsed() < limit {
+            tokio::time::sleep(Duration::from_millis(250)).await;
+            if self.screenshot(css).await != before {
+                return true;
+            }
+        }
+        false
+    }
+
     async fn quit(self) {
         let _ = self.http.delete(&self.session).send().await;
     }
@@ -261,15 +274,12 @@ async fn check_the_page(browser: &Browser) {
 
     // The syllable stream moves the lips: two pictures a few hundred ms apart differ.
     let first = browser.screenshot("#canvas-0").await;
-    let mut moved = false;
-    for _ in 0..10 {
-        tokio::time::sleep(Duration::from_millis(300)).await;
-        if browser.screenshot("#canvas-0").await != first {
-            moved = true;
-            break;
-        }
-    }
-    assert!(moved, "the head did not move in 3 s");
+    assert!(
+        browser
+            .picture_changes("#canvas-0", &first, Duration::from_secs(3))
+            .await,
+        "the head did not move in 3 s"
+    );
 
     // Another algorithm in the picker: the view reconnects and the snapshot names it.
     let rigid = "geometric:weights=none";
@@ -399,15 +409,12 @@ async fn check_a_stalled_stream(browser: &Browser, url: &str, long: Duration) {
         r#"{"seq":4,"t":0.2,"au":{"jaw_drop":0.3},"head_rotation_rad":[0,0.6,0]}"#.to_string(),
     )
     .await;
-    let mut turned = false;
-    for _ in 0..20 {
-        tokio::time::sleep(Duration::from_millis(250)).await;
-        if browser.screenshot("#canvas-0").await != still {
-            turned = true;
-            break;
-        }
-    }
-    assert!(turned, "the page did not turn the head in 5 s");
+    assert!(
+        browser
+            .picture_changes("#canvas-0", &still, Duration::from_secs(5))
+            .await,
+        "the page did not turn the head in 5 s"
+    );
     producer.close(None).await.unwrap();
 }
 
@@ -436,15 +443,12 @@ async fn check_the_inner_mouth_close_up(browser: &Browser, url: &str, long: Dura
         .await;
     assert_eq!(pressed, "true", "the close-up button shows the URL's choice");
     let first = browser.screenshot("#canvas-0").await;
-    let mut moved = false;
-    for _ in 0..10 {
-        tokio::time::sleep(Duration::from_millis(300)).await;
-        if browser.screenshot("#canvas-0").await != first {
-            moved = true;
-            break;
-        }
-    }
-    assert!(moved, "the mouth did not move in 3 s");
+    assert!(
+        browser
+            .picture_changes("#canvas-0", &first, Duration::from_secs(3))
+            .await,
+        "the mouth did not move in 3 s"
+    );
     if let Some(dir) = std::env::var_os("FACEWIRE_SCREENSHOTS") {
         for i in 0..12 {
             let shot = browser.screenshot("#canvas-0").await;

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{data, obj_positions};
+use common::{data, facewire_deform, obj_positions};
 
 use std::path::Path;
 use std::process::{Command, Output};
@@ -116,25 +116,10 @@ fn render_writes_a_png() {
     assert_eq!(&bytes[16..24], &[0, 0, 0, 64, 0, 0, 0, 64]);
 }
 
-/// `facewire deform` over a stream file; returns the output directory.
+/// `facewire deform` on the MakeHuman head with algorithm G over frames `A..B` of a stream file.
 fn deform(stream: &Path, frames: &str, dir: &Path) -> Output {
-    let head = data("heads/makehuman_head.obj");
-    let fit = data("heads/makehuman_head.fit.toml");
-    facewire(&[
-        "deform",
-        "--head",
-        head.to_str().unwrap(),
-        "--fit",
-        fit.to_str().unwrap(),
-        "--algo",
-        "G",
-        "--stream",
-        stream.to_str().unwrap(),
-        "--out",
-        dir.to_str().unwrap(),
-        "--frames",
-        frames,
-    ])
+    let extra = ["--algo", "G", "--frames", frames].map(std::ffi::OsStr::new);
+    facewire_deform("makehuman_head", stream, dir, &extra)
 }
 
 #[test]

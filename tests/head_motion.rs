@@ -4,9 +4,8 @@
 
 mod common;
 
-use common::{data, obj_positions, register};
+use common::{data, facewire_deform, obj_positions, register};
 
-use std::process::Command;
 use std::sync::Arc;
 
 use facewire::animate::{head_motion, AnimatedHead, FrameJob, FrameTimes, NECK_PIVOT_MASK};
@@ -129,17 +128,7 @@ fn facewire_deform_writes_the_head_where_its_motion_puts_it() {
     )
     .unwrap();
     let out = scratch.path().join("out");
-    let run = Command::new(env!("CARGO_BIN_EXE_facewire"))
-        .args(["deform", "--head"])
-        .arg(data("heads/makehuman_head.obj"))
-        .arg("--fit")
-        .arg(data("heads/makehuman_head.fit.toml"))
-        .arg("--stream")
-        .arg(&stream)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let run = facewire_deform("makehuman_head", &stream, &out, &[]);
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     let written: Vec<Vec3> = obj_positions(&out.join("frame_00000.obj"))
         .into_iter()

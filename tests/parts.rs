@@ -194,21 +194,17 @@ fn facewire_deform_writes_the_parts_where_the_jaw_puts_them() {
     )
     .unwrap();
     let out = scratch.path().join("out");
-    let run = std::process::Command::new(env!("CARGO_BIN_EXE_facewire"))
-        .args(["deform", "--head"])
-        .arg(data("heads/ict_head.obj"))
-        .arg("--fit")
-        .arg(data("heads/ict_head.fit.toml"))
-        .arg("--stream")
-        .arg(&stream)
-        .arg("--out")
-        .arg(&out)
-        .arg("--part")
-        .arg(data("heads/ict_head_teeth_upper.obj"))
-        .arg("--part")
-        .arg(data("heads/ict_head_teeth_lower.obj"))
-        .output()
-        .unwrap();
+    let (upper, lower) = (
+        data("heads/ict_head_teeth_upper.obj"),
+        data("heads/ict_head_teeth_lower.obj"),
+    );
+    let part = std::ffi::OsStr::new("--part");
+    let run = common::facewire_deform(
+        "ict_head",
+        &stream,
+        &out,
+        &[part, upper.as_os_str(), part, lower.as_os_str()],
+    );
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{stderr}");
     assert!(

@@ -78,7 +78,7 @@ const GUMS = [0.78, 0.4, 0.42];
 const TONGUE = [0.74, 0.33, 0.36];
 
 /** A part's material: a tongue by its role, teeth and gums by their names, else teeth. */
-export function partAlbedo(name, role) {
+function partAlbedo(name, role) {
   if (role === "tongue") {
     return TONGUE;
   }
@@ -86,7 +86,7 @@ export function partAlbedo(name, role) {
 }
 
 /** Column-major 4x4 product a b (b applied first). */
-export function multiply(a, b) {
+function multiply(a, b) {
   const out = new Float32Array(16);
   for (let column = 0; column < 4; column++) {
     for (let row = 0; row < 4; row++) {
@@ -226,8 +226,7 @@ export class HeadRenderer {
       const position = this.attribute("a_position", 3, vao);
       const normal = this.attribute("a_normal", 3, vao);
       const index = gl.createBuffer();
-      gl.bindVertexArray(vao);
-      gl.vertexAttrib1f(gl.getAttribLocation(this.program, "a_heat"), 0);
+      gl.bindVertexArray(vao); // no heat: parts are drawn with the ramp off
       gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, index);
       gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, mesh.indices, gl.STATIC_DRAW);
       gl.bindVertexArray(null);

@@ -4,7 +4,7 @@
 
 use super::infer_role;
 use crate::deform::Registration;
-use crate::head::{Head, Part, PartRole, MAX_PARTS};
+use crate::head::{check_part_names, Head, Part, PartListError, PartRole};
 use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
 use crate::metrics::{LipRegion, RegionError};
 
@@ -17,7 +17,7 @@ pub struct AnimatedHead {
     pub lip_region: LipRegion,
     /// Quantization step of viewer frames, head units per count ([`STEP_MM`] in mm).
     pub step: f32,
-    /// Teeth, gums, tongue: at most [`MAX_PARTS`], names unique.
+    /// Teeth, gums, tongue: at most [`crate::head::MAX_PARTS`], names unique.
     pub parts: Vec<Part>,
 }
 
@@ -33,10 +33,8 @@ pub struct PartInput {
 pub enum AnimatedHeadError {
     #[error("lip region: {0}")]
     LipRegion(#[from] RegionError),
-    #[error("{count} parts; a head carries at most {MAX_PARTS}")]
-    TooManyParts { count: usize },
-    #[error("part {name:?} is given twice")]
-    DuplicatePart { name: String },
+    #[error(transparent)]
+    Parts(#[from] PartListError),
     #[error("part {name:?} has no vertices")]
     EmptyPart { name: String },
 }
@@ -53,14 +51,9 @@ impl AnimatedHead {
         registration: Registration,
         parts: Vec<PartInput>,
     ) -> Result<AnimatedHead, AnimatedHeadError> {
-        if parts.len() > MAX_PARTS {
-            return Err(AnimatedHeadError::TooManyParts { count: parts.len() });
-        }
+        check_part_names(parts.iter().map(|p| p.name.as_str()))?;
         let mut settled: Vec<Part> = Vec::with_capacity(parts.len());
         for part in parts {
-            if settled.iter().any(|p| p.name == part.name) {
-                return Err(AnimatedHeadError::DuplicatePart { name: part.name });
-            }
             if part.mesh.positions.is_empty() {
                 return Err(AnimatedHeadError::EmptyPart { name: part.name });
             }

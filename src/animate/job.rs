@@ -104,7 +104,9 @@ impl FrameJob {
             &mut self.scratch,
             &mut self.deformed,
         );
-        self.jaw_motion = jaw_motion(reg.mask_rest(), mask_now, &reg.fitted.fit.pose);
+        if self.head.has_jaw_parts() {
+            self.jaw_motion = jaw_motion(reg.mask_rest(), mask_now, &reg.fitted.fit.pose);
+        }
         &self.deformed
     }
 
@@ -115,7 +117,8 @@ impl FrameJob {
     }
 
     /// The jaw's motion in the frame of the last [`FrameJob::deform`], before the head's
-    /// (parts that move with the jaw are placed by the head's motion after it).
+    /// (parts that move with the jaw are placed by the head's motion after it); the
+    /// identity for a head without such parts, which has nothing for it to move.
     pub fn jaw_motion(&self) -> RigidMotion {
         self.jaw_motion
     }
@@ -177,10 +180,7 @@ impl FrameJob {
                 face,
                 deflate: true,
                 head: self.head_motion.to_wire(),
-                jaw: match self.head.has_jaw_parts() {
-                    true => self.jaw_motion.to_wire(),
-                    false => None,
-                },
+                jaw: self.jaw_motion.to_wire(),
             },
         ))
     }

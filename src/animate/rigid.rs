@@ -2,9 +2,8 @@
 //! the jaw move in a frame. Kept apart from the deformation and sent as such, never baked
 //! into vertex deltas.
 
-use glam::{DVec3, Mat3, Quat, Vec3};
+use glam::{Mat3, Quat, Vec3};
 
-use crate::fit::umeyama::umeyama_pairs;
 use crate::mask::MaskPose;
 use facewire_proto::frame::RigidMotion as WireRigidMotion;
 
@@ -25,28 +24,6 @@ impl RigidMotion {
         rotation: Quat::IDENTITY,
         translation: Vec3::ZERO,
     };
-
-    /// The rigid motion that carries the first point of each pair onto the second with the
-    /// least summed squared distance (Kabsch: Umeyama's rotation, no scale). Identity
-    /// when the points are fewer than three or collinear. Allocates nothing.
-    pub fn fit<I: Iterator<Item = (Vec3, Vec3)>>(pairs: impl Fn() -> I) -> RigidMotion {
-        let wide = || pairs().map(|(a, b)| (DVec3::from(a), DVec3::from(b)));
-        let Some(similarity) = umeyama_pairs(wide) else {
-            return RigidMotion::IDENTITY;
-        };
-        let (mut n, mut from, mut to) = (0usize, DVec3::ZERO, DVec3::ZERO);
-        for (a, b) in wide() {
-            n += 1;
-            from += a;
-            to += b;
-        }
-        let (from, to) = (from / n as f64, to / n as f64);
-        let rotation = glam::DQuat::from_mat3(&similarity.rotation).normalize();
-        RigidMotion {
-            rotation: rotation.as_quat(),
-            translation: (to - rotation * from).as_vec3(),
-        }
-    }
 
     /// A motion defined in mask units, `q -> rotation (q - pivot) + pivot + translation`,
     /// carried into the head units of a mask fitted with `pose` (`g = L q + t_fit`,
@@ -100,29 +77,27 @@ mod tests {
     use super::*;
 
     #[test]
-    fn fit_recovers_a_rigid_motion_and_composes() {
-        let truth = RigidMotion {
+    fn after_applies_the_first_motion_then_its_own() {
+        let turn = RigidMotion {
             rotation: Quat::from_euler(glam::EulerRot::ZYX, 0.3, -0.2, 0.45),
             translation: Vec3::new(1.0, -2.0, 0.5),
         };
-        let points = [
-            Vec3::ZERO,
-            Vec3::X,
-            Vec3::new(0.0, 2.0, 0.0),
-            Vec3::new(0.3, 0.1, 1.0),
-        ];
-        let found = RigidMotion::fit(|| points.iter().map(|&p| (p, truth.apply(p))));
-        assert!(found.rotation.abs_diff_eq(truth.rotation, 1e-5), "{found:?}");
-        assert!(
-            found.translation.abs_diff_eq(truth.translation, 1e-5),
-            "{found:?}"
-        );
-        // Too few points: identity.
-        let two = RigidMotion::fit(|| points[..2].iter().map(|&p| (p, truth.apply(p))));
-        assert!(two.is_identity());
-        // Composition: x -> truth(truth(x)).
-        let twice = truth.after(&truth);
+        let shift = RigidMotion {
+            rotation: Quat::IDENTITY,
+            translation: Vec3::new(0.0, 3.0, 0.0),
+        };
         let p = Vec3::new(0.2, -0.7, 1.1);
-        assert!(twice.apply(p).abs_diff_eq(truth.apply(truth.apply(p)), 1e-5));
+        assert!(turn
+            .after(&turn)
+            .apply(p)
+            .abs_diff_eq(turn.apply(turn.apply(p)), 1e-5));
+        assert!(turn
+            .after(&shift)
+            .apply(p)
+            .abs_diff_eq(turn.apply(p + shift.translation), 1e-5));
+        assert!(shift
+            .after(&turn)
+            .apply(p)
+            .abs_diff_eq(turn.apply(p) + shift.translation, 1e-5));
     }
 }

@@ -6,7 +6,6 @@
 
 use std::io::{BufWriter, Write};
 use std::path::Path;
-use std::str::FromStr;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -45,10 +44,10 @@ pub struct Args {
 
 /// `[ROLE:]PATH` into a part to register.
 fn load_part(text: &str) -> Result<PartInput, String> {
-    let (role, path) = match text.split_once(':') {
-        Some((role, path)) if PartRole::from_str(role).is_ok() => (PartRole::from_str(role).ok(), path),
-        _ => (None, text),
-    };
+    let (role, path) = text
+        .split_once(':')
+        .and_then(|(role, path)| Some((Some(role.parse::<PartRole>().ok()?), path)))
+        .unwrap_or((None, text));
     let path = Path::new(path);
     let name = path
         .file_stem()

@@ -22,7 +22,7 @@ pub use animatable::{check_animatable, AnimatableError};
 pub use geodesic::SurfaceDistance;
 pub use laplacian::CotanLaplacian;
 pub use obj::ObjError;
-pub use part::{Part, PartRole, PartRoleError, MAX_PARTS};
+pub use part::{check_part_names, Part, PartListError, PartRole, PartRoleError, MAX_PARTS};
 pub use spatial::{SurfaceIndex, SurfacePoint, VertexIndex};
 pub use topology::{Edge, Fan, Topology};
 pub use validate::Problem;

@@ -67,6 +67,31 @@ impl FromStr for PartRole {
     }
 }
 
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum PartListError {
+    #[error("{count} parts; a head carries at most {MAX_PARTS}")]
+    TooMany { count: usize },
+    #[error("part {name:?} is given twice")]
+    Duplicate { name: String },
+}
+
+/// Checks the names of a head's parts: at most [`MAX_PARTS`], none given twice.
+pub fn check_part_names<'a>(names: impl ExactSizeIterator<Item = &'a str>) -> Result<(), PartListError> {
+    if names.len() > MAX_PARTS {
+        return Err(PartListError::TooMany { count: names.len() });
+    }
+    let mut seen: Vec<&str> = Vec::with_capacity(MAX_PARTS);
+    for name in names {
+        if seen.contains(&name) {
+            return Err(PartListError::Duplicate {
+                name: name.to_string(),
+            });
+        }
+        seen.push(name);
+    }
+    Ok(())
+}
+
 /// A part mesh (head units, the head's frame) and its role.
 #[derive(Debug, Clone)]
 pub struct Part {
@@ -92,5 +117,18 @@ mod tests {
             .contains("skull, jaw or tongue"));
         assert!(!PartRole::Skull.moves_with_jaw());
         assert!(PartRole::Jaw.moves_with_jaw() && PartRole::Tongue.moves_with_jaw());
+    }
+
+    #[test]
+    fn part_lists_are_bounded_and_named_once() {
+        assert_eq!(check_part_names(["a", "b"].into_iter()), Ok(()));
+        assert_eq!(
+            check_part_names(["a", "b", "a"].into_iter()),
+            Err(PartListError::Duplicate { name: "a".into() })
+        );
+        assert_eq!(
+            check_part_names(["p"; 9].into_iter()),
+            Err(PartListError::TooMany { count: 9 })
+        );
     }
 }

@@ -17,7 +17,7 @@ use super::registration::fit_from_landmarks;
 use super::store::{HeadMeta, HeadRecord, PartRecord};
 use super::AppState;
 use crate::deform::AlgoSpec;
-use crate::head::{PartRole, MAX_PARTS};
+use crate::head::{check_part_names, PartRole};
 use facewire_proto::messages::HeadInfo;
 
 /// How long a registration request waits for a free registration slot.
@@ -58,27 +58,17 @@ pub struct PartUpload {
 }
 
 /// The parts of a request, checked: names valid and unique, roles known, at most
-/// [`MAX_PARTS`].
+/// [`crate::head::MAX_PARTS`].
 fn part_records(parts: Vec<PartUpload>) -> Result<Vec<PartRecord>, ApiError> {
-    if parts.len() > MAX_PARTS {
-        return Err(ApiError::BadRequest(format!(
-            "{} parts; a head carries at most {MAX_PARTS}",
-            parts.len()
-        )));
-    }
-    let mut records: Vec<PartRecord> = Vec::with_capacity(parts.len());
+    check_part_names(parts.iter().map(|p| p.name.as_str()))
+        .map_err(|e| ApiError::BadRequest(e.to_string()))?;
+    let mut records = Vec::with_capacity(parts.len());
     for part in parts {
         if !valid_id(&part.name) {
             return Err(ApiError::BadId {
                 what: "part name",
                 id: part.name,
             });
-        }
-        if records.iter().any(|r| r.name == part.name) {
-            return Err(ApiError::BadRequest(format!(
-                "part {:?} is given twice",
-                part.name
-            )));
         }
         let role = part
             .role

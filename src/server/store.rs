@@ -20,7 +20,8 @@ pub struct HeadRecord {
     pub id: String,
     pub obj: Vec<u8>,
     pub fit_toml: String,
-    /// Teeth, gums, tongue (`meta.parts` names them and their roles).
+    /// Teeth, gums, tongue (stored as `parts/<name>.obj`, listed with their roles in
+    /// `head.json`).
     pub parts: Vec<PartRecord>,
     pub meta: HeadMeta,
 }
@@ -37,10 +38,10 @@ pub struct PartRecord {
 /// A part in `head.json`: its mesh is `parts/<name>.obj`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct StoredPart {
-    pub name: String,
+struct StoredPart {
+    name: String,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub role: Option<PartRole>,
+    role: Option<PartRole>,
 }
 
 /// `head.json`.
@@ -54,8 +55,9 @@ pub struct HeadMeta {
     /// digest.
     #[serde(default, skip_serializing)]
     producer_token: Option<String>,
+    /// Written from `HeadRecord::parts` on save, read back into it on load.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub parts: Vec<StoredPart>,
+    parts: Vec<StoredPart>,
 }
 
 impl HeadMeta {

@@ -36,6 +36,29 @@ pub fn obj_positions(path: &Path) -> Vec<[f32; 3]> {
         .collect()
 }
 
+/// `facewire deform` on shipped head `name` with its fit, over `stream`, into `out`,
+/// with `extra` arguments (`--algo`, `--frames`, `--part`).
+pub fn facewire_deform(
+    name: &str,
+    stream: &Path,
+    out: &Path,
+    extra: &[&std::ffi::OsStr],
+) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_facewire"))
+        .arg("deform")
+        .arg("--head")
+        .arg(data(&format!("heads/{name}.obj")))
+        .arg("--fit")
+        .arg(data(&format!("heads/{name}.fit.toml")))
+        .arg("--stream")
+        .arg(stream)
+        .arg("--out")
+        .arg(out)
+        .args(extra)
+        .output()
+        .expect("facewire runs")
+}
+
 /// A shipped head (`lee_perry_smith_head`, `makehuman_head`) registered with its fit.
 pub fn register(name: &str) -> Registration {
     let head = Head::load(&data(&format!("heads/{name}.obj"))).unwrap();
