@@ -16,7 +16,8 @@ use std::process::{Command, Output};
 use facewire::mask::Mask;
 use facewire::metrics::{LIP_ROWS, TSV_HEADER};
 use facewire::report::{
-    algorithms_header, FACE_HEADER, GROUND_TRUTH_HEADER, REST_LETTER, REST_SPEC, SYLLABLES_HEADER,
+    algorithms_header, CONTACT_HEADER, FACE_HEADER, GROUND_TRUTH_HEADER, REST_LETTER, REST_SPEC,
+    SYLLABLES_HEADER,
 };
 use facewire::stream::{open_stream, Frame, JsonlWriter};
 
@@ -137,15 +138,20 @@ fn compare_writes_tables_charts_and_report() {
     assert_eq!(
         header,
         "letter\tspec\troughness_mean\troughness_var\tcontrol_err_mm\tmouth_opening_ratio\t\
-         ground_truth_rms_mm\tcrease\tlip_folds\tfold_deg\tdeform_us"
+         ground_truth_rms_mm\tcrease\tlip_folds\tfold_deg\tlips_in_teeth\tfv_gap_mm\tdeform_us"
     );
     assert_eq!(header, algorithms_header());
     assert_eq!(algorithms.len(), 3);
     for row in &algorithms {
-        assert_eq!(row.len(), 11);
-        assert!(row[2..].iter().map(|f| number(f)).all(f64::is_finite), "{row:?}");
+        assert_eq!(row.len(), 13);
+        assert!(
+            row[2..10].iter().map(|f| number(f)).all(f64::is_finite),
+            "{row:?}"
+        );
+        // A head without teeth has no contact measures.
+        assert!(number(&row[10]).is_nan() && number(&row[11]).is_nan(), "{row:?}");
     }
-    assert!(number(&algorithms[0][10]) > 0.0, "deform_us is measured");
+    assert!(number(&algorithms[0][12]) > 0.0, "deform_us is measured");
     // Folds are counts and angles: whole triangle-frames, degrees from 0 to 180.
     for row in &algorithms {
         assert_eq!(number(&row[8]).fract(), 0.0, "{row:?}");
@@ -227,6 +233,74 @@ fn compare_writes_tables_charts_and_report() {
         "the command that made it"
     );
     assert!(report.contains("| **S** | `kshirsagar` |"));
+    assert!(!out.join("contact.tsv").exists());
+    assert!(!report.contains("lip vertices in teeth"));
+}
+
+#[test]
+fn compare_with_parts_measures_contact_inside_the_mouth() {
+    let dir = tempfile::tempdir().unwrap();
+    let stream = dir.path().join("f.jsonl");
+    std::fs::write(
+        &stream,
+        "{\"seq\":0,\"t\":0,\"label\":\"fa\"}\n\
+         {\"seq\":1,\"t\":0.1,\"label\":\"fa\",\"viseme\":{\"oculus\":\"FF\"}}\n\
+         {\"seq\":2,\"t\":0.2,\"label\":\"ta\",\"viseme\":{\"oculus\":\"DD\"}}\n",
+    )
+    .unwrap();
+    let out = dir.path().join("report");
+    let part = |file: &str| data(&format!("heads/{file}")).display().to_string();
+    let (upper, lower, gums) = (
+        part("ict_head_teeth_upper.obj"),
+        part("ict_head_teeth_lower.obj"),
+        part("ict_head_gums_upper.obj"),
+    );
+    let tongue = format!("tongue:{}", part("ict_head_gums_lower_tongue.obj"));
+    let run = succeeds(&[
+        "compare",
+        "--head",
+        s(&data("heads/ict_head.obj")),
+        "--fit",
+        s(&data("heads/ict_head.fit.toml")),
+        "--stream",
+        s(&stream),
+        "--out",
+        s(&out),
+        "--algos",
+        "U",
+        "--part",
+        &upper,
+        "--part",
+        &lower,
+        "--part",
+        &gums,
+        "--part",
+        &tongue,
+        "--json",
+    ]);
+    let summary: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert_eq!(summary[0]["lips_in_teeth"], 0, "{summary}");
+    let gap = summary[0]["fv_gap_mm"].as_f64().unwrap();
+    assert!(gap < 2.0, "{gap}");
+
+    let (header, rows) = read_tsv(&out.join("contact.tsv"));
+    assert_eq!(header, CONTACT_HEADER);
+    assert_eq!(rows.len(), 3);
+    assert_eq!((rows[1][3].as_str(), rows[2][3].as_str()), ("fa", "ta"));
+    let column = |name: &str| header.split('\t').position(|c| c == name).unwrap();
+    // The f viseme brings the lower lip to the upper teeth; DD the tongue tip to the ridge.
+    let (lip, tip) = (
+        column("lower_lip_to_upper_teeth_mm"),
+        column("tongue_tip_to_gums_mm"),
+    );
+    assert!(number(&rows[1][lip]) < number(&rows[0][lip]), "{rows:?}");
+    assert!(number(&rows[2][tip]) < 1.5, "{rows:?}");
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        report.contains("](contact.tsv)") && report.contains("**the tongue**"),
+        "{report}"
+    );
+    assert!(report.contains("--part tongue:"), "the command that made it");
 }
 
 #[test]

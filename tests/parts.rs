@@ -29,8 +29,8 @@ const ICT_PARTS: [(&str, &str, Option<&str>); 4] = [
     ),
 ];
 
-#[test]
-fn teeth_and_gums_find_their_roles_by_the_mouth_line() {
+/// The ICT head with its shipped parts, as the library animates it.
+fn ict_head() -> AnimatedHead {
     let parts = ICT_PARTS
         .iter()
         .map(|&(name, file, role)| PartInput {
@@ -39,7 +39,28 @@ fn teeth_and_gums_find_their_roles_by_the_mouth_line() {
             mesh: Head::load(&data(&format!("heads/{file}"))).unwrap(),
         })
         .collect();
-    let head = AnimatedHead::with_parts(register("ict_head"), parts).unwrap();
+    AnimatedHead::with_parts(register("ict_head"), parts).unwrap()
+}
+
+#[test]
+fn a_head_has_at_most_one_tongue() {
+    let tongue = |name: &str| PartInput {
+        name: name.into(),
+        role: Some(PartRole::Tongue),
+        mesh: Head::load(&data("heads/ict_head_gums_lower_tongue.obj")).unwrap(),
+    };
+    let error = AnimatedHead::with_parts(register("ict_head"), vec![tongue("a"), tongue("b")])
+        .err()
+        .unwrap();
+    assert_eq!(
+        error.to_string(),
+        "parts \"a\" and \"b\" are both tongues; a head has at most one"
+    );
+}
+
+#[test]
+fn teeth_and_gums_find_their_roles_by_the_mouth_line() {
+    let head = ict_head();
     let roles: Vec<PartRole> = head.parts.iter().map(|p| p.role).collect();
     assert_eq!(
         roles,
@@ -174,6 +195,46 @@ async fn parts_register_serve_travel_and_survive_a_restart() {
     let degrees = sent.angle_between(Quat::IDENTITY).to_degrees();
     eprintln!("jaw_drop 0.6 opens the ICT jaw {degrees:.1} degrees");
     assert!((3.0..30.0).contains(&degrees), "{degrees}");
+    assert!(frame.tongue.is_none(), "a tongue at rest sends no deltas");
+
+    // A raised tongue tip travels as the tongue part's deltas, as the library shapes it.
+    let line = r#"{"seq":1,"t":0.1,"fap":{"raise_tongue_tip":800}}"#;
+    producer.send(Message::Text(line.into())).await.unwrap();
+    let frame = next_frame(&mut viewer).await;
+    let tongue = frame.tongue.expect("tongue deltas");
+    assert_eq!(usize::from(tongue.part), 3);
+    assert_eq!(tongue.vertex_count, 2409);
+    let head = ict_head();
+    let (_, shaper) = head.tongue.as_ref().unwrap();
+    let mut expected = vec![Vec3::ZERO; shaper.vertex_count()];
+    shaper.shape(
+        &facewire::stream::Frame {
+            faps: vec![(44, 800.0)],
+            ..Default::default()
+        },
+        &mut expected,
+    );
+    let mut sent = vec![Vec3::ZERO; expected.len()];
+    for &(v, counts) in &tongue.moved {
+        sent[v as usize] = Vec3::from_array(counts.map(|c| c as f32)) * frame.step;
+    }
+    let worst = sent
+        .iter()
+        .zip(&expected)
+        .map(|(a, b)| (*a - *b).abs().max_element())
+        .fold(0.0f32, f32::max);
+    assert!(
+        worst <= 0.5 * frame.step * 1.001,
+        "{worst} vs step {}",
+        frame.step
+    );
+    let highest = expected.iter().map(|d| d.y).fold(0.0f32, f32::max) * head.registration.mm_per_unit();
+    assert!(highest > 10.0, "the tip rose {highest} mm");
+    assert!(
+        tongue.moved.len() > 100,
+        "{} tongue vertices moved",
+        tongue.moved.len()
+    );
     drop((viewer, producer));
     server.stop().await;
 

@@ -95,6 +95,8 @@ struct Snapshot {
     mm_per_unit: f32,
     step: f32,
     lip_vertices: Vec<u32>,
+    /// The head's parts as the client read them (none on the MakeHuman head).
+    parts: Vec<serde_json::Value>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -135,6 +137,8 @@ struct Decoded {
     head_translation: [f32; 3],
     /// Vertex 0 moved by the head motion, as the client places it.
     placed_first: [f64; 3],
+    /// Moved tongue vertices, None for a frame without tongue deltas.
+    tongue: Option<usize>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -268,6 +272,7 @@ async fn the_python_client_decodes_what_the_library_computes() {
     assert_eq!(outcome.snapshot.mm_per_unit, reg.mm_per_unit());
     assert_eq!(outcome.snapshot.step, step);
     assert_eq!(outcome.snapshot.lip_vertices.len(), 18);
+    assert!(outcome.snapshot.parts.is_empty(), "{:?}", outcome.snapshot.parts);
     assert_eq!(outcome.rest.vertices, reg.vertex_count());
     assert_eq!(outcome.rest.triangles, reg.head.triangles.len());
     assert!(outcome.viewer_errors.is_empty(), "{:?}", outcome.viewer_errors);
@@ -294,6 +299,11 @@ async fn the_python_client_decodes_what_the_library_computes() {
         assert_eq!(decoded.step, step, "step of seq {}", decoded.seq);
         assert_eq!(decoded.vertex_count, 4352);
         assert_eq!(decoded.lip_per_vertex, 18);
+        assert!(
+            decoded.tongue.is_none(),
+            "seq {}: tongue deltas on a head without one",
+            decoded.seq
+        );
         assert_eq!(decoded.positions.len(), 3 * reg.vertex_count());
         // The head's motion, as the library finds it, and vertex 0 placed by it.
         let motion = head_motion(frame, &reg.fitted.fit.pose);

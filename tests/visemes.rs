@@ -1,6 +1,6 @@
 //! Visemes as input: a text-to-speech viseme track (Oculus/Meta names, Microsoft IDs, MPEG-4
 //! FAP 1) drives the ICT head, and each viseme's mouth has its shape: closed for p/b/m,
-//! the lower lip at the upper teeth for f/v, open for aa.
+//! the lower lip within 2 mm of the upper teeth for f/v (never inside them), open for aa.
 
 mod common;
 
@@ -8,11 +8,13 @@ use common::{data, register};
 
 use std::sync::Arc;
 
-use facewire::animate::{AnimatedHead, FrameJob};
+use facewire::animate::{AnimatedHead, FrameJob, PartInput};
 use facewire::deform::{bind, AlgoSpec};
-use facewire::head::Head;
+use facewire::head::{Head, PartRole};
 use facewire::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
+use facewire::metrics::MouthContact;
 use facewire::stream::{ArkitBasis, Frame, JsonlReader};
+use glam::Affine3A;
 
 /// (label, JSONL viseme), as a TTS engine's track would give them.
 const TRACK: [(&str, &str); 8] = [
@@ -42,7 +44,13 @@ fn a_viseme_track_gives_each_sound_its_mouth() {
     let frames: Vec<Frame> = JsonlReader::new(text.as_bytes(), &reg.fitted.mask)
         .map(Result::unwrap)
         .collect();
-    let head = Arc::new(AnimatedHead::new(reg).unwrap());
+    // The upper teeth, so the contact measures see them.
+    let teeth = PartInput {
+        name: "teeth_upper".into(),
+        role: Some(PartRole::Skull),
+        mesh: Head::load(&data("heads/ict_head_teeth_upper.obj")).unwrap(),
+    };
+    let head = Arc::new(AnimatedHead::with_parts(reg, vec![teeth]).unwrap());
     let reg = &head.registration;
     let mm = reg.mm_per_unit();
     let spec: AlgoSpec = "U".parse().unwrap();
@@ -53,35 +61,44 @@ fn a_viseme_track_gives_each_sound_its_mouth() {
         false,
     )
     .unwrap();
-    let teeth = Head::load(&data("heads/ict_head_teeth_upper.obj")).unwrap();
+    let contact = MouthContact::new(
+        &reg.head,
+        &head.lip_region,
+        &reg.fitted.fit.pose,
+        mm,
+        &head.parts,
+        None,
+    )
+    .unwrap();
     for frame in &frames {
         let deformed = job.deform(frame);
         let gap = deformed[reg.anchors.vertex[INNER_LIP_MID_UPPER] as usize]
             .distance(deformed[reg.anchors.vertex[INNER_LIP_MID_LOWER] as usize])
             * mm;
-        // The lower lip's inner midpoint (anchor of mask vertex 40) to the upper teeth.
-        let lower_lip = deformed[reg.anchors.vertex[INNER_LIP_MID_LOWER] as usize];
-        let to_teeth = teeth
-            .positions
-            .iter()
-            .map(|t| t.distance(lower_lip))
-            .fold(f32::INFINITY, f32::min)
-            * mm;
+        // The lower lip's closest approach to the upper teeth, as `facewire compare`
+        // measures it.
+        let measured = contact.measure(deformed, Affine3A::IDENTITY, None);
+        let to_teeth = measured.lower_lip_to_upper_teeth_mm;
+        assert_eq!(measured.lips_in_teeth, 0, "{measured:?}");
         let label = frame.label.as_deref().unwrap();
         eprintln!("{label:>3}: lips {gap:5.1} mm apart, lower lip {to_teeth:4.1} mm from the upper teeth");
         match label {
-            "p" | "b" | "m" | "sil" => {
-                assert!(gap < 2.0, "{label}: lips {gap} mm apart");
+            "p" | "b" | "m" | "sil" => assert!(gap < 2.0, "{label}: lips {gap} mm apart"),
+            "a" | "aa" => {
+                assert!(gap > 10.0, "{label}: lips only {gap} mm apart");
                 assert!(
-                    to_teeth > 4.0,
+                    to_teeth > 5.0,
                     "{label}: lower lip {to_teeth} mm from the upper teeth"
                 );
             }
-            "a" | "aa" => assert!(gap > 10.0, "{label}: lips only {gap} mm apart"),
-            "f" | "v" => assert!(
-                to_teeth < 2.0,
-                "{label}: lower lip {to_teeth} mm from the upper teeth"
-            ),
+            // The upper lip lifts off and the lower lip comes to the upper teeth.
+            "f" | "v" => {
+                assert!(gap > 3.0, "{label}: lips {gap} mm apart");
+                assert!(
+                    to_teeth < 2.0,
+                    "{label}: lower lip {to_teeth} mm from the upper teeth"
+                );
+            }
             _ => unreachable!(),
         }
     }

@@ -1,8 +1,8 @@
 //! The browser's decoder (`web/decode.js`) against the server's own encoder: frames encoded
 //! by `facewire_proto::frame::FrameEncoder` (with and without label, face roughness, head
-//! motion and deflate; negative and large deltas; malformed ones) and a `mesh.bin`, written with the
-//! values the Rust decoder reads from them to a JSON file that `node web/decode.test.mjs`
-//! checks.
+//! and jaw motion, tongue deltas and deflate; negative and large deltas; malformed ones) and
+//! a `mesh.bin`, written with the values the Rust decoder reads from them to a JSON file
+//! that `node web/decode.test.mjs` checks.
 
 mod common;
 
@@ -29,6 +29,8 @@ struct Case<'a> {
     face: Option<Vec<f32>>,
     head: Option<RigidMotion>,
     jaw: Option<RigidMotion>,
+    /// The tongue's part index and its deltas.
+    tongue: Option<(u8, Vec<[f32; 3]>)>,
 }
 
 fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8>, Value) {
@@ -44,6 +46,7 @@ fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8
                 deflate,
                 head: case.head,
                 jaw: case.jaw,
+                tongue: case.tongue.as_ref().map(|(p, d)| (*p, d.as_slice())),
             },
         )
         .to_vec();
@@ -54,6 +57,21 @@ fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8
     let (mut positions, mut placed) = (Vec::new(), Vec::new());
     frame.apply(&rest, &mut positions);
     frame.place(&rest, &mut placed);
+    // The tongue as a client draws it: rest + counts x step (in f32, as `apply`), then the
+    // jaw's motion, then the head's.
+    let tongue_rest: Vec<f32> = (0..frame.tongue.as_ref().map_or(0, |t| t.vertex_count as usize * 3))
+        .map(|i| 2.0 - i as f32 * 0.21)
+        .collect();
+    let mut tongue_positions = tongue_rest.clone();
+    for &(v, q) in frame.tongue.iter().flat_map(|t| &t.moved) {
+        for k in 0..3 {
+            tongue_positions[v as usize * 3 + k] += q[k] as f32 * frame.step;
+        }
+    }
+    let tongue_placed: Vec<f32> = tongue_positions
+        .chunks_exact(3)
+        .flat_map(|p| frame.head.apply(frame.jaw.apply([p[0], p[1], p[2]])))
+        .collect();
     let h = frame.header;
     let value = json!({
         "name": format!("{}{}", case.name, if deflate { ", deflated" } else { "" }),
@@ -85,6 +103,15 @@ fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8
             "rotation": exact(&frame.jaw.rotation),
             "translation": exact(&frame.jaw.translation),
         },
+        "tongue": frame.tongue.as_ref().map(|t| json!({
+            "part": t.part,
+            "vertexCount": t.vertex_count,
+            "movedIndices": t.moved.iter().map(|m| m.0).collect::<Vec<_>>(),
+            "movedCounts": t.moved.iter().flat_map(|m| m.1).collect::<Vec<_>>(),
+        })),
+        "tongueRest": exact(&tongue_rest),
+        "tonguePositions": exact(&tongue_positions),
+        "tonguePlaced": exact(&tongue_placed),
         "rest": exact(&rest),
         "positions": exact(&positions),
         "placed": exact(&placed),
@@ -147,6 +174,14 @@ fn cases() -> Value {
         rotation: [sin / 3.0, 2.0 * sin / 3.0, 2.0 * sin / 3.0, cos],
         translation: [0.5, -12.0, 3.25],
     };
+    // The tongue (part 3, 200 vertices): some still, some moved, one under half a step.
+    let mut tongue_deltas = vec![[0.0f32; 3]; 200];
+    tongue_deltas[0] = [0.003, 0.0, -0.004];
+    tongue_deltas[1] = [0.0002, -0.0001, 0.0]; // under half a step: not sent
+    tongue_deltas[5] = [-0.12, 0.25, 0.031];
+    tongue_deltas[6] = [-0.11, 0.26, 0.03];
+    tongue_deltas[150] = [0.0, 0.0, 0.5]; // a gap over 127
+    tongue_deltas[199] = [0.01, -0.02, 0.0];
     // A jaw opened 0.4 rad about x, and slid.
     let open = RigidMotion {
         rotation: [0.2f32.sin(), 0.0, 0.0, 0.2f32.cos()],
@@ -163,6 +198,7 @@ fn cases() -> Value {
             face: None,
             head: None,
             jaw: None,
+            tongue: None,
         },
         Case {
             name: "label and face roughness",
@@ -174,6 +210,7 @@ fn cases() -> Value {
             face: Some(face.clone()),
             head: None,
             jaw: None,
+            tongue: None,
         },
         Case {
             name: "large deltas, a multi-byte label, flat face",
@@ -193,6 +230,7 @@ fn cases() -> Value {
             face: Some(vec![0.0; 4]),
             head: None,
             jaw: None,
+            tongue: None,
         },
         Case {
             name: "nothing moved",
@@ -204,6 +242,7 @@ fn cases() -> Value {
             face: None,
             head: None,
             jaw: None,
+            tongue: None,
         },
         Case {
             name: "every vertex moved",
@@ -217,6 +256,7 @@ fn cases() -> Value {
             face: None,
             head: None,
             jaw: None,
+            tongue: None,
         },
         Case {
             name: "head motion, label and face roughness",
@@ -228,6 +268,7 @@ fn cases() -> Value {
             face: Some(face),
             head: Some(turn),
             jaw: None,
+            tongue: None,
         },
         Case {
             name: "head motion only",
@@ -239,6 +280,31 @@ fn cases() -> Value {
             face: None,
             head: Some(turn),
             jaw: Some(open),
+            tongue: None,
+        },
+        Case {
+            name: "tongue shaped, head and jaw motion, label and face roughness",
+            header: header(8),
+            step: 0.001,
+            deltas: deltas.clone(),
+            lip: lip.clone(),
+            label: Some("ta"),
+            face: Some((0..300).map(|v| (v % 5) as f32 * 0.02).collect()),
+            head: Some(turn),
+            jaw: Some(open),
+            tongue: Some((3, tongue_deltas)),
+        },
+        Case {
+            name: "tongue sent with nothing moved",
+            header: header(9),
+            step: 0.001,
+            deltas: vec![[0.0; 3]; 20],
+            lip: LipRoughness::default(),
+            label: None,
+            face: None,
+            head: None,
+            jaw: Some(open),
+            tongue: Some((0, vec![[0.0; 3]; 12])),
         },
     ];
     let mut encoder = FrameEncoder::default();
@@ -288,6 +354,21 @@ fn cases() -> Value {
     corrupt_block[0] ^= 0xc0; // a reserved block type
     let mut extra_entry = plain_block.to_vec();
     extra_entry.extend_from_slice(&[0, 0, 0, 0]);
+    // The tongue case (plain): 18 lip values, the label "ta", head and jaw motion, then the
+    // head's delta block; the tongue's fields follow it.
+    let with_tongue = &encoded[14];
+    let head_block_at = 65 + 18 * 4 + 3 + 2 * 28;
+    let head_block_length =
+        u32::from_le_bytes(with_tongue[head_block_at..head_block_at + 4].try_into().unwrap());
+    let tongue_at = head_block_at + 4 + head_block_length as usize;
+    assert_eq!(with_tongue[tongue_at], 3, "the tongue's part index");
+    let mut tongue_overmoved = with_tongue.clone();
+    tongue_overmoved[tongue_at + 5..tongue_at + 9].copy_from_slice(&201u32.to_le_bytes());
+    // Five entries of vertices up to 199, said to be of a 100-vertex part.
+    let mut tongue_short_part = with_tongue.clone();
+    tongue_short_part[tongue_at + 1..tongue_at + 5].copy_from_slice(&100u32.to_le_bytes());
+    let mut tongue_flag_only = plain.clone();
+    tongue_flag_only[4] |= 32;
     // Claims one entry (40 bytes at most) but inflates to 300 entries.
     let mut bomb = encoded[9].clone(); // every vertex moved, deflated
     bomb[48..52].copy_from_slice(&1u32.to_le_bytes());
@@ -316,6 +397,17 @@ fn cases() -> Value {
         malformed(
             "bytes left in the delta block",
             with_block(plain, &extra_entry, 0),
+        ),
+        malformed("tongue moved more than its vertices", tongue_overmoved),
+        malformed("tongue vertex past its part's vertices", tongue_short_part),
+        malformed("tongue flag without a tongue", tongue_flag_only),
+        malformed(
+            "truncated tongue vertex_count",
+            with_tongue[..tongue_at + 3].to_vec(),
+        ),
+        malformed(
+            "truncated tongue delta block",
+            with_tongue[..tongue_at + 20].to_vec(),
         ),
     ];
 

@@ -12,6 +12,7 @@ const FLAG_LABEL = 2;
 const FLAG_DEFLATE = 4;
 const FLAG_HEAD = 8;
 const FLAG_JAW = 16;
+const FLAG_TONGUE = 32;
 /** How far from 1 a head rotation quaternion's length may be. */
 const UNIT_QUATERNION_TOLERANCE = 1e-4;
 /** No motion (the head or the jaw at rest): rotation quaternion x, y, z, w and translation (head units). */
@@ -217,7 +218,10 @@ function readRigidMotion(r, field) {
  * delta = counts x step, head units. `face` is per-vertex roughness (Float32Array) or
  * null, `label` a string or null, `head` the head's rigid motion ({rotation: quaternion
  * x, y, z, w; translation: head units}) and `jaw` the jaw's (applied before the head's to
- * the parts that move with it), each AT_REST when the frame has none.
+ * the parts that move with it), each AT_REST when the frame has none. `tongue` is null
+ * (the tongue at rest) or the tongue's deltas, `{part, vertexCount, movedIndices,
+ * movedCounts}`: `part` its index in the snapshot's `parts`, the counts of that part's
+ * vertices with the frame's `step`, applied before the jaw's and the head's motions.
  */
 export async function decodeFrame(buffer) {
   const r = new Reader(new Uint8Array(buffer));
@@ -243,12 +247,20 @@ export async function decodeFrame(buffer) {
   if (moved > vertexCount) {
     throw new DecodeError("moved", 48, `${moved} moved of ${vertexCount} vertices`);
   }
-  const blockLength = r.u32("delta block length");
-  const blockAt = r.need(blockLength, "delta block");
-  const stored = r.bytes.subarray(blockAt, blockAt + blockLength);
-  // An entry takes 4 to 40 bytes: never inflate past what the count allows.
-  const block = flags & FLAG_DEFLATE ? await inflateRaw(stored, moved * 40, blockAt) : stored;
-  const { movedIndices, movedCounts } = readDeltaBlock(block, blockAt, header);
+  const deflated = (flags & FLAG_DEFLATE) !== 0;
+  const { movedIndices, movedCounts } = await readDeltas(r, deflated, moved, vertexCount);
+  let tongue = null;
+  if (flags & FLAG_TONGUE) {
+    const part = r.u8("tongue part");
+    const tongueVertices = r.u32("tongue vertex_count");
+    const movedAt = r.at;
+    const tongueMoved = r.u32("tongue moved");
+    if (tongueMoved > tongueVertices) {
+      throw new DecodeError("tongue moved", movedAt, `${tongueMoved} moved of ${tongueVertices} vertices`);
+    }
+    const deltas = await readDeltas(r, deflated, tongueMoved, tongueVertices);
+    tongue = { part, vertexCount: tongueVertices, ...deltas };
+  }
   let face = null;
   if (flags & FLAG_FACE) {
     const max = r.f32("face roughness max");
@@ -259,14 +271,38 @@ export async function decodeFrame(buffer) {
     }
   }
   r.finish();
-  return { ...header, lip: { ...header.lip, perVertex: lipPerVertex }, label, head, jaw, movedIndices, movedCounts, face };
+  return {
+    ...header,
+    lip: { ...header.lip, perVertex: lipPerVertex },
+    label,
+    head,
+    jaw,
+    movedIndices,
+    movedCounts,
+    tongue,
+    face,
+  };
+}
+
+/**
+ * A delta block's length and the block (the head's or the tongue's), inflated first
+ * when `deflated`: `{movedIndices, movedCounts}` of `moved` entries, each a vertex below
+ * `vertexCount`.
+ */
+async function readDeltas(r, deflated, moved, vertexCount) {
+  const blockLength = r.u32("delta block length");
+  const blockAt = r.need(blockLength, "delta block");
+  const stored = r.bytes.subarray(blockAt, blockAt + blockLength);
+  // An entry takes 4 to 40 bytes: never inflate past what the count allows.
+  const block = deflated ? await inflateRaw(stored, moved * 40, blockAt) : stored;
+  return readDeltaBlock(block, blockAt, moved, vertexCount);
 }
 
 /**
  * The delta block: `moved` x { varint index gap, 3 x zigzag varint count differences
  * from the previous moved vertex }. Error offsets are those of the stored block.
  */
-function readDeltaBlock(block, blockAt, { vertexCount, moved }) {
+function readDeltaBlock(block, blockAt, moved, vertexCount) {
   if (moved > block.length / 4) {
     throw new DecodeError("moved", 48, `${moved} entries cannot fit in ${block.length} bytes`);
   }
@@ -317,8 +353,16 @@ export function motionMatrix({ rotation: [x, y, z, w], translation: [tx, ty, tz]
  * like the Rust client (`ViewerFrame::apply`): out = rest + f32(counts) x step.
  */
 export function applyFrame(rest, frame, out) {
+  return applyDeltas(rest, frame, frame.step, out);
+}
+
+/**
+ * Rest positions plus decoded deltas (`{movedIndices, movedCounts}`: a frame, or its
+ * `tongue` with the tongue's rest) into `out`, as applyFrame: out = rest + f32(counts) x
+ * step. Allocates nothing.
+ */
+export function applyDeltas(rest, { movedIndices, movedCounts }, step, out) {
   out.set(rest);
-  const { movedIndices, movedCounts, step } = frame;
   for (let i = 0; i < movedIndices.length; i++) {
     const base = movedIndices[i] * 3;
     for (let k = 0; k < 3; k++) {

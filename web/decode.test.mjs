@@ -4,7 +4,7 @@
 // verdict. Not served: the page never loads this file.
 
 import { readFileSync } from "node:fs";
-import { applyFrame, decodeFrame, DecodeError, motionMatrix, parseMesh, readFrameHeader } from "./decode.js";
+import { applyDeltas, applyFrame, decodeFrame, DecodeError, motionMatrix, parseMesh, readFrameHeader } from "./decode.js";
 
 const cases = JSON.parse(readFileSync(process.argv[2], "utf8"));
 const failures = [];
@@ -30,6 +30,18 @@ function same(actual, expected, path) {
     }
   } else if (!Object.is(actual, expected)) {
     failures.push(`${path}: ${JSON.stringify(actual)} != ${JSON.stringify(expected)}`);
+  }
+}
+
+/** Column-major 4x4 `m` applied to the point (x, y, z): component `k`. */
+function transform(m, x, y, z, k) {
+  return m[k] * x + m[4 + k] * y + m[8 + k] * z + m[12 + k];
+}
+
+/** Placed positions against the Rust client's, to f32 rounding. */
+function near(placed, expected, path) {
+  if (Math.abs(placed - expected) > 1e-5 * Math.max(1, Math.abs(expected))) {
+    failures.push(`${path}: ${placed} != ${expected}`);
   }
 }
 
@@ -59,6 +71,7 @@ for (const [i, c] of cases.frames.entries()) {
   same(frame.face, c.face, `${path} face`);
   same(frame.head, c.head, `${path} head`);
   same(frame.jaw, c.jaw, `${path} jaw`);
+  same(frame.tongue, c.tongue, `${path} tongue`);
   const positions = applyFrame(new Float32Array(c.rest), frame, new Float32Array(c.rest.length));
   same(positions, c.positions, `${path} positions`);
   // The matrix the page draws with puts every vertex where the Rust client places it.
@@ -66,10 +79,20 @@ for (const [i, c] of cases.frames.entries()) {
   for (let v = 0; v < positions.length / 3; v++) {
     const [x, y, z] = positions.subarray(v * 3, v * 3 + 3);
     for (let k = 0; k < 3; k++) {
-      const placed = m[k] * x + m[4 + k] * y + m[8 + k] * z + m[12 + k];
-      const expected = c.placed[v * 3 + k];
-      if (Math.abs(placed - expected) > 1e-5 * Math.max(1, Math.abs(expected))) {
-        failures.push(`${path} placed[${v}][${k}]: ${placed} != ${expected}`);
+      near(transform(m, x, y, z, k), c.placed[v * 3 + k], `${path} placed[${v}][${k}]`);
+    }
+  }
+  // The tongue: its deltas on its rest, then the jaw's matrix, then the head's.
+  if (frame.tongue) {
+    const rest = new Float32Array(c.tongueRest);
+    const tongue = applyDeltas(rest, frame.tongue, frame.step, new Float32Array(rest.length));
+    same(tongue, c.tonguePositions, `${path} tongue positions`);
+    const jaw = motionMatrix(frame.jaw);
+    for (let v = 0; v < tongue.length / 3; v++) {
+      const [x, y, z] = tongue.subarray(v * 3, v * 3 + 3);
+      const [jx, jy, jz] = [0, 1, 2].map((k) => transform(jaw, x, y, z, k));
+      for (let k = 0; k < 3; k++) {
+        near(transform(m, jx, jy, jz, k), c.tonguePlaced[v * 3 + k], `${path} tongue placed[${v}][${k}]`);
       }
     }
   }

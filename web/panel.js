@@ -271,7 +271,7 @@ export class Panel {
     );
   }
 
-  /** Shows a decoded frame: positions, heat-map, syllable. */
+  /** Shows a decoded frame: positions, the tongue's shape, heat-map, syllable. */
   show(frame) {
     if (frame.vertexCount !== this.mesh.vertexCount) {
       this.showMessage(`A frame for ${frame.vertexCount} vertices arrived for a mesh of ${this.mesh.vertexCount}.`);
@@ -279,6 +279,10 @@ export class Panel {
     }
     applyFrame(this.mesh.positions, frame, this.positions);
     this.renderer.setPositions(this.positions);
+    const problem = this.renderer.setTongue(frame.tongue, frame.step);
+    if (problem) {
+      this.showMessage(problem);
+    }
     this.renderer.setMotion(motionMatrix(frame.head), motionMatrix(frame.jaw));
     this.renderer.setHeat(frame.face, this.settings.heatMax);
     this.parts.syllable.textContent = frame.label ?? "–";

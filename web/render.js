@@ -1,7 +1,11 @@
 // render.js: draws one head with plain WebGL2: smooth vertex normals recomputed from the
 // deformed positions every frame, placed by the head's own rigid motion, its parts (teeth,
-// gums, tongue) each in its own material and placed by the head's or the jaw's motion, a key, fill and rim light that move with the camera (the
-// face is always lit), and an optional roughness heat-map in place of the skin colour.
+// gums, tongue) each in its own material and placed by the head's or the jaw's motion (the
+// tongue shaped by the frame's tongue deltas first), a key, fill and rim light that move
+// with the camera (the face is always lit), and an optional roughness heat-map in place of
+// the skin colour.
+
+import { applyDeltas } from "./decode.js";
 
 const VERTEX_SHADER = `#version 300 es
 uniform mat4 u_model; // the head's own motion (rigid)
@@ -174,6 +178,8 @@ export class HeadRenderer {
     this.model = IDENTITY;
     this.jawModel = IDENTITY;
     this.parts = [];
+    /** The part the last frame's tongue deltas shaped, or null (every part at rest). */
+    this.shapedPart = null;
     gl.enable(gl.DEPTH_TEST);
   }
 
@@ -212,8 +218,9 @@ export class HeadRenderer {
   }
 
   /**
-   * The head's parts: `[{ name, role, mesh }]`, meshes from parseMesh. They are rigid:
-   * positions and normals go to the GPU once, and each frame only moves them.
+   * The head's parts: `[{ name, role, mesh }]`, meshes from parseMesh (shared, never
+   * written). They are rigid: positions and normals go to the GPU once, and each frame
+   * only moves them, except the tongue, which a frame may also shape (setTongue).
    */
   setParts(parts) {
     const gl = this.gl;
@@ -221,6 +228,7 @@ export class HeadRenderer {
       gl.deleteVertexArray(part.vao);
       part.buffers.forEach((b) => gl.deleteBuffer(b));
     }
+    this.shapedPart = null;
     this.parts = parts.map(({ name, role, mesh }) => {
       const vao = gl.createVertexArray();
       const position = this.attribute("a_position", 3, vao);
@@ -230,12 +238,68 @@ export class HeadRenderer {
       gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, index);
       gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, mesh.indices, gl.STATIC_DRAW);
       gl.bindVertexArray(null);
+      const usage = role === "tongue" ? gl.DYNAMIC_DRAW : gl.STATIC_DRAW;
+      const normals = vertexNormals(mesh.positions, mesh.indices, new Float32Array(mesh.positions.length));
       gl.bindBuffer(gl.ARRAY_BUFFER, position);
-      gl.bufferData(gl.ARRAY_BUFFER, mesh.positions, gl.STATIC_DRAW);
+      gl.bufferData(gl.ARRAY_BUFFER, mesh.positions, usage);
       gl.bindBuffer(gl.ARRAY_BUFFER, normal);
-      gl.bufferData(gl.ARRAY_BUFFER, vertexNormals(mesh.positions, mesh.indices, new Float32Array(mesh.positions.length)), gl.STATIC_DRAW);
-      return { vao, buffers: [position, normal, index], count: mesh.indices.length, role, albedo: partAlbedo(name, role) };
+      gl.bufferData(gl.ARRAY_BUFFER, normals, usage);
+      return {
+        vao,
+        buffers: [position, normal, index],
+        count: mesh.indices.length,
+        role,
+        albedo: partAlbedo(name, role),
+        mesh,
+        // A shaped part's positions (made on its first shaping) and its normals, rewritten
+        // whenever the part is shaped or put back at rest.
+        positions: null,
+        normals,
+      };
     });
+  }
+
+  /**
+   * A frame's tongue deltas (decode.js `frame.tongue`, with the frame's `step`): the part
+   * they name is drawn at rest + counts x step (then moved by the jaw's and the head's
+   * motion as before); null puts the shaped part back at rest. Returns a problem for
+   * people when the deltas do not fit the parts (none while the parts are still loading).
+   * Allocates nothing but the part's scratch arrays, once.
+   */
+  setTongue(tongue, step) {
+    if (tongue === null) {
+      if (this.shapedPart !== null) {
+        this.uploadPart(this.shapedPart, this.shapedPart.mesh.positions);
+        this.shapedPart = null;
+      }
+      return null;
+    }
+    if (this.parts.length === 0) {
+      return null; // the parts' meshes have not arrived yet
+    }
+    const part = this.parts[tongue.part];
+    if (!part || part.mesh.vertexCount !== tongue.vertexCount) {
+      const found = part ? `it has ${part.mesh.vertexCount}` : `the head has ${this.parts.length} parts`;
+      return `A frame shapes part ${tongue.part} as ${tongue.vertexCount} vertices; ${found}.`;
+    }
+    if (this.shapedPart !== null && this.shapedPart !== part) {
+      this.uploadPart(this.shapedPart, this.shapedPart.mesh.positions);
+    }
+    part.positions ??= new Float32Array(part.mesh.positions.length);
+    applyDeltas(part.mesh.positions, tongue, step, part.positions);
+    this.uploadPart(part, part.positions);
+    this.shapedPart = part;
+    return null;
+  }
+
+  /** A part's positions and their normals to the GPU. */
+  uploadPart(part, positions) {
+    const gl = this.gl;
+    vertexNormals(positions, part.mesh.indices, part.normals);
+    gl.bindBuffer(gl.ARRAY_BUFFER, part.buffers[0]);
+    gl.bufferSubData(gl.ARRAY_BUFFER, 0, positions);
+    gl.bindBuffer(gl.ARRAY_BUFFER, part.buffers[1]);
+    gl.bufferSubData(gl.ARRAY_BUFFER, 0, part.normals);
   }
 
   /** Deformed positions (flat xyz, same vertex count as the mesh). */

@@ -10,10 +10,12 @@ need:
   the server's answer to each and raises :class:`Refused` (code, field, seq) on a refusal.
 - :class:`Viewer` watches ``/v1/heads/{id}/streams/{stream}/view``: it reads the snapshot,
   downloads the rest mesh (``FWM1``) and decodes every ``FWF1`` frame into seq, time,
-  label, lip roughness and per-vertex positions (plain lists, no numpy); ``end`` and
-  ``error`` messages come out as :class:`StreamEnd` and :class:`ServerError` events.
+  label, lip roughness and per-vertex positions (plain lists, no numpy), the head's and
+  the jaw's motion and the tongue's deltas; it places the head's parts (teeth, gums,
+  tongue) for a frame; ``end`` and ``error`` messages come out as :class:`StreamEnd` and
+  :class:`ServerError` events.
 - :class:`Client` wraps the HTTP resources: register a head, wait until it is ready, list
-  heads, download the rest mesh, post a batch.
+  heads, download the rest mesh and the parts' meshes, post a batch.
 
 The binary formats have pure functions of their own (:func:`encode_fwp1`,
 :func:`decode_fwf1`, :func:`decode_mesh`). Nothing is kept in globals: every connection is
@@ -51,6 +53,8 @@ __all__ = [
     "FrameError",
     "HttpError",
     "LipRoughness",
+    "PartDeltas",
+    "PartInfo",
     "Producer",
     "ProtocolError",
     "Refused",
@@ -517,6 +521,42 @@ class RigidMotion:
 
 
 @dataclass
+class PartDeltas:
+    """A part's deltas in one frame: the tongue's shape (flag bit 5), against that part's
+    rest mesh.
+
+    ``part`` is the part's index in the snapshot's ``parts``, ``vertex_count`` its
+    vertices; ``moved`` holds ``(vertex, cx, cy, cz)`` as :attr:`ViewerFrame.moved` does,
+    in counts of ``step`` head units (the frame's step). The deltas come before the jaw's
+    and the head's motions: :meth:`ViewerFrame.place_part` applies all three."""
+
+    part: int
+    vertex_count: int
+    moved: List[Tuple[int, int, int, int]]
+    step: float
+
+    def apply(self, rest: Sequence[Tuple[float, float, float]]) -> List[Tuple[float, float, float]]:
+        """The part's shaped positions: ``rest`` (one ``(x, y, z)`` per vertex of the part,
+        as its :class:`RestMesh` from :meth:`Client.part_mesh`) plus the deltas, before any
+        motion. Vertices that did not move share ``rest``'s tuples."""
+        if len(rest) != self.vertex_count:
+            raise ProtocolError("the frame shapes part %d as %d vertices, its rest mesh has %d"
+                                % (self.part, self.vertex_count, len(rest)),
+                                field="tongue vertex_count")
+        return _apply_deltas(rest, self.moved, self.step)
+
+
+def _apply_deltas(rest: Sequence[Tuple[float, float, float]],
+                  moved: Sequence[Tuple[int, int, int, int]],
+                  step: float) -> List[Tuple[float, float, float]]:
+    out = list(rest)
+    for index, cx, cy, cz in moved:
+        x, y, z = out[index]
+        out[index] = (x + cx * step, y + cy * step, z + cz * step)
+    return out
+
+
+@dataclass
 class ViewerFrame:
     """A decoded ``FWF1`` frame.
 
@@ -524,8 +564,11 @@ class ViewerFrame:
     moved, in counts of ``step`` head units. ``positions`` is filled by :class:`Viewer`
     (or :meth:`apply`): one ``(x, y, z)`` tuple per vertex, head units, ``rest + counts x
     step``, before the head's own motion ``head`` (:meth:`place` applies it). ``jaw`` is the
-    jaw's motion, which places the parts that move with it (before ``head``). Times: ``producer_time_s`` is the producer's ``t``; the ``_us`` fields are µs
-    since the Unix epoch on the server's clock."""
+    jaw's motion, which places the parts that move with it (before ``head``), and
+    ``tongue`` the tongue's deltas (:class:`PartDeltas`, before the jaw's motion), None while
+    the tongue is at rest; :meth:`place_part` places any part. Times: ``producer_time_s`` is
+    the producer's ``t``; the ``_us`` fields are µs since the Unix epoch on the server's
+    clock."""
 
     seq: int
     producer_time_s: float
@@ -539,6 +582,7 @@ class ViewerFrame:
     face: Optional[List[float]] = None
     head: RigidMotion = field(default_factory=RigidMotion)
     jaw: RigidMotion = field(default_factory=RigidMotion)
+    tongue: Optional[PartDeltas] = None
     positions: Optional[List[Tuple[float, float, float]]] = None
 
     def apply(self, rest: Sequence[Tuple[float, float, float]]) -> List[Tuple[float, float, float]]:
@@ -548,17 +592,30 @@ class ViewerFrame:
         if len(rest) != self.vertex_count:
             raise ProtocolError("the frame has %d vertices, the rest mesh %d"
                                 % (self.vertex_count, len(rest)), field="vertex_count")
-        out = list(rest)
-        step = self.step
-        for index, cx, cy, cz in self.moved:
-            x, y, z = out[index]
-            out[index] = (x + cx * step, y + cy * step, z + cz * step)
-        return out
+        return _apply_deltas(rest, self.moved, self.step)
 
     def place(self, positions: Sequence[Tuple[float, float, float]]) -> List[Tuple[float, float, float]]:
         """Deformed positions (from :meth:`apply`) moved by the head's motion: where the
         head is in the world."""
         return [self.head.apply(p) for p in positions]
+
+    def place_part(self, index: int, role: str,
+                   rest: Sequence[Tuple[float, float, float]]) -> List[Tuple[float, float, float]]:
+        """Where part ``index`` of the snapshot's ``parts`` is in the world in this frame,
+        from its ``role`` and its rest positions (:meth:`Client.part_mesh`): a ``skull``
+        part moved by the head's motion, a ``jaw`` or ``tongue`` part by the jaw's and then
+        the head's, and the part this frame's :attr:`tongue` names shaped by its deltas
+        first (at rest when the frame has none)."""
+        if role not in ("skull", "jaw", "tongue"):
+            raise ProtocolError("unknown part role %r; expected skull, jaw or tongue" % (role,),
+                                field="role")
+        shaped = rest
+        if self.tongue is not None and self.tongue.part == index:
+            shaped = self.tongue.apply(rest)
+        if role == "skull":
+            return [self.head.apply(p) for p in shaped]
+        head, jaw = self.head, self.jaw
+        return [head.apply(jaw.apply(p)) for p in shaped]
 
 
 @dataclass
@@ -638,7 +695,9 @@ def decode_fwf1(data: bytes) -> ViewerFrame:
 
     The delta block holds ``moved`` entries: an LEB128 index gap (``index - previous - 1``,
     previous starting at -1), then dx, dy, dz as zigzag LEB128 differences from the
-    previous entry's counts (starting from 0); it is raw deflate when flag bit 2 is set."""
+    previous entry's counts (starting from 0); it is raw deflate when flag bit 2 is set.
+    With flag bit 5 the tongue's part index, vertex count, moved count and a delta block
+    of its own (the same format) follow it: :attr:`ViewerFrame.tongue`."""
     r = _Reader(bytes(data))
     magic = r.take(4, "magic")
     if magic != b"FWF1":
@@ -656,10 +715,51 @@ def decode_fwf1(data: bytes) -> ViewerFrame:
     if moved_count > vertex_count:
         raise ProtocolError("%d moved of %d vertices" % (moved_count, vertex_count),
                             field="moved", at=48)
+    deflated = bool(flags & 4)
+    moved = _read_deltas(r, deflated, moved_count, vertex_count)
+    tongue: Optional[PartDeltas] = None
+    if flags & 32:
+        (part,) = r.unpack("B", "tongue part")
+        (tongue_vertices,) = r.unpack("I", "tongue vertex_count")
+        moved_at = r.at
+        (tongue_moved,) = r.unpack("I", "tongue moved")
+        if tongue_moved > tongue_vertices:
+            raise ProtocolError("%d moved of %d vertices" % (tongue_moved, tongue_vertices),
+                                field="tongue moved", at=moved_at)
+        tongue = PartDeltas(part, tongue_vertices,
+                            _read_deltas(r, deflated, tongue_moved, tongue_vertices), step)
+    face: Optional[List[float]] = None
+    if flags & 1:
+        (face_max,) = r.unpack("f", "face roughness max")
+        raw = r.take(vertex_count, "face roughness")
+        face = [b / 255.0 * face_max for b in raw]
+    r.finish()
+    return ViewerFrame(
+        seq=seq,
+        producer_time_s=producer_time_s,
+        server_receive_us=receive_us,
+        server_send_us=send_us,
+        step=step,
+        vertex_count=vertex_count,
+        moved=moved,
+        lip=LipRoughness(lip_min, lip_max, lip_mean, per_vertex),
+        label=label,
+        face=face,
+        head=head,
+        jaw=jaw,
+        tongue=tongue,
+    )
+
+
+def _read_deltas(r: "_Reader", deflated: bool, moved_count: int,
+                 vertex_count: int) -> List[Tuple[int, int, int, int]]:
+    """A delta block's length and the block (the head's or the tongue's), inflated first
+    when ``deflated``: ``moved_count`` entries ``(vertex, cx, cy, cz)`` of vertices below
+    ``vertex_count``."""
     (block_length,) = r.unpack("I", "delta block length")
     block_at = r.at
     block = r.take(block_length, "delta block")
-    if flags & 4:
+    if deflated:
         # An entry takes 4 to 40 bytes: never inflate past what the count allows.
         block = _inflate(block, moved_count * 40, block_at)
     if moved_count > len(block) // 4:
@@ -700,26 +800,7 @@ def decode_fwf1(data: bytes) -> ViewerFrame:
     if i != len(block):
         raise ProtocolError("%d byte(s) left after %d entries" % (len(block) - i, moved_count),
                             field="delta block", at=block_at)
-    face: Optional[List[float]] = None
-    if flags & 1:
-        (face_max,) = r.unpack("f", "face roughness max")
-        raw = r.take(vertex_count, "face roughness")
-        face = [b / 255.0 * face_max for b in raw]
-    r.finish()
-    return ViewerFrame(
-        seq=seq,
-        producer_time_s=producer_time_s,
-        server_receive_us=receive_us,
-        server_send_us=send_us,
-        step=step,
-        vertex_count=vertex_count,
-        moved=moved,
-        lip=LipRoughness(lip_min, lip_max, lip_mean, per_vertex),
-        label=label,
-        face=face,
-        head=head,
-        jaw=jaw,
-    )
+    return moved
 
 
 def _rigid_motion(r: "_Reader", name: str) -> RigidMotion:
@@ -903,9 +984,15 @@ class Client:
         return self.mesh_at("/v1/heads/%s/mesh.bin" % _segment(head_id))
 
     def mesh_at(self, path: str) -> RestMesh:
-        """The rest mesh at a server path (a snapshot's ``rest_mesh``), decoded."""
+        """The rest mesh at a server path (a snapshot's ``rest_mesh``, a part's
+        ``mesh``), decoded."""
         _, raw = self.request("GET", path)
         return decode_mesh(raw)
+
+    def part_mesh(self, head_id: str, name: str) -> RestMesh:
+        """``GET /v1/heads/{id}/parts/{name}/mesh.bin``: a part's rest mesh, decoded
+        (head units, in the head's frame). 404 ``not_found`` for a name the head has not."""
+        return self.mesh_at("/v1/heads/%s/parts/%s/mesh.bin" % (_segment(head_id), _segment(name)))
 
     def post_batch(self, head_id: str, stream: str,
                    frames: Union[str, bytes, Iterable[Mapping[str, Any]]], *,
@@ -1186,8 +1273,37 @@ class Producer:
 
 
 @dataclass
+class PartInfo:
+    """A part of a head (teeth, gums, tongue), as the snapshot and head info list it:
+    ``role`` is ``skull`` (moves with the head), ``jaw`` (with the jaw) or ``tongue`` (with
+    the jaw, shaped by the frames' tongue deltas); ``mesh`` is the server path of its rest
+    mesh (``mesh.bin`` format, :meth:`Client.mesh_at`)."""
+
+    name: str
+    role: str
+    vertices: int
+    triangles: int
+    mesh: str
+
+    @staticmethod
+    def from_message(message: Mapping[str, Any]) -> "PartInfo":
+        try:
+            return PartInfo(
+                name=str(message["name"]),
+                role=str(message["role"]),
+                vertices=int(message["vertices"]),
+                triangles=int(message["triangles"]),
+                mesh=str(message["mesh"]),
+            )
+        except (KeyError, TypeError, ValueError) as e:
+            raise ProtocolError("malformed part (%s): %r" % (e, message), field="parts") from None
+
+
+@dataclass
 class Snapshot:
-    """The first message on a viewer socket: what to download and how to decode."""
+    """The first message on a viewer socket: what to download and how to decode.
+    ``parts`` lists the head's parts in the order frames index them (empty for a head
+    without parts)."""
 
     protocol: str
     head: str
@@ -1201,9 +1317,14 @@ class Snapshot:
     step: float
     lip_vertices: List[int]
     face_roughness: bool
+    parts: List[PartInfo] = field(default_factory=list)
 
     @staticmethod
     def from_message(message: Mapping[str, Any]) -> "Snapshot":
+        parts = message.get("parts") or []
+        if not isinstance(parts, list):
+            raise ProtocolError("malformed snapshot: parts is not a list: %r" % (parts,),
+                                field="parts")
         try:
             return Snapshot(
                 protocol=str(message["protocol"]),
@@ -1218,6 +1339,7 @@ class Snapshot:
                 step=float(message["step"]),
                 lip_vertices=[int(v) for v in message["lip_vertices"]],
                 face_roughness=bool(message["face_roughness"]),
+                parts=[PartInfo.from_message(part) for part in parts],
             )
         except (KeyError, TypeError, ValueError) as e:
             raise ProtocolError("malformed snapshot (%s): %r" % (e, dict(message))) from None
@@ -1258,12 +1380,14 @@ class Viewer:
     ``positions`` filled from the rest mesh, a :class:`StreamEnd` per ``end`` and a
     :class:`ServerError` per ``error``; it stops when the server closes the socket
     (``close_code`` says why). ``algo`` is a spec or preset letter (the server's default
-    when None); ``face=True`` asks for per-vertex face roughness. A viewer that reads slowly
-    skips to the newest frame: the server never queues a backlog."""
+    when None); ``face=True`` asks for per-vertex face roughness. ``fetch_parts=True`` also
+    downloads the rest meshes of the snapshot's parts into ``parts`` (in its order), which
+    :meth:`place_parts` places for a frame. A viewer that reads slowly skips to the newest
+    frame: the server never queues a backlog."""
 
     def __init__(self, url: str, head: str, stream: str = "main", *, algo: Optional[str] = None,
                  face: bool = False, token: Optional[str] = None, timeout: float = 30.0,
-                 fetch_mesh: bool = True):
+                 fetch_mesh: bool = True, fetch_parts: bool = False):
         http_base, ws_base = _base_urls(url)
         query = {}
         if algo:
@@ -1287,11 +1411,21 @@ class Viewer:
                 raise ProtocolError("expected a snapshot first, got %r" % message)
             self.snapshot = Snapshot.from_message(message)
             self.rest: Optional[RestMesh] = None
+            self.parts: List[RestMesh] = []
+            client = Client(http_base, token, timeout)
             if fetch_mesh:
-                self.rest = Client(http_base, token, timeout).mesh_at(self.snapshot.rest_mesh)
+                self.rest = client.mesh_at(self.snapshot.rest_mesh)
                 if len(self.rest.positions) != self.snapshot.vertices:
                     raise ProtocolError("the snapshot says %d vertices, mesh.bin has %d"
                                         % (self.snapshot.vertices, len(self.rest.positions)))
+            if fetch_parts:
+                for part in self.snapshot.parts:
+                    mesh = client.mesh_at(part.mesh)
+                    if len(mesh.positions) != part.vertices:
+                        raise ProtocolError("the snapshot says part %s has %d vertices, its "
+                                            "mesh.bin has %d"
+                                            % (part.name, part.vertices, len(mesh.positions)))
+                    self.parts.append(mesh)
         except BaseException:
             self._socket.shutdown()
             raise
@@ -1326,6 +1460,15 @@ class Viewer:
             return ServerError(str(parsed.get("code", "?")), str(parsed.get("message", "")),
                                parsed.get("seq"), parsed.get("field"))
         raise ProtocolError("unexpected message on a viewer socket: %r" % parsed)
+
+    def place_parts(self, frame: ViewerFrame) -> List[List[Tuple[float, float, float]]]:
+        """Every part where ``frame`` puts it (:meth:`ViewerFrame.place_part`), in the
+        snapshot's order; needs ``fetch_parts=True``."""
+        if len(self.parts) != len(self.snapshot.parts):
+            raise FacewireError("the viewer has not downloaded its parts' meshes: "
+                                "connect with fetch_parts=True")
+        return [frame.place_part(i, info.role, mesh.positions)
+                for i, (info, mesh) in enumerate(zip(self.snapshot.parts, self.parts))]
 
     def events(self, timeout: Optional[float] = None) -> Iterator[ViewerEvent]:
         """Every event until the server closes the socket (see :meth:`recv`)."""
@@ -1424,6 +1567,7 @@ def _frame_summary(frame: ViewerFrame, received_us: int, positions: bool) -> Dic
         "t": frame.producer_time_s,
         "label": frame.label,
         "moved": len(frame.moved),
+        "tongue_moved": None if frame.tongue is None else len(frame.tongue.moved),
         "lip_mean": frame.lip.mean,
         "server_ms": (frame.server_send_us - frame.server_receive_us) / 1000.0,
         "delivery_ms": (received_us - frame.server_send_us) / 1000.0,

@@ -5,8 +5,8 @@ Registers a head over HTTP, connects a viewer, pushes the frames of a JSONL file
 producer (even-numbered frames as JSON text, odd-numbered ones as binary FWP1), repeats
 one frame to provoke an ``out_of_order`` refusal, ends the stream, collects the viewer's
 decoded frames until ``end``, posts the same frames as a batch, and writes everything
-(acks, the refusal, seq/label/step/positions/head motion of every decoded frame, the client's name
-tables) to a JSON file. It checks nothing itself beyond what the client raises:
+(acks, the refusal, seq/label/step/positions/head motion/tongue of every decoded frame, the
+client's name tables) to a JSON file. It checks nothing itself beyond what the client raises:
 tests/python_client.rs runs it against an in-process server and compares the decoded
 positions with what the library computes.
 
@@ -55,6 +55,7 @@ def collect(viewer: fw.Viewer, result: Dict[str, Any], timeout_s: float) -> None
                     "head_rotation": list(event.head.rotation),
                     "head_translation": list(event.head.translation),
                     "placed_first": list(event.place(event.positions[:1])[0]),
+                    "tongue": None if event.tongue is None else len(event.tongue.moved),
                 })
             elif isinstance(event, fw.StreamEnd):
                 result["end"] = event.reason

@@ -7,7 +7,7 @@
 //! offset  size  field
 //!      0     4  magic "FWF1"
 //!      4     1  flags: bit 0 face roughness present, bit 1 label present, bit 2 deltas deflated,
-//!                bit 3 head motion present, bit 4 jaw motion present
+//!                bit 3 head motion present, bit 4 jaw motion present, bit 5 tongue deltas present
 //!      5     3  reserved, 0
 //!      8     8  seq (u64): the producer's sequence number
 //!     16     8  producer_time_s (f64): the producer's timestamp
@@ -24,6 +24,8 @@
 //!      .     4  delta block length in bytes (u32), then the block:
 //!               moved x { varint index gap, 3 x zigzag varint count differences },
 //!               raw-deflated (RFC 1951) when flag bit 2 is set
+//!      .     .  if tongue: u8 part (index in the snapshot's parts), u32 its vertex_count,
+//!               u32 moved, u32 block length, then a delta block as above
 //!      .     .  if face roughness: f32 max, then vertex_count x u8 (value = byte / 255 * max)
 //! ```
 //! The index gap is `index - previous index - 1` (previous = -1 before the first), so
@@ -41,6 +43,7 @@ const FLAG_LABEL: u8 = 2;
 const FLAG_DEFLATE: u8 = 4;
 const FLAG_HEAD: u8 = 8;
 const FLAG_JAW: u8 = 16;
+const FLAG_TONGUE: u8 = 32;
 /// How far from 1 a head rotation quaternion's length may be (f32 rounding is 1e-7).
 const UNIT_QUATERNION_TOLERANCE: f32 = 1e-4;
 
@@ -114,6 +117,18 @@ pub struct ViewerFrame {
     /// The jaw's motion (before the head's), for the parts that move with it;
     /// [`RigidMotion::IDENTITY`] when the frame has none.
     pub jaw: RigidMotion,
+    /// The tongue's deltas (before the jaw's and the head's motions), when it is shaped.
+    pub tongue: Option<PartDeltas>,
+}
+
+/// Decoded deltas of one part (the tongue): vertices of the part, same step as the head.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PartDeltas {
+    /// Index of the part in the snapshot's `parts`.
+    pub part: u8,
+    pub vertex_count: u32,
+    /// (part vertex, quantized delta counts); delta = counts * step.
+    pub moved: Vec<(u32, [i32; 3])>,
 }
 
 impl ViewerFrame {
@@ -154,6 +169,9 @@ pub struct FrameContent<'a> {
     pub head: Option<RigidMotion>,
     /// The jaw's motion, for heads with parts that move with it; `None` at rest.
     pub jaw: Option<RigidMotion>,
+    /// The tongue's deltas against its rest mesh (head units, before the jaw's motion)
+    /// and its index among the head's parts; `None` for a tongue at rest.
+    pub tongue: Option<(u8, &'a [[f32; 3]])>,
 }
 
 /// Encodes frames into reused buffers.
@@ -205,6 +223,9 @@ impl FrameEncoder {
         if content.jaw.is_some() {
             flags |= FLAG_JAW;
         }
+        if content.tongue.is_some() {
+            flags |= FLAG_TONGUE;
+        }
         out.extend_from_slice(&[flags, 0, 0, 0]);
         out.extend_from_slice(&header.seq.to_le_bytes());
         out.extend_from_slice(&header.producer_time_s.to_le_bytes());
@@ -231,13 +252,49 @@ impl FrameEncoder {
             }
         }
 
-        let block = &mut self.block;
+        let moved = self.write_deltas(content.deltas, content.step, content.deflate);
+        self.buffer[moved_at..moved_at + 4].copy_from_slice(&moved.to_le_bytes());
+        if let Some((part, deltas)) = content.tongue {
+            let out = &mut self.buffer;
+            out.push(part);
+            out.extend_from_slice(&(deltas.len() as u32).to_le_bytes());
+            let moved_at = out.len();
+            out.extend_from_slice(&0u32.to_le_bytes());
+            let moved = self.write_deltas(deltas, content.step, content.deflate);
+            self.buffer[moved_at..moved_at + 4].copy_from_slice(&moved.to_le_bytes());
+        }
+
+        let out = &mut self.buffer;
+        if let Some(face) = content.face {
+            let max = face
+                .iter()
+                .copied()
+                .filter(|x| x.is_finite())
+                .fold(0.0f32, f32::max);
+            out.extend_from_slice(&max.to_le_bytes());
+            out.extend(face.iter().map(|&x| {
+                if max > 0.0 && x.is_finite() {
+                    (x / max * 255.0).round().clamp(0.0, 255.0) as u8
+                } else {
+                    0
+                }
+            }));
+        }
+        &self.buffer
+    }
+}
+
+impl FrameEncoder {
+    /// Appends a delta block's length and the block (deflated if asked) for `deltas`
+    /// quantized by `step`; returns how many entries (moved vertices) it holds.
+    fn write_deltas(&mut self, deltas: &[[f32; 3]], step: f32, deflate: bool) -> u32 {
+        let (out, block) = (&mut self.buffer, &mut self.block);
         block.clear();
-        let inverse = 1.0 / content.step;
+        let inverse = 1.0 / step;
         let mut moved = 0u32;
         let mut previous: i64 = -1;
         let mut previous_q = [0i64; 3];
-        for (v, d) in content.deltas.iter().enumerate() {
+        for (v, d) in deltas.iter().enumerate() {
             // Counts saturate at the i32 range the decoder accepts (NaN counts as 0).
             let q = d.map(|x| ((x * inverse).round() as i64).clamp(i32::MIN.into(), i32::MAX.into()));
             if q == [0, 0, 0] {
@@ -251,11 +308,10 @@ impl FrameEncoder {
             previous_q = q;
             moved += 1;
         }
-        out[moved_at..moved_at + 4].copy_from_slice(&moved.to_le_bytes());
         let length_at = out.len();
         out.extend_from_slice(&0u32.to_le_bytes());
         let start = out.len();
-        if content.deflate {
+        if deflate {
             let compressor = self
                 .compressor
                 .get_or_insert_with(|| flate2::Compress::new(flate2::Compression::fast(), false));
@@ -275,23 +331,7 @@ impl FrameEncoder {
         }
         let length = (out.len() - start) as u32;
         out[length_at..length_at + 4].copy_from_slice(&length.to_le_bytes());
-
-        if let Some(face) = content.face {
-            let max = face
-                .iter()
-                .copied()
-                .filter(|x| x.is_finite())
-                .fold(0.0f32, f32::max);
-            out.extend_from_slice(&max.to_le_bytes());
-            out.extend(face.iter().map(|&x| {
-                if max > 0.0 && x.is_finite() {
-                    (x / max * 255.0).round().clamp(0.0, 255.0) as u8
-                } else {
-                    0
-                }
-            }));
-        }
-        &self.buffer
+        moved
     }
 }
 
@@ -402,12 +442,69 @@ pub fn decode(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
             problem: format!("{moved_count} moved of {vertex_count} vertices"),
         });
     }
+    let moved = read_deltas(&mut r, flags & FLAG_DEFLATE != 0, moved_count, vertex_count)?;
+    let tongue = if flags & FLAG_TONGUE != 0 {
+        let part = r.u8("tongue part")?;
+        let vertex_count = r.u32("tongue vertex_count")?;
+        let moved_at = r.position();
+        let moved_count = r.u32("tongue moved")?;
+        if moved_count > vertex_count {
+            return Err(DecodeError::Invalid {
+                field: "tongue moved",
+                at: moved_at,
+                problem: format!("{moved_count} moved of {vertex_count} vertices"),
+            });
+        }
+        let moved = read_deltas(&mut r, flags & FLAG_DEFLATE != 0, moved_count, vertex_count)?;
+        Some(PartDeltas {
+            part,
+            vertex_count,
+            moved,
+        })
+    } else {
+        None
+    };
+    let face = if flags & FLAG_FACE != 0 {
+        let max = r.f32("face roughness max")?;
+        let bytes = r.take(vertex_count as usize, "face roughness")?;
+        Some(bytes.iter().map(|&b| f32::from(b) / 255.0 * max).collect())
+    } else {
+        None
+    };
+    r.finish()?;
+    Ok(ViewerFrame {
+        header,
+        step,
+        vertex_count,
+        moved,
+        lip: LipRoughness {
+            min,
+            max,
+            mean,
+            per_vertex,
+        },
+        label,
+        face,
+        head,
+        jaw,
+        tongue,
+    })
+}
+
+/// A delta block's length and the block: `moved_count` entries of vertices below
+/// `vertex_count`, inflated first if `deflated`.
+fn read_deltas(
+    r: &mut Reader<'_>,
+    deflated: bool,
+    moved_count: u32,
+    vertex_count: u32,
+) -> Result<Vec<(u32, [i32; 3])>, DecodeError> {
     let block_length = r.u32("delta block length")? as usize;
     let block_at = r.position();
     let stored = r.take(block_length, "delta block")?;
     // An entry takes 4 to 40 bytes: never inflate past what the count allows.
     let inflated;
-    let block: &[u8] = if flags & FLAG_DEFLATE != 0 {
+    let block: &[u8] = if deflated {
         inflated = inflate(stored, moved_count as usize * 40, block_at)?;
         &inflated
     } else {
@@ -458,30 +555,7 @@ pub fn decode(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
             problem: format!("{} byte(s) left after {moved_count} entries", entries.remaining()),
         });
     }
-    let face = if flags & FLAG_FACE != 0 {
-        let max = r.f32("face roughness max")?;
-        let bytes = r.take(vertex_count as usize, "face roughness")?;
-        Some(bytes.iter().map(|&b| f32::from(b) / 255.0 * max).collect())
-    } else {
-        None
-    };
-    r.finish()?;
-    Ok(ViewerFrame {
-        header,
-        step,
-        vertex_count,
-        moved,
-        lip: LipRoughness {
-            min,
-            max,
-            mean,
-            per_vertex,
-        },
-        label,
-        face,
-        head,
-        jaw,
-    })
+    Ok(moved)
 }
 
 /// A rigid motion: finite numbers, a unit rotation quaternion.
@@ -529,6 +603,36 @@ mod tests {
             deflate,
             head: None,
             jaw: None,
+            tongue: None,
+        }
+    }
+
+    #[test]
+    fn tongue_deltas_travel_after_the_head_with_the_same_step() {
+        let lip = LipRoughness::default();
+        let head = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]];
+        let tongue = [[0.0; 3], [0.0, 0.26, -0.1], [0.0; 3], [0.1, 0.0, 0.0]];
+        for deflate in [false, true] {
+            let mut encoder = FrameEncoder::default();
+            let bytes = encoder
+                .encode(
+                    &header(),
+                    &FrameContent {
+                        tongue: Some((3, &tongue)),
+                        ..content(&head, &lip, deflate)
+                    },
+                )
+                .to_vec();
+            let frame = decode(&bytes).unwrap();
+            assert_eq!(frame.moved, [(1, [2, 0, 0])]);
+            let decoded = frame.tongue.unwrap();
+            assert_eq!((decoded.part, decoded.vertex_count), (3, 4));
+            // step 0.5: 0.26 -> 1 count, -0.1 -> 0, 0.1 -> 0.
+            assert_eq!(decoded.moved, [(1, [0, 1, 0])]);
+            // Without the flag nothing follows the head's block.
+            let plain = encoder.encode(&header(), &content(&head, &lip, deflate)).to_vec();
+            assert_eq!(decode(&plain).unwrap().tongue, None);
+            assert!(plain.len() < bytes.len());
         }
     }
 
@@ -563,6 +667,7 @@ mod tests {
                         deflate,
                         head: None,
                         jaw: None,
+                        tongue: None,
                     },
                 )
                 .to_vec();

@@ -2,7 +2,7 @@
 //! region the roughness is measured on, the quantization step of viewer frames, and the
 //! parts (teeth, gums, tongue) that move with the skull or the jaw.
 
-use super::infer_role;
+use super::{infer_role, TongueShaper};
 use crate::deform::Registration;
 use crate::head::{check_part_names, Head, Part, PartListError, PartRole};
 use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
@@ -19,6 +19,8 @@ pub struct AnimatedHead {
     pub step: f32,
     /// Teeth, gums, tongue: at most [`crate::head::MAX_PARTS`], names unique.
     pub parts: Vec<Part>,
+    /// The part with role tongue (at most one), by index into `parts`, and its shaper.
+    pub tongue: Option<(usize, TongueShaper)>,
 }
 
 /// A part mesh before its role is settled.
@@ -37,6 +39,8 @@ pub enum AnimatedHeadError {
     Parts(#[from] PartListError),
     #[error("part {name:?} has no vertices")]
     EmptyPart { name: String },
+    #[error("parts {first:?} and {second:?} are both tongues; a head has at most one")]
+    TwoTongues { first: String, second: String },
 }
 
 impl AnimatedHead {
@@ -66,6 +70,14 @@ impl AnimatedHead {
                 mesh: part.mesh,
             });
         }
+        let mut tongues = settled.iter().filter(|p| p.role == PartRole::Tongue);
+        if let (Some(first), Some(second)) = (tongues.next(), tongues.next()) {
+            return Err(AnimatedHeadError::TwoTongues {
+                first: first.name.clone(),
+                second: second.name.clone(),
+            });
+        }
+        let tongue = TongueShaper::for_parts(&settled, &registration.fitted, registration.mm_per_unit());
         let lip_region = LipRegion::new(
             &registration.head,
             &registration.anchors,
@@ -77,6 +89,7 @@ impl AnimatedHead {
             lip_region,
             step,
             parts: settled,
+            tongue,
         })
     }
 

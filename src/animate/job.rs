@@ -1,5 +1,5 @@
 //! The per-frame job for one head and one algorithm: pose the mask from a frame, deform
-//! the head, find the head's own rigid motion (kept apart from the deformation), measure lip (and optionally whole-face) roughness, quantize the deltas and
+//! the head, find the head's own rigid motion and the jaw's (kept apart from the deformation), shape the tongue, measure lip (and optionally whole-face) roughness, quantize the deltas and
 //! encode the viewer frame. Every buffer is made once, in [`FrameJob::new`].
 
 use std::sync::Arc;
@@ -43,6 +43,11 @@ pub struct FrameJob {
     head_motion: RigidMotion,
     jaw_motion: RigidMotion,
     deltas: Vec<[f32; 3]>,
+    /// The tongue's deltas (head units, before the jaw's motion), when the last frame
+    /// shaped it; empty for a head without a tongue.
+    tongue: Vec<Vec3>,
+    tongue_shaped: bool,
+    tongue_wire: Vec<[f32; 3]>,
     lip: LipRoughness,
     lip_wire: WireLip,
     face: Option<(Roughness, Vec<f32>)>,
@@ -60,6 +65,7 @@ impl FrameJob {
     ) -> Result<FrameJob, FrameJobError> {
         let reg = &head.registration;
         let n = reg.vertex_count();
+        let tongue_n = head.tongue.as_ref().map_or(0, |(_, t)| t.vertex_count());
         let lip = LipRoughness::new(&reg.head, &head.lip_region)?;
         let face = match face {
             true => Some((Roughness::whole_mesh(&reg.head)?, vec![0.0; n])),
@@ -72,13 +78,16 @@ impl FrameJob {
             head_motion: RigidMotion::IDENTITY,
             jaw_motion: RigidMotion::IDENTITY,
             deltas: vec![[0.0; 3]; n],
+            tongue: vec![Vec3::ZERO; tongue_n],
+            tongue_shaped: false,
+            tongue_wire: vec![[0.0; 3]; tongue_n],
             lip,
             lip_wire: WireLip {
                 per_vertex: vec![0.0; LIP_VERTICES.len()],
                 ..WireLip::default()
             },
             face,
-            encoder: FrameEncoder::for_head(n, LIP_VERTICES.len()),
+            encoder: FrameEncoder::for_head(n + tongue_n, LIP_VERTICES.len()),
             head,
             binding,
             basis,
@@ -107,6 +116,9 @@ impl FrameJob {
         if self.head.has_jaw_parts() {
             self.jaw_motion = jaw_motion(reg.mask_rest(), mask_now, &reg.fitted.fit.pose);
         }
+        if let Some((_, shaper)) = &self.head.tongue {
+            self.tongue_shaped = shaper.shape(frame, &mut self.tongue);
+        }
         &self.deformed
     }
 
@@ -121,6 +133,13 @@ impl FrameJob {
     /// identity for a head without such parts, which has nothing for it to move.
     pub fn jaw_motion(&self) -> RigidMotion {
         self.jaw_motion
+    }
+
+    /// The tongue's deltas in the frame of the last [`FrameJob::deform`] (head units,
+    /// before the jaw's and the head's motions; add them to the tongue part's rest
+    /// positions); empty for a head without a tongue, all zero for a tongue at rest.
+    pub fn tongue_deltas(&self) -> &[Vec3] {
+        &self.tongue
     }
 
     /// The head as the last [`FrameJob::deform`] left it, before the head's motion (head
@@ -149,6 +168,10 @@ impl FrameJob {
         for ((d, now), rest) in self.deltas.iter_mut().zip(&self.deformed).zip(rest) {
             *d = (*now - *rest).to_array();
         }
+        for (wire, delta) in self.tongue_wire.iter_mut().zip(&self.tongue) {
+            *wire = delta.to_array();
+        }
+        let tongue_part = self.head.tongue.as_ref().map(|(part, _)| *part as u8);
         let rows = self.lip.rows(&self.deformed, frame.seq, frame.time_s)?;
         for (slot, row) in self.lip_wire.per_vertex.iter_mut().zip(&rows) {
             *slot = row.mean as f32;
@@ -181,6 +204,9 @@ impl FrameJob {
                 deflate: true,
                 head: self.head_motion.to_wire(),
                 jaw: self.jaw_motion.to_wire(),
+                tongue: tongue_part
+                    .filter(|_| self.tongue_shaped)
+                    .map(|part| (part, self.tongue_wire.as_slice())),
             },
         ))
     }

@@ -1,7 +1,7 @@
 //! A registered head animated frame by frame: the job the service runs once per frame for
 //! every (stream, algorithm) that has viewers, and that `facewire deform`, the tests and
 //! the benchmarks run offline. Parameter frame in; moved mask, deformed head, lip
-//! roughness, the head's own rigid motion and an encoded viewer frame (`FWF1`) out. Plain synchronous Rust: no
+//! roughness, the head's own rigid motion, the jaw's, the tongue's shape and an encoded viewer frame (`FWF1`) out. Plain synchronous Rust: no
 //! runtime, no allocation per frame.
 
 mod head;
@@ -10,6 +10,7 @@ mod jaw;
 mod job;
 mod part_role;
 mod rigid;
+mod tongue;
 
 pub use head::{AnimatedHead, AnimatedHeadError, PartInput, STEP_MM};
 pub use head_motion::{head_motion, NECK_PIVOT_MASK};
@@ -17,3 +18,7 @@ pub use jaw::{jaw_motion, CHIN_VERTICES, JAW_PIVOT_MASK};
 pub use job::{FrameJob, FrameJobError, FrameTimes};
 pub use part_role::infer_role;
 pub use rigid::RigidMotion;
+pub use tongue::{
+    TongueLandmarks, TongueShaper, BODY_BEHIND_TIP, BODY_REACH, FREE_MM, HELD_MM, TIP_REACH,
+    TONGUE_OUT_COUNTS,
+};

@@ -6,7 +6,9 @@ use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
 use super::fitted_head::FittedHeadArgs;
+use super::part_arg::load_parts;
 use super::{print_json, CliResult, FilePath};
+use crate::animate::AnimatedHead;
 use crate::deform::Registration;
 use crate::report::{
     compare, every_preset, parse_algorithms, write_report, AlgorithmSummary, Column, CompareInput,
@@ -37,6 +39,11 @@ pub struct Args {
     /// default: `makehuman_arkit/` beside a head named makehuman_head.obj.
     #[arg(long)]
     targets: Option<FilePath>,
+    /// A part mesh (teeth, gums, tongue) in the head's units and frame, as `PATH` (its
+    /// role, skull or jaw, inferred) or `ROLE:PATH` (skull, jaw or tongue). Repeatable.
+    /// With teeth, the report measures contact inside the mouth (`contact.tsv`).
+    #[arg(long = "part", value_name = "[ROLE:]PATH")]
+    parts: Vec<String>,
     /// Print the algorithms table as JSON on stdout.
     #[arg(long)]
     json: bool,
@@ -47,19 +54,22 @@ pub fn run(args: Args) -> CliResult {
         Some(list) => parse_algorithms(list)?,
         None => every_preset(),
     };
+    let parts = load_parts(&args.parts)?;
     let (head, fitted) = args.fitted.load()?;
     // Fail before the slow part when the stream cannot be opened.
     drop(open_stream(&args.stream, &fitted.mask)?);
     let targets = load_targets(&args, head.positions.len())?;
-    let registration = Registration::try_new(head, fitted)?;
+    let animated = AnimatedHead::with_parts(Registration::try_new(head, fitted)?, parts)
+        .map_err(|e| format!("{}: {e}", args.fitted.head.display()))?;
 
     let basis = ArkitBasis::shipped();
     let input = CompareInput {
-        registration: &registration,
+        registration: &animated.registration,
         stream: &args.stream,
         basis: &basis,
         algorithms: &algorithms,
         targets: targets.as_ref().map_or(&[], |t| t.targets.as_slice()),
+        parts: &animated.parts,
     };
     let mut bar = ProgressBar::new(std::io::stderr().is_terminal());
     let comparison = compare(&input, &mut |p| bar.update(p))?;
@@ -155,6 +165,9 @@ fn command_line(args: &Args) -> String {
     if let Some(dir) = &args.targets {
         push("--targets", &dir.display().to_string());
     }
+    for part in &args.parts {
+        push("--part", part);
+    }
     words.join(" ")
 }
 
@@ -192,14 +205,18 @@ fn print_table(comparison: &Comparison) {
     // Each column as wide as its title or 9, whichever is wider.
     let width = |column: &Column| column.short.len().max(9);
     let mut header = format!("{:<3} {:<58}", "", "spec");
-    for column in &ALGORITHM_COLUMNS {
+    let columns: Vec<&Column> = ALGORITHM_COLUMNS
+        .iter()
+        .filter(|c| c.applies_to(comparison))
+        .collect();
+    for column in &columns {
         header += &format!(" {:>w$}", column.short, w = width(column));
     }
     println!("{header}");
     for a in &comparison.algorithms {
         let s = &a.summary;
         let mut row = format!("{:<3} {:<58}", s.letter, s.spec);
-        for column in &ALGORITHM_COLUMNS {
+        for column in &columns {
             row += &format!(" {:>w$}", column.shown(s), w = width(column));
         }
         println!("{row}");

@@ -10,10 +10,11 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::fitted_head::FittedHeadArgs;
+use super::part_arg::load_parts;
 use super::{CliResult, FilePath};
-use crate::animate::{AnimatedHead, FrameJob, PartInput};
+use crate::animate::{AnimatedHead, FrameJob};
 use crate::deform::{bind, AlgoSpec, Registration};
-use crate::head::{obj, Head, PartRole};
+use crate::head::obj;
 use crate::metrics::{LipRoughness, RoughnessTsvWriter};
 use crate::stream::{open_stream, ArkitBasis};
 
@@ -37,24 +38,10 @@ pub struct Args {
     frames: Option<String>,
     /// A part mesh (teeth, gums, tongue) in the head's units and frame, as `PATH` (its
     /// role, skull or jaw, inferred) or `ROLE:PATH` (skull, jaw or tongue). Repeatable;
-    /// each is written after the head as an object named after its file.
+    /// each is written after the head as an object named after its file (a tongue shaped
+    /// by the frame's tongue parameters).
     #[arg(long = "part", value_name = "[ROLE:]PATH")]
     parts: Vec<String>,
-}
-
-/// `[ROLE:]PATH` into a part to register.
-fn load_part(text: &str) -> Result<PartInput, String> {
-    let (role, path) = text
-        .split_once(':')
-        .and_then(|(role, path)| Some((Some(role.parse::<PartRole>().ok()?), path)))
-        .unwrap_or((None, text));
-    let path = Path::new(path);
-    let name = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .ok_or_else(|| format!("--part {text:?}: no file name"))?;
-    let mesh = Head::load(path).map_err(|e| format!("--part {text:?}: {e}"))?;
-    Ok(PartInput { name, role, mesh })
 }
 
 /// Parses `A..B`, `A..`, `..B` into a half-open range.
@@ -86,11 +73,7 @@ pub fn run(args: Args) -> CliResult {
         .map(parse_range)
         .transpose()?
         .unwrap_or(0..usize::MAX);
-    let parts = args
-        .parts
-        .iter()
-        .map(|p| load_part(p))
-        .collect::<Result<Vec<_>, _>>()?;
+    let parts = load_parts(&args.parts)?;
     let (head, fitted) = args.fitted.load()?;
     let mask = fitted.mask.clone();
     let started = Instant::now();
@@ -163,12 +146,19 @@ pub fn run(args: Args) -> CliResult {
         obj::write(&mut file, &header, &placed, &registration.head.triangles)?;
         let (head_motion, jaw_motion) = (job.head_motion(), job.jaw_motion());
         let mut first_vertex = placed.len() as u32;
-        for (part, out) in animated.parts.iter().zip(&mut placed_parts) {
+        let tongue = animated.tongue.as_ref().map(|(index, _)| *index);
+        for (p, (part, out)) in animated.parts.iter().zip(&mut placed_parts).enumerate() {
             let motion = match part.role.moves_with_jaw() {
                 true => head_motion.after(&jaw_motion),
                 false => head_motion,
             };
-            motion.apply_into(&part.mesh.positions, out);
+            if tongue == Some(p) {
+                for ((o, rest), delta) in out.iter_mut().zip(&part.mesh.positions).zip(job.tongue_deltas()) {
+                    *o = motion.apply(*rest + *delta);
+                }
+            } else {
+                motion.apply_into(&part.mesh.positions, out);
+            }
             obj::write_object(&mut file, &part.name, out, &part.mesh.triangles, first_vertex)?;
             first_vertex += out.len() as u32;
         }

@@ -9,6 +9,7 @@ mod fit;
 mod fitted_head;
 mod inspect;
 mod load;
+mod part_arg;
 mod play;
 mod render;
 mod serve;

@@ -23,7 +23,7 @@ pub use geodesic::SurfaceDistance;
 pub use laplacian::CotanLaplacian;
 pub use obj::ObjError;
 pub use part::{check_part_names, Part, PartListError, PartRole, PartRoleError, MAX_PARTS};
-pub use spatial::{SurfaceIndex, SurfacePoint, VertexIndex};
+pub use spatial::{closest_point_on_triangle, SurfaceIndex, SurfacePoint, VertexIndex};
 pub use topology::{Edge, Fan, Topology};
 pub use validate::Problem;
 

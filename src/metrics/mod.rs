@@ -7,6 +7,7 @@
 //! nothing. Lengths are in head units going in and millimetres coming out.
 
 mod aggregate;
+mod contact;
 mod face_crease;
 mod face_region;
 mod fidelity;
@@ -18,6 +19,7 @@ mod roughness;
 mod table;
 
 pub use aggregate::{algorithm_score, AlgorithmScore, SyllableScore, SyllableScores};
+pub use contact::{ContactFrame, MouthContact};
 pub use face_crease::FaceCrease;
 pub use face_region::{FaceVertices, FACE_RADIUS_MM};
 pub use fidelity::{

@@ -27,16 +27,23 @@ impl Column {
         (self.value)(summary).map_or("-".into(), self.rounded)
     }
 
-    /// The ground-truth column, which the report shows only when targets were measured.
-    pub fn needs_ground_truth(&self) -> bool {
-        self.key == GROUND_TRUTH_KEY
+    /// Whether the column has values in `comparison`: the ground-truth column only when
+    /// targets were measured, the contact columns only for a head with teeth.
+    pub fn applies_to(&self, comparison: &Comparison) -> bool {
+        match self.key {
+            GROUND_TRUTH_KEY => !comparison.rest_ground_truth.is_empty(),
+            LIPS_IN_TEETH_KEY | FV_GAP_KEY => comparison.rest_contact.is_some(),
+            _ => true,
+        }
     }
 }
 
 const GROUND_TRUTH_KEY: &str = "ground_truth_rms_mm";
+const LIPS_IN_TEETH_KEY: &str = "lips_in_teeth";
+const FV_GAP_KEY: &str = "fv_gap_mm";
 
 /// The measured columns, in table order.
-pub const ALGORITHM_COLUMNS: [Column; 9] = [
+pub const ALGORITHM_COLUMNS: [Column; 11] = [
     Column {
         key: "roughness_mean",
         title: "roughness mean",
@@ -104,6 +111,22 @@ pub const ALGORITHM_COLUMNS: [Column; 9] = [
         short: "fold deg",
         value: |s| Some(s.fold_deg),
         rest: |_| Some(0.0),
+        rounded: |v| format!("{v:.1}"),
+    },
+    Column {
+        key: LIPS_IN_TEETH_KEY,
+        title: "lip vertices in teeth",
+        short: "lips in teeth",
+        value: |s| s.lips_in_teeth.map(|n| n as f64),
+        rest: |c| c.rest_contact.map(|r| f64::from(r.lips_in_teeth)),
+        rounded: |v| format!("{v:.0}"),
+    },
+    Column {
+        key: FV_GAP_KEY,
+        title: "f/v lip to teeth (mm)",
+        short: "f/v mm",
+        value: |s| s.fv_gap_mm,
+        rest: |c| c.rest_contact.map(|r| f64::from(r.lower_lip_to_upper_teeth_mm)),
         rounded: |v| format!("{v:.1}"),
     },
     Column {

@@ -11,11 +11,13 @@ use glam::Vec3;
 use serde::Serialize;
 
 use super::{Candidate, CompareError};
+use crate::animate::{jaw_motion, TongueShaper};
 use crate::deform::{bind, Registration};
+use crate::head::Part;
 use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
 use crate::metrics::{
-    control_error, ground_truth_error, mouth_opening, FaceCrease, FaceVertices, FoldMeter, LipRegion,
-    LipRoughness, SyllableScores, LIP_ROWS,
+    control_error, ground_truth_error, mouth_opening, ContactFrame, FaceCrease, FaceVertices, FoldMeter,
+    LipRegion, LipRoughness, MouthContact, SyllableScores, LIP_ROWS,
 };
 use crate::stream::{open_stream, ArkitBasis, FramePoser};
 use crate::targets::ExpressionTarget;
@@ -36,6 +38,9 @@ pub struct CompareInput<'a> {
     pub algorithms: &'a [Candidate],
     /// Expression targets of this head for the ground-truth error; empty for none.
     pub targets: &'a [ExpressionTarget],
+    /// The head's parts (teeth, gums, tongue) with their roles, for the contact measures;
+    /// empty for none.
+    pub parts: &'a [Part],
 }
 
 /// Where a running comparison is, for a progress display.
@@ -99,6 +104,14 @@ pub struct AlgorithmSummary {
     /// The largest increase of a dihedral angle over rest between two face triangles, in
     /// any frame, degrees: the sharpest fold anywhere on the face.
     pub fold_deg: f64,
+    /// Lip vertices inside a tooth, summed over frames (vertex-frames); `None` for a head
+    /// without teeth.
+    pub lips_in_teeth: Option<u64>,
+    /// The widest of the closest approaches of the lower lip to the upper teeth in each
+    /// labiodental syllable (a run of frames whose label starts with `f` or `v`), mm:
+    /// under 2 mm when every f and v brings the lip to the teeth. `None` without teeth or
+    /// without such syllables.
+    pub fv_gap_mm: Option<f64>,
 }
 
 /// One syllable's roughness under one algorithm.
@@ -125,6 +138,16 @@ pub struct AlgorithmResult {
     pub syllables: Vec<SyllableRow>,
     /// In target order; empty without targets.
     pub ground_truth: Vec<TargetRow>,
+    /// Contact measures of every frame, in stream order; empty for a head without teeth.
+    pub contact: Vec<ContactRow>,
+}
+
+/// The contact measures of one frame under one algorithm.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContactRow {
+    pub frame: usize,
+    pub label: String,
+    pub contact: ContactFrame,
 }
 
 /// The outcome of a comparison.
@@ -158,6 +181,25 @@ pub struct Comparison {
     pub rest_ground_truth: Vec<TargetRow>,
     /// In the order asked for.
     pub algorithms: Vec<AlgorithmResult>,
+    /// The contact measures of the head at rest; `None` for a head without teeth.
+    pub rest_contact: Option<ContactFrame>,
+    /// The tongue over the stream (it moves alike under every algorithm); `None` for a
+    /// head without teeth or without a tongue.
+    pub tongue: Option<TongueContact>,
+}
+
+/// What the tongue did over the stream.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TongueContact {
+    /// Frames in which some tongue vertex is inside a tooth.
+    pub frames_in_teeth: usize,
+    /// The most tongue vertices inside teeth in one frame.
+    pub max_in_teeth: u32,
+    /// The deepest any of them went, mm.
+    pub max_depth_mm: f32,
+    /// The furthest the tongue came in front of the upper teeth, mm (negative: it stayed
+    /// behind them in every frame).
+    pub max_past_teeth_mm: f32,
 }
 
 /// Runs every algorithm of `input` over the stream (and the targets), reporting progress.
@@ -186,6 +228,21 @@ pub fn compare(
     let face_folds =
         FoldMeter::new(&reg.head, &face.triangles(&reg.head)).map_err(CompareError::FaceRegion)?;
     let survey = survey(input)?;
+    let tongue = TongueShaper::for_parts(input.parts, &reg.fitted, mm).map(|(_, shaper)| shaper);
+    let tongue_vertices = tongue
+        .as_ref()
+        .map(|t| (t.landmarks().tip_vertex, t.free_vertices()));
+    let mouth = MouthContact::new(
+        &reg.head,
+        &region,
+        &reg.fitted.fit.pose,
+        mm,
+        input.parts,
+        tongue_vertices,
+    );
+    let rest_contact = mouth
+        .as_ref()
+        .map(|m| m.measure(rest, glam::Affine3A::IDENTITY, None));
 
     let mut target_positions = vec![Vec3::ZERO; rest.len()];
     let mut rest_ground_truth = Vec::with_capacity(input.targets.len());
@@ -218,6 +275,9 @@ pub fn compare(
         controls: vec![Vec3::ZERO; mask.vertices.len()],
         target_mask: vec![Vec3::ZERO; mask.vertices.len()],
         stream: StreamTotals::default(),
+        tongue_deltas: vec![Vec3::ZERO; tongue.as_ref().map_or(0, TongueShaper::vertex_count)],
+        mouth,
+        tongue,
     };
     let mut algorithms = Vec::with_capacity(input.algorithms.len());
     for (index, candidate) in input.algorithms.iter().enumerate() {
@@ -247,8 +307,48 @@ pub fn compare(
         face_triangles: run.face_crease.triangles(),
         rest_face_roughness: run.face_crease.rest_mean(),
         rest_ground_truth,
+        tongue: run
+            .tongue
+            .as_ref()
+            .and(algorithms.first())
+            .map(|a| tongue_contact(&a.contact)),
         algorithms,
+        rest_contact,
     })
+}
+
+/// The tongue's contact over one pass of the stream.
+fn tongue_contact(rows: &[ContactRow]) -> TongueContact {
+    TongueContact {
+        frames_in_teeth: rows.iter().filter(|r| r.contact.tongue_in_teeth > 0).count(),
+        max_in_teeth: rows.iter().map(|r| r.contact.tongue_in_teeth).max().unwrap_or(0),
+        max_depth_mm: rows.iter().map(|r| r.contact.tongue_depth_mm).fold(0.0, f32::max),
+        max_past_teeth_mm: rows
+            .iter()
+            .map(|r| r.contact.tongue_past_teeth_mm)
+            .fold(f32::NEG_INFINITY, f32::max),
+    }
+}
+
+/// Whether a syllable label is labiodental (f, v): the lower lip meets the upper teeth.
+fn is_labiodental(label: &str) -> bool {
+    label.starts_with(['f', 'v', 'F', 'V'])
+}
+
+/// The widest, over runs of frames with one labiodental label, of the run's closest
+/// approach of the lower lip to the upper teeth (mm).
+fn fv_gap(rows: &[ContactRow]) -> Option<f64> {
+    let mut widest: Option<f64> = None;
+    for run in rows.chunk_by(|a, b| a.label == b.label) {
+        if is_labiodental(&run[0].label) {
+            let closest = run
+                .iter()
+                .map(|r| f64::from(r.contact.lower_lip_to_upper_teeth_mm))
+                .fold(f64::INFINITY, f64::min);
+            widest = Some(widest.map_or(closest, |w| w.max(closest)));
+        }
+    }
+    widest
 }
 
 /// What the stream asks of every algorithm alike (it depends on the mask only), counted
@@ -285,6 +385,10 @@ struct Run<'i, 'a> {
     controls: Vec<Vec3>,
     target_mask: Vec<Vec3>,
     stream: StreamTotals,
+    mouth: Option<MouthContact>,
+    /// The tongue's shaper, when the head has one.
+    tongue: Option<TongueShaper>,
+    tongue_deltas: Vec<Vec3>,
 }
 
 impl Run<'_, '_> {
@@ -316,6 +420,7 @@ impl Run<'_, '_> {
         self.stream = StreamTotals::default();
         let upper = reg.anchors.vertex[INNER_LIP_MID_UPPER] as usize;
         let lower = reg.anchors.vertex[INNER_LIP_MID_LOWER] as usize;
+        let mut contact = Vec::with_capacity(if self.mouth.is_some() { frames } else { 0 });
         for (f, frame) in open_stream(self.input.stream, mask)?.enumerate() {
             let frame = frame?;
             let mask_now = self.poser.pose(&reg.fitted, self.input.basis, &frame);
@@ -379,6 +484,21 @@ impl Run<'_, '_> {
                     .distance((rest[lower] + self.controls[INNER_LIP_MID_LOWER]).as_dvec3())
                     * f64::from(mm);
                 self.stream.exact_ratio_sum += exact / opening.mask_mm;
+            }
+            if let Some(mouth) = &self.mouth {
+                let jaw = jaw_motion(reg.mask_rest(), mask_now, &reg.fitted.fit.pose);
+                let jaw = glam::Affine3A::from_rotation_translation(jaw.rotation, jaw.translation);
+                let tongue = match &self.tongue {
+                    Some(shaper) => shaper
+                        .shape(&frame, &mut self.tongue_deltas)
+                        .then_some(self.tongue_deltas.as_slice()),
+                    None => None,
+                };
+                contact.push(ContactRow {
+                    frame: f,
+                    label: frame.label.clone().unwrap_or_else(|| UNLABELLED.into()),
+                    contact: mouth.measure(&self.deformed, jaw, tongue),
+                });
             }
             report(Stage::Frames {
                 done: f + 1,
@@ -449,6 +569,11 @@ impl Run<'_, '_> {
                 crease: median(&mut creases),
                 lip_folds,
                 fold_deg,
+                lips_in_teeth: self
+                    .mouth
+                    .as_ref()
+                    .map(|_| contact.iter().map(|r| u64::from(r.contact.lips_in_teeth)).sum()),
+                fv_gap_mm: fv_gap(&contact),
             },
             syllables: syllables
                 .scores()
@@ -459,6 +584,7 @@ impl Run<'_, '_> {
                 })
                 .collect(),
             ground_truth,
+            contact,
         })
     }
 }

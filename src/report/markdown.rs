@@ -4,7 +4,9 @@
 
 use std::fmt::Write;
 
-use super::{algorithms_header, AlgorithmResult, Column, Comparison, Files, ALGORITHM_COLUMNS};
+use super::{
+    algorithms_header, AlgorithmResult, Column, Comparison, Files, ALGORITHM_COLUMNS, CONTACT_HEADER,
+};
 use crate::metrics::{FACE_RADIUS_MM, FOLD_DEG, LIP_RADIUS_MM, MIN_MASK_OPENING_MM};
 
 /// Where a report came from, for its header.
@@ -93,7 +95,7 @@ pub fn render(comparison: &Comparison, context: &ReportContext<'_>, files: &File
     let _ = writeln!(out, "## Algorithms\n");
     let columns: Vec<&Column> = ALGORITHM_COLUMNS
         .iter()
-        .filter(|column| has_gt || !column.needs_ground_truth())
+        .filter(|column| column.applies_to(c))
         .collect();
     let _ = write!(out, "| | spec |");
     for column in &columns {
@@ -199,6 +201,38 @@ pub fn render(comparison: &Comparison, context: &ReportContext<'_>, files: &File
          between two adjacent face triangles over its rest value, in any frame: 0 for a face \
          that only stretches and bends smoothly, 90 and more for a visible ridge or kink."
     );
+    if let Some(rest) = &c.rest_contact {
+        let _ = writeln!(
+            out,
+            "- **lip vertices in teeth** (count; 0 is the goal): the lip region's vertices that \
+             end inside a tooth (a closed piece of the skull or jaw parts, the jaw's moved by \
+             the frame's jaw motion), summed over the frames; {} at rest.\n\
+             - **f/v lip to teeth** (mm; under 2 is the goal): in each syllable whose label \
+             starts with f or v, the lower lip's closest approach to the upper teeth; the \
+             column is the widest of those. {:.1} mm at rest.",
+            rest.lips_in_teeth, rest.lower_lip_to_upper_teeth_mm
+        );
+        if let Some(tongue) = &c.tongue {
+            let _ = writeln!(
+                out,
+                "- **the tongue** (the same under every algorithm: the jaw carries it, the \
+                 tongue FAPs shape it): it grazed a tooth in {} frames (at most {} vertices, \
+                 at most {:.1} mm deep; `contact.tsv` has every frame); its most forward \
+                 point came at most {:.1} mm {} the upper teeth's front ({:.1} mm behind at \
+                 rest).",
+                tongue.frames_in_teeth,
+                tongue.max_in_teeth,
+                tongue.max_depth_mm,
+                tongue.max_past_teeth_mm.abs(),
+                if tongue.max_past_teeth_mm > 0.0 {
+                    "in front of"
+                } else {
+                    "behind"
+                },
+                -rest.tongue_past_teeth_mm
+            );
+        }
+    }
     let _ = writeln!(
         out,
         "- **deform** (microseconds): the median wall time of one deform call over the stream, \
@@ -326,6 +360,13 @@ pub fn render(comparison: &Comparison, context: &ReportContext<'_>, files: &File
             out,
             "- [`{gt}`]({gt}): one row per algorithm and target (`letter spec target rms_mm \
              max_mm`), then the head at rest against each target (`- rest`)."
+        );
+    }
+    if let Some(contact) = &files.contact {
+        let _ = writeln!(
+            out,
+            "- [`{contact}`]({contact}): one row per algorithm and frame (`{}`).",
+            CONTACT_HEADER.replace('\t', " ")
         );
     }
     out

@@ -21,14 +21,14 @@ pub use algorithms::{every_preset, parse_algorithms, Candidate};
 pub use charts::{bar_chart, scatter, Reference, Ticks};
 pub use columns::{Column, ALGORITHM_COLUMNS};
 pub use compare::{
-    compare, AlgorithmResult, AlgorithmSummary, CompareInput, Comparison, Progress, Stage, SyllableRow,
-    TargetRow, UNLABELLED,
+    compare, AlgorithmResult, AlgorithmSummary, CompareInput, Comparison, ContactRow, Progress, Stage,
+    SyllableRow, TargetRow, TongueContact, UNLABELLED,
 };
 pub use error::CompareError;
 pub use markdown::{pareto_front, ReportContext};
 pub use tables::{
-    algorithms_header, algorithms_tsv, face_tsv, ground_truth_tsv, syllables_tsv, FACE_HEADER,
-    GROUND_TRUTH_HEADER, REST_LETTER, REST_SPEC, SYLLABLES_HEADER,
+    algorithms_header, algorithms_tsv, contact_tsv, face_tsv, ground_truth_tsv, syllables_tsv,
+    CONTACT_HEADER, FACE_HEADER, GROUND_TRUTH_HEADER, REST_LETTER, REST_SPEC, SYLLABLES_HEADER,
 };
 
 /// The file names a report is written under, relative to its folder.
@@ -39,6 +39,8 @@ pub struct Files {
     pub face: &'static str,
     /// `None` without ground truth.
     pub ground_truth: Option<&'static str>,
+    /// `None` for a head without teeth.
+    pub contact: Option<&'static str>,
     pub charts: Vec<Chart>,
     pub report: &'static str,
 }
@@ -153,6 +155,7 @@ impl Files {
             syllables: "syllables.tsv",
             face: "face.tsv",
             ground_truth: has_gt.then_some("ground_truth.tsv"),
+            contact: comparison.rest_contact.is_some().then_some("contact.tsv"),
             charts,
             report: "report.md",
         }
@@ -178,6 +181,9 @@ pub fn write_report(
     ];
     if let (Some(name), Some(text)) = (files.ground_truth, ground_truth_tsv(comparison)) {
         contents.push((name, text));
+    }
+    if let Some(name) = files.contact {
+        contents.push((name, contact_tsv(comparison)));
     }
     for &chart in &files.charts {
         let svg = chart.draw(comparison).map_err(|message| CompareError::Chart {

@@ -13,6 +13,10 @@ pub const FACE_HEADER: &str = "letter\tspec\tface_roughness_mean\tcrease";
 /// Header of `ground_truth.tsv`.
 pub const GROUND_TRUTH_HEADER: &str = "letter\tspec\ttarget\trms_mm\tmax_mm";
 
+/// Header of `contact.tsv`.
+pub const CONTACT_HEADER: &str =
+    "letter\tspec\tframe\tlabel\tlips_in_teeth\tlips_depth_mm\tlower_lip_to_upper_teeth_mm\ttongue_in_teeth\ttongue_depth_mm\ttongue_past_teeth_mm\ttongue_tip_to_gums_mm";
+
 /// `letter` and `spec` of the ground-truth rows of the head at rest (not moving).
 pub const REST_LETTER: &str = "-";
 pub const REST_SPEC: &str = "rest";
@@ -102,4 +106,32 @@ pub fn ground_truth_tsv(comparison: &Comparison) -> Option<String> {
         let _ = writeln!(out, "{letter}\t{spec}\t{}\t{}\t{}", r.target, r.rms_mm, r.max_mm);
     }
     Some(out)
+}
+
+/// One row per (algorithm, frame) of a head with teeth: the contact measures
+/// (`tongue_past_teeth_mm` is `-inf` and `tongue_tip_to_gums_mm` `inf` for a head
+/// without a tongue).
+pub fn contact_tsv(comparison: &Comparison) -> String {
+    let mut out = format!("{CONTACT_HEADER}\n");
+    for a in &comparison.algorithms {
+        for row in &a.contact {
+            let c = &row.contact;
+            let _ = writeln!(
+                out,
+                "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}",
+                a.summary.letter,
+                a.summary.spec,
+                row.frame,
+                row.label,
+                c.lips_in_teeth,
+                c.lips_depth_mm,
+                c.lower_lip_to_upper_teeth_mm,
+                c.tongue_in_teeth,
+                c.tongue_depth_mm,
+                c.tongue_past_teeth_mm,
+                c.tongue_tip_to_gums_mm
+            );
+        }
+    }
+    out
 }

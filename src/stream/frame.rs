@@ -122,8 +122,9 @@ impl Frame {
     /// sum of the `animation` entries and of the FAPs CANDIDE implements, each FAP count
     /// converted with `fapu` (`FapuValues::weight`), and FAP 1's viseme as its mouth shape
     /// ([`super::visemes::add_viseme`]). FAPs the mask has no unit for (the expression 2,
-    /// the head rotation 48-50, which [`Frame::head_rotation`] returns, the tongue 43-47
-    /// and the ears 65-68), ARKit weights ([`Frame::mask_offsets`] has them) and indices
+    /// the head rotation 48-50, which [`Frame::head_rotation`] returns, the tongue 43-47,
+    /// which shape a head's tongue part in `crate::animate::TongueShaper`, and the ears
+    /// 65-68), ARKit weights ([`Frame::mask_offsets`] has them) and indices
     /// beyond `out` are left out.
     /// Allocates nothing.
     pub fn animation_weights(&self, mask: &Mask, fapu: &FapuValues, out: &mut [f32]) {

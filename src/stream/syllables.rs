@@ -41,11 +41,18 @@ pub const CHANNELS: [VisemeChannel; 8] = [
     VisemeChannel { key: "fap17_push_t_lip",     unit: 25, min: 0.0,   max: 0.05 },
 ];
 
-/// A vowel's target weight for every channel of [`CHANNELS`].
+/// The tongue's FAPs the syllables move, in this order: 44 raise_tongue_tip (counts of
+/// MNS / 1024, up), 45 thrust_tongue_tip (MW / 1024, forward), 46 raise_tongue (the body,
+/// MNS / 1024, up). On the ICT head a count of MNS is about 0.018 mm, of MW 0.047 mm.
+pub const TONGUE_FAPS: [u8; 3] = [44, 45, 46];
+
+/// A vowel's target weight for every channel of [`CHANNELS`], and the tongue's FAP
+/// counts ([`TONGUE_FAPS`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Vowel {
     pub name: &'static str,
     pub targets: [f32; 8],
+    pub tongue: [f32; 3],
 }
 
 /// A consonant's target per channel; `None` leaves the channel to the vowel
@@ -56,16 +63,20 @@ pub struct Consonant {
     /// How it is articulated, in words.
     pub articulation: &'static str,
     pub targets: [Option<f32>; 8],
+    /// The tongue's FAP counts ([`TONGUE_FAPS`]); `None` leaves the tongue to the vowel
+    /// (at [`ANTICIPATION`] of it), as the lips' free channels.
+    pub tongue: Option<[f32; 3]>,
 }
 
-/// The vowels: `a` opens the jaw with slightly spread lips, `i` spreads the lips over a
-/// small jaw opening, `u` rounds (negative stretcher: corners in and forward) and
-/// protrudes both lips.
+/// The vowels: `a` opens the jaw with slightly spread lips and lowers the tongue, `i`
+/// spreads the lips over a small jaw opening and raises the tongue's body to the front of
+/// the palate, `u` rounds (negative stretcher: corners in and forward), protrudes both
+/// lips and draws the tongue back and up.
 #[rustfmt::skip]
 pub const VOWELS: [Vowel; 3] = [
-    Vowel { name: "a", targets: [0.10, 0.55, 0.15, 0.10, 0.0, 0.0, 0.0, 0.0] },
-    Vowel { name: "i", targets: [0.15, 0.15, 0.50, 0.0, 0.0, 0.0, 0.0, 0.0] },
-    Vowel { name: "u", targets: [0.0, 0.12, -0.45, 0.0, 0.0, 0.0, 0.035, 0.04] },
+    Vowel { name: "a", targets: [0.10, 0.55, 0.15, 0.10, 0.0, 0.0, 0.0, 0.0], tongue: [0.0, 0.0, -150.0] },
+    Vowel { name: "i", targets: [0.15, 0.15, 0.50, 0.0, 0.0, 0.0, 0.0, 0.0], tongue: [0.0, 0.0, 300.0] },
+    Vowel { name: "u", targets: [0.0, 0.12, -0.45, 0.0, 0.0, 0.0, 0.035, 0.04], tongue: [0.0, -100.0, 250.0] },
 ];
 
 const BILABIAL_CLOSURE: [Option<f32>; 8] = [
@@ -86,17 +97,19 @@ const fn bilabial(name: &'static str, articulation: &'static str, presser: f32) 
         name,
         articulation,
         targets,
+        tongue: None,
     }
 }
 
 /// A consonant made with the tongue against the teeth or palate: the lips stay free,
-/// the jaw nearly closed.
+/// the jaw nearly closed, the tongue where `tongue` puts it.
 const fn lingual(
     name: &'static str,
     articulation: &'static str,
     upper_lip_raiser: f32,
     jaw_drop: f32,
     lip_stretcher: Option<f32>,
+    tongue: [f32; 3],
 ) -> Consonant {
     Consonant {
         name,
@@ -111,18 +124,24 @@ const fn lingual(
             None,
             None,
         ],
+        tongue: Some(tongue),
     }
 }
+
+/// The tip raised to the ridge behind the upper incisors (t, d): about 16 mm up and 3.5 mm
+/// forward on the ICT head, where it touches the gums.
+const TIP_TO_RIDGE: [f32; 3] = [900.0, 75.0, 0.0];
 
 /// The consonants in the thesis's order (the syllables are these times [`VOWELS`]).
 pub const CONSONANTS: [Consonant; 9] = [
     bilabial("p", "bilabial stop: lips closed and pressed, jaw closed", 0.6),
     lingual(
         "t",
-        "alveolar stop: tongue tip behind the teeth, small jaw opening",
+        "alveolar stop: tongue tip on the ridge behind the upper teeth, small jaw opening",
         0.05,
         0.10,
         None,
+        TIP_TO_RIDGE,
     ),
     lingual(
         "k",
@@ -130,6 +149,7 @@ pub const CONSONANTS: [Consonant; 9] = [
         0.03,
         0.18,
         None,
+        [0.0, -50.0, 500.0],
     ),
     bilabial(
         "b",
@@ -147,18 +167,27 @@ pub const CONSONANTS: [Consonant; 9] = [
             None,
             Some(0.0),
             Some(0.0),
-            Some(0.03),
-            Some(-0.025),
+            Some(0.01),
+            Some(-0.015),
             None,
         ],
+        tongue: None,
     },
-    lingual("s", "alveolar fricative: teeth almost together", 0.08, 0.05, None),
+    lingual(
+        "s",
+        "alveolar fricative: teeth almost together, tongue tip just short of the ridge",
+        0.08,
+        0.05,
+        None,
+        [700.0, 40.0, 0.0],
+    ),
     lingual(
         "y",
-        "palatal approximant: an i-like spread over a small opening",
+        "palatal approximant: an i-like spread over a small opening, tongue body to the palate",
         0.10,
         0.08,
         Some(0.35),
+        [0.0, 0.0, 400.0],
     ),
     lingual(
         "d",
@@ -166,6 +195,7 @@ pub const CONSONANTS: [Consonant; 9] = [
         0.05,
         0.12,
         None,
+        TIP_TO_RIDGE,
     ),
 ];
 
@@ -224,14 +254,35 @@ fn smoothstep(x: f64) -> f64 {
     x * x * (3.0 - 2.0 * x)
 }
 
-/// Channel weights `local_s` seconds into a syllable.
-fn pose(consonant: &Consonant, vowel: &Vowel, local_s: f64) -> [f64; 8] {
-    let consonant_targets = coarticulated(consonant, vowel);
-    let target = |phase: Phase| -> [f32; 8] {
+/// The consonant's tongue, or the vowel's at [`ANTICIPATION`] where it leaves the tongue
+/// free.
+pub fn coarticulated_tongue(consonant: &Consonant, vowel: &Vowel) -> [f32; 3] {
+    consonant
+        .tongue
+        .unwrap_or(vowel.tongue.map(|count| ANTICIPATION * count))
+}
+
+/// `from + (to - from) * s`, channel by channel.
+fn blend<const N: usize>(from: [f32; N], to: [f32; N], s: f64) -> [f64; N] {
+    let mut out = [0.0; N];
+    for ((slot, a), b) in out.iter_mut().zip(from).zip(to) {
+        let (a, b) = (f64::from(a), f64::from(b));
+        *slot = a + (b - a) * s;
+    }
+    out
+}
+
+/// Channel weights and tongue counts `local_s` seconds into a syllable.
+fn pose(consonant: &Consonant, vowel: &Vowel, local_s: f64) -> ([f64; 8], [f64; 3]) {
+    let consonant_targets = (
+        coarticulated(consonant, vowel),
+        coarticulated_tongue(consonant, vowel),
+    );
+    let target = |phase: Phase| -> ([f32; 8], [f32; 3]) {
         match phase {
-            Phase::Rest => [0.0; 8],
+            Phase::Rest => ([0.0; 8], [0.0; 3]),
             Phase::Consonant => consonant_targets,
-            Phase::Vowel => vowel.targets,
+            Phase::Vowel => (vowel.targets, vowel.tongue),
         }
     };
     let segment = KEYFRAMES
@@ -241,12 +292,7 @@ fn pose(consonant: &Consonant, vowel: &Vowel, local_s: f64) -> [f64; 8] {
     let ((start_s, from), (end_s, to)) = (segment[0], segment[1]);
     let s = smoothstep((local_s - start_s) / (end_s - start_s));
     let (from, to) = (target(from), target(to));
-    let mut out = [0.0; 8];
-    for ((slot, a), b) in out.iter_mut().zip(from).zip(to) {
-        let (a, b) = (f64::from(a), f64::from(b));
-        *slot = a + (b - a) * s;
-    }
-    out
+    (blend(from.0, to.0, s), blend(from.1, to.1, s))
 }
 
 /// The 27 syllables at `fps` frames per second (at most 1000): frame `i` at `i / fps`
@@ -273,16 +319,24 @@ pub fn generate(fps: f64) -> Result<Vec<Frame>, StreamError> {
             let index = ((time_s / SYLLABLE_S + 1e-9).floor() as usize).min(syllables.len() - 1);
             let (consonant, vowel) = syllables[index];
             let local_s = (time_s - index as f64 * SYLLABLE_S).max(0.0);
-            let weights = pose(consonant, vowel, local_s);
+            let (weights, tongue) = pose(consonant, vowel, local_s);
             let animation = CHANNELS
                 .iter()
                 .zip(weights)
                 .map(|(channel, w)| (channel.unit, ((w / WEIGHT_STEP).round() * WEIGHT_STEP) as f32))
                 .filter(|&(_, w)| w != 0.0)
                 .collect();
+            // FAP counts are whole numbers.
+            let faps = TONGUE_FAPS
+                .iter()
+                .zip(tongue)
+                .map(|(&fap, count)| (fap, count.round() as f32))
+                .filter(|&(_, count)| count != 0.0)
+                .collect();
             Frame {
                 label: Some(format!("{}{}", consonant.name, vowel.name)),
                 animation,
+                faps,
                 ..Frame::at(seq, time_s)
             }
         })
@@ -360,7 +414,7 @@ mod tests {
     #[test]
     fn pose_hits_the_keyframe_targets() {
         let (p, u) = (&CONSONANTS[0], &VOWELS[2]);
-        let at = |t: f64| pose(p, u, t).map(|w| (w * 1e6).round() / 1e6);
+        let at = |t: f64| pose(p, u, t).0.map(|w| (w * 1e6).round() / 1e6);
         assert_eq!(at(0.0), [0.0; 8]);
         // Consonant hold of "pu": lips closed and pressed, already rounding.
         assert_eq!(at(0.13), [0.0, 0.0, -0.315, 0.0, 0.6, 0.0, 0.0245, 0.028]);
@@ -368,8 +422,35 @@ mod tests {
         assert_eq!(at(0.60), [0.0; 8]);
         assert_eq!(at(0.75), [0.0; 8]);
         // Halfway between two keyframes smoothstep is halfway too.
-        let mid = pose(p, u, 0.23);
+        let mid = pose(p, u, 0.23).0;
         assert!((mid[1] - 0.06).abs() < 1e-7, "{}", mid[1]);
+    }
+
+    #[test]
+    fn the_tongue_follows_the_consonant_then_the_vowel() {
+        let (t, k, p) = (&CONSONANTS[1], &CONSONANTS[2], &CONSONANTS[0]);
+        let (a, u) = (&VOWELS[0], &VOWELS[2]);
+        // t: the tip to the ridge at the consonant hold, whatever the vowel.
+        assert_eq!(pose(t, a, 0.13).1, [900.0, 75.0, 0.0]);
+        assert_eq!(pose(t, u, 0.13).1, [900.0, 75.0, 0.0]);
+        // k: the body raised.
+        assert_eq!(pose(k, a, 0.13).1[2], 500.0);
+        // p leaves the tongue free: it anticipates the vowel.
+        assert_eq!(pose(p, u, 0.13).1, [0.0, -70.0, 175.0]);
+        assert_eq!(pose(p, u, 0.36).1, [0.0, -100.0, 250.0]);
+        assert_eq!(pose(t, a, 0.0).1, [0.0; 3]);
+        // The generated frames carry the counts as FAPs 44-46, whole numbers.
+        let frames = generate(30.0).unwrap();
+        let hold = frames
+            .iter()
+            .find(|f| f.label.as_deref() == Some("ta") && f.time_s > 1.9)
+            .unwrap();
+        assert!(
+            hold.faps
+                .iter()
+                .all(|&(fap, count)| TONGUE_FAPS.contains(&fap) && count.fract() == 0.0),
+            "{hold:?}"
+        );
     }
 
     #[test]

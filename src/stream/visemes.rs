@@ -7,7 +7,7 @@
 //! alike. docs/STREAMS.md, "Visemes", has the tables.
 
 use super::frame::VisemeFap;
-use super::syllables::{Consonant, CHANNELS, CONSONANTS, VOWELS};
+use super::syllables::{Consonant, CHANNELS, CONSONANTS, TONGUE_FAPS, VOWELS};
 
 /// One MPEG-4 viseme: its number (also Oculus/Meta's index), Oculus/Meta's name, the
 /// sounds it stands for, and its mouth shape as weights of [`CHANNELS`].
@@ -17,6 +17,8 @@ pub struct Viseme {
     pub oculus: &'static str,
     pub sounds: &'static str,
     pub shape: [f32; 8],
+    /// The tongue's FAP counts ([`TONGUE_FAPS`]).
+    pub tongue: [f32; 3],
 }
 
 /// A consonant of the syllable table alone: the channels it leaves to the vowel at rest.
@@ -32,25 +34,35 @@ const fn alone(consonant: &Consonant) -> [f32; 8] {
     shape
 }
 
+/// A consonant's tongue alone: at rest where it leaves the tongue to the vowel.
+const fn tongue_of(consonant: &Consonant) -> [f32; 3] {
+    match consonant.tongue {
+        Some(tongue) => tongue,
+        None => [0.0; 3],
+    }
+}
+
 /// Channels: upper_lip_raiser, jaw_drop, lip_stretcher, lip_corner_depressor,
-/// lip_presser, fap5_raise_b_midlip, fap16_push_b_lip, fap17_push_t_lip.
+/// lip_presser, fap5_raise_b_midlip, fap16_push_b_lip, fap17_push_t_lip; tongue: FAPs
+/// 44 raise_tongue_tip, 45 thrust_tongue_tip, 46 raise_tongue (counts). TH puts the tip
+/// between the teeth (past the upper teeth's front).
 #[rustfmt::skip]
 pub const VISEMES: [Viseme; 15] = [
-    Viseme { number: 0,  oculus: "sil", sounds: "silence", shape: [0.0; 8] },
-    Viseme { number: 1,  oculus: "PP",  sounds: "p b m", shape: alone(&CONSONANTS[0]) },
-    Viseme { number: 2,  oculus: "FF",  sounds: "f v", shape: alone(&CONSONANTS[5]) },
-    Viseme { number: 3,  oculus: "TH",  sounds: "th (thin, this)", shape: [0.08, 0.12, 0.05, 0.0, 0.0, 0.0, 0.0, 0.0] },
-    Viseme { number: 4,  oculus: "DD",  sounds: "t d", shape: alone(&CONSONANTS[1]) },
-    Viseme { number: 5,  oculus: "kk",  sounds: "k g", shape: alone(&CONSONANTS[2]) },
-    Viseme { number: 6,  oculus: "CH",  sounds: "ch j sh zh", shape: [0.1, 0.1, -0.25, 0.0, 0.0, 0.0, 0.025, 0.03] },
-    Viseme { number: 7,  oculus: "SS",  sounds: "s z", shape: alone(&CONSONANTS[6]) },
-    Viseme { number: 8,  oculus: "nn",  sounds: "n l", shape: [0.05, 0.12, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0] },
-    Viseme { number: 9,  oculus: "RR",  sounds: "r", shape: [0.05, 0.12, -0.2, 0.0, 0.0, 0.0, 0.015, 0.02] },
-    Viseme { number: 10, oculus: "aa",  sounds: "a (car)", shape: VOWELS[0].targets },
-    Viseme { number: 11, oculus: "E",   sounds: "e (bed)", shape: [0.12, 0.35, 0.35, 0.05, 0.0, 0.0, 0.0, 0.0] },
-    Viseme { number: 12, oculus: "ih",  sounds: "i (tip, see)", shape: VOWELS[1].targets },
-    Viseme { number: 13, oculus: "oh",  sounds: "o (top, go)", shape: [0.05, 0.35, -0.35, 0.0, 0.0, 0.0, 0.03, 0.03] },
-    Viseme { number: 14, oculus: "ou",  sounds: "u (book, you)", shape: VOWELS[2].targets },
+    Viseme { number: 0,  oculus: "sil", sounds: "silence", shape: [0.0; 8], tongue: [0.0; 3] },
+    Viseme { number: 1,  oculus: "PP",  sounds: "p b m", shape: alone(&CONSONANTS[0]) , tongue: tongue_of(&CONSONANTS[0]) },
+    Viseme { number: 2,  oculus: "FF",  sounds: "f v", shape: alone(&CONSONANTS[5]) , tongue: tongue_of(&CONSONANTS[5]) },
+    Viseme { number: 3,  oculus: "TH",  sounds: "th (thin, this)", shape: [0.08, 0.12, 0.05, 0.0, 0.0, 0.0, 0.0, 0.0], tongue: [200.0, 300.0, 0.0] },
+    Viseme { number: 4,  oculus: "DD",  sounds: "t d", shape: alone(&CONSONANTS[1]) , tongue: tongue_of(&CONSONANTS[1]) },
+    Viseme { number: 5,  oculus: "kk",  sounds: "k g", shape: alone(&CONSONANTS[2]) , tongue: tongue_of(&CONSONANTS[2]) },
+    Viseme { number: 6,  oculus: "CH",  sounds: "ch j sh zh", shape: [0.1, 0.1, -0.25, 0.0, 0.0, 0.0, 0.025, 0.03], tongue: [400.0, 0.0, 400.0] },
+    Viseme { number: 7,  oculus: "SS",  sounds: "s z", shape: alone(&CONSONANTS[6]) , tongue: tongue_of(&CONSONANTS[6]) },
+    Viseme { number: 8,  oculus: "nn",  sounds: "n l", shape: [0.05, 0.12, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0], tongue: [900.0, 75.0, 0.0] },
+    Viseme { number: 9,  oculus: "RR",  sounds: "r", shape: [0.05, 0.12, -0.2, 0.0, 0.0, 0.0, 0.015, 0.02], tongue: [500.0, -100.0, 0.0] },
+    Viseme { number: 10, oculus: "aa",  sounds: "a (car)", shape: VOWELS[0].targets , tongue: VOWELS[0].tongue },
+    Viseme { number: 11, oculus: "E",   sounds: "e (bed)", shape: [0.12, 0.35, 0.35, 0.05, 0.0, 0.0, 0.0, 0.0], tongue: [0.0, 0.0, 150.0] },
+    Viseme { number: 12, oculus: "ih",  sounds: "i (tip, see)", shape: VOWELS[1].targets , tongue: VOWELS[1].tongue },
+    Viseme { number: 13, oculus: "oh",  sounds: "o (top, go)", shape: [0.05, 0.35, -0.35, 0.0, 0.0, 0.0, 0.03, 0.03], tongue: [0.0, -100.0, 0.0] },
+    Viseme { number: 14, oculus: "ou",  sounds: "u (book, you)", shape: VOWELS[2].targets , tongue: VOWELS[2].tongue },
 ];
 
 /// Microsoft's viseme ID (0..=21, Azure text-to-speech) -> MPEG-4 viseme number.
@@ -163,9 +175,47 @@ pub fn add_viseme(viseme: &VisemeFap, out: &mut [f32]) {
     }
 }
 
+/// FAP 1's tongue: `(fap, counts)` for each of [`TONGUE_FAPS`], blended as
+/// [`add_viseme`] blends the mouth; nothing for a frame that defines a viseme or selects
+/// outside 0..=14.
+pub fn viseme_tongue(viseme: &VisemeFap) -> impl Iterator<Item = (u8, f32)> {
+    let pair = (viseme.definition == 0)
+        .then(|| {
+            let first = VISEMES.get(usize::try_from(viseme.select1).ok()?)?;
+            let second = VISEMES.get(usize::try_from(viseme.select2).ok()?)?;
+            Some((first, second))
+        })
+        .flatten();
+    let share = viseme.blend.clamp(0, 63) as f32 / 63.0;
+    TONGUE_FAPS.iter().enumerate().filter_map(move |(k, &fap)| {
+        let (first, second) = pair?;
+        Some((fap, share * first.tongue[k] + (1.0 - share) * second.tongue[k]))
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_viseme_blend_blends_the_tongue() {
+        let dd_and_aa = VisemeFap {
+            select1: 4,
+            select2: 10,
+            blend: 21,
+            definition: 0,
+        };
+        let tongue: Vec<(u8, f32)> = viseme_tongue(&dd_and_aa).collect();
+        let third = 21.0 / 63.0;
+        assert_eq!(tongue.len(), 3);
+        assert_eq!(tongue[0], (44, third * 900.0));
+        assert!((tongue[2].1 - (1.0 - third) * -150.0).abs() < 1e-3, "{tongue:?}");
+        let defining = VisemeFap {
+            definition: 1,
+            ..dd_and_aa
+        };
+        assert_eq!(viseme_tongue(&defining).count(), 0);
+    }
 
     #[test]
     fn the_numbers_are_the_positions_and_shapes_stay_in_range() {
@@ -189,8 +239,12 @@ mod tests {
         // p closes and presses the lips, as the syllable generator's p does.
         assert_eq!(VISEMES[1].shape, [0.0, 0.0, 0.0, 0.0, 0.6, 0.0, 0.0, 0.0]);
         // f lifts the upper lip and draws the lower lip back under the teeth.
-        assert_eq!(VISEMES[2].shape, [0.30, 0.08, 0.0, 0.0, 0.0, 0.03, -0.025, 0.0]);
+        assert_eq!(VISEMES[2].shape, [0.30, 0.08, 0.0, 0.0, 0.0, 0.01, -0.015, 0.0]);
         assert_eq!(VISEMES[10].shape, VOWELS[0].targets);
+        // t d: the tongue tip to the ridge, as the generator's t; th: out between the teeth.
+        assert_eq!(VISEMES[4].tongue, [900.0, 75.0, 0.0]);
+        assert!(VISEMES[3].tongue[1] > 0.0);
+        assert_eq!(VISEMES[1].tongue, [0.0; 3]);
     }
 
     #[test]

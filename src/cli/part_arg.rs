@@ -1,0 +1,28 @@
+//! The `--part [ROLE:]PATH` argument of `facewire deform` and `facewire compare`: a part
+//! mesh (teeth, gums, tongue) in the head's units and frame, named after its file, with
+//! its role given or left to be inferred.
+
+use std::path::Path;
+
+use crate::animate::PartInput;
+use crate::head::{Head, PartRole};
+
+/// `[ROLE:]PATH` into a part to register.
+pub fn load_part(text: &str) -> Result<PartInput, String> {
+    let (role, path) = text
+        .split_once(':')
+        .and_then(|(role, path)| Some((Some(role.parse::<PartRole>().ok()?), path)))
+        .unwrap_or((None, text));
+    let path = Path::new(path);
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .ok_or_else(|| format!("--part {text:?}: no file name"))?;
+    let mesh = Head::load(path).map_err(|e| format!("--part {text:?}: {e}"))?;
+    Ok(PartInput { name, role, mesh })
+}
+
+/// Every `--part` of a command, loaded.
+pub fn load_parts(texts: &[String]) -> Result<Vec<PartInput>, String> {
+    texts.iter().map(|t| load_part(t)).collect()
+}
