@@ -129,3 +129,59 @@ fn unknown_viseme_ids_are_refused_naming_the_scheme() {
     let frame = JsonlReader::new(line.as_bytes(), &mask).next().unwrap().unwrap();
     assert_eq!(frame.viseme, Some(facewire::stream::visemes::single(2)));
 }
+
+#[test]
+fn mpeg4_expressions_move_the_face() {
+    // FAP 2 as a JSONL `expression`: full surprise, full anger, full joy.
+    let text: String = [(6, "surprise"), (3, "anger"), (1, "joy")]
+        .iter()
+        .enumerate()
+        .map(|(seq, (select, label))| {
+            format!(
+                "{{\"seq\":{seq},\"t\":{seq},\"label\":\"{label}\",\"expression\":{{\"select1\":{select},\
+                 \"intensity1\":63,\"select2\":0,\"intensity2\":0,\"init_face\":0,\"definition\":0}}}}\n"
+            )
+        })
+        .collect();
+    let reg = register("ict_head");
+    let mask = reg.fitted.mask.clone();
+    let frames: Vec<Frame> = JsonlReader::new(text.as_bytes(), &mask)
+        .map(Result::unwrap)
+        .collect();
+    let head = Arc::new(AnimatedHead::new(reg).unwrap());
+    let reg = &head.registration;
+    let mm = reg.mm_per_unit();
+    let mut job = FrameJob::new(
+        head.clone(),
+        Arc::new(bind(reg, &"U".parse::<AlgoSpec>().unwrap())),
+        Arc::new(ArkitBasis::shipped()),
+        false,
+    )
+    .unwrap();
+    // The brows: the mask vertices the outer brow raiser moves, mean height in mm.
+    let brows: Vec<usize> = mask.animation_units[mask.animation_unit("outer_brow_raiser").unwrap()]
+        .displacements
+        .iter()
+        .map(|&(v, _)| v as usize)
+        .collect();
+    let brow_height = |m: &[glam::Vec3]| brows.iter().map(|&v| m[v].y).sum::<f32>() / brows.len() as f32 * mm;
+    let rest_brows = brow_height(reg.mask_rest());
+    let anchor = |d: &[glam::Vec3], j: usize| d[reg.anchors.vertex[j] as usize];
+    let rest = &reg.head.positions;
+    let width = |d: &[glam::Vec3]| anchor(d, 31).distance(anchor(d, 64)) * mm;
+    for frame in &frames {
+        let deformed = job.deform(frame).to_vec();
+        let raised = brow_height(job.mask()) - rest_brows;
+        let gap =
+            anchor(&deformed, INNER_LIP_MID_UPPER).distance(anchor(&deformed, INNER_LIP_MID_LOWER)) * mm;
+        let wider = width(&deformed) - width(rest);
+        let label = frame.label.as_deref().unwrap();
+        eprintln!("{label}: brows {raised:+.1} mm, lips {gap:.1} mm apart, mouth {wider:+.1} mm wider");
+        match label {
+            "surprise" => assert!(raised > 3.0 && gap > 8.0, "{label}"),
+            "anger" => assert!(raised < -2.0 && gap < 2.0, "{label}"),
+            "joy" => assert!(wider > 5.0 && raised.abs() < 0.5, "{label}"),
+            _ => unreachable!(),
+        }
+    }
+}

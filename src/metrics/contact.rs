@@ -1,7 +1,7 @@
 //! Contact, not collision, inside the mouth: in each frame, whether the lips or the tongue
 //! went into a tooth, whether the tongue came out past the teeth, and how close the lower
-//! lip is to the upper teeth (labiodental f/v must close that gap). ALGORITHMS.md
-//! "Contact inside the mouth".
+//! lip is to the upper teeth (labiodental f/v must close that gap). docs/METRICS.md,
+//! section 9, "Contact inside the mouth".
 //!
 //! The teeth are the closed pieces of the head's skull and jaw parts (each tooth of the
 //! ICT model is one; gums and tongue are open surfaces and never count as solids). A

@@ -35,7 +35,8 @@ pub struct VisemeFap {
 }
 
 /// MPEG-4 FAP 2, the high-level expression: two of the six standard expressions with
-/// intensities. Kept as read; it does not move the mask yet.
+/// intensities, kept as read. It moves the mask through the shapes of
+/// [`super::expressions::EXPRESSIONS`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub struct ExpressionFap {
     /// `expression_select1`: 0..=6 (neutral, joy, sadness, anger, fear, disgust, surprise).
@@ -120,9 +121,10 @@ impl Frame {
     /// Fills `out` with the animation-unit weights of this frame (`out` is zeroed first;
     /// pass one slot per animation unit of `mask`, 65 for CANDIDE-3). The weights are the
     /// sum of the `animation` entries and of the FAPs CANDIDE implements, each FAP count
-    /// converted with `fapu` (`FapuValues::weight`), and FAP 1's viseme as its mouth shape
-    /// ([`super::visemes::add_viseme`]). FAPs the mask has no unit for (the expression 2,
-    /// the head rotation 48-50, which [`Frame::head_rotation`] returns, the tongue 43-47,
+    /// converted with `fapu` (`FapuValues::weight`), FAP 1's viseme as its mouth shape
+    /// ([`super::visemes::add_viseme`]) and FAP 2's expressions as theirs
+    /// ([`super::expressions::add_expression`]). FAPs the mask has no unit for (the head
+    /// rotation 48-50, which [`Frame::head_rotation`] returns, the tongue 43-47,
     /// which shape a head's tongue part in `crate::animate::TongueShaper`, and the ears
     /// 65-68), ARKit weights ([`Frame::mask_offsets`] has them) and indices
     /// beyond `out` are left out.
@@ -146,6 +148,9 @@ impl Frame {
         }
         if let Some(viseme) = &self.viseme {
             super::visemes::add_viseme(viseme, out);
+        }
+        if let Some(expression) = &self.expression {
+            super::expressions::add_expression(expression, out);
         }
     }
 

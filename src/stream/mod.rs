@@ -14,6 +14,7 @@ pub mod au_text;
 mod blendshapes;
 mod check;
 mod error;
+pub mod expressions;
 pub mod fap_file;
 mod frame;
 pub mod jsonl;

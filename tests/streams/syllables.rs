@@ -183,4 +183,24 @@ fn the_documented_viseme_table_is_the_one_in_the_code() {
         let range = format!("| {} | {} .. {} |", channel.unit, channel.min, channel.max);
         assert!(docs.contains(&range), "{}: {range}", channel.key);
     }
+    // The tongue's table: the row after the channels' table with the same name.
+    let tongue_docs = &docs[docs.find("| viseme | raise_tongue_tip").unwrap()..];
+    let tongue = |name: &str| -> Vec<Option<f32>> {
+        let prefix = format!("| `{name}` |");
+        let line = tongue_docs.lines().find(|l| l.starts_with(&prefix)).unwrap();
+        line.split('|').map(str::trim).collect::<Vec<_>>()[2..5]
+            .iter()
+            .map(|cell| match *cell {
+                "vowel" => None,
+                number => Some(number.parse().unwrap()),
+            })
+            .collect()
+    };
+    for vowel in VOWELS {
+        assert_eq!(tongue(vowel.name), vowel.tongue.map(Some), "{}", vowel.name);
+    }
+    for consonant in CONSONANTS {
+        let documented = consonant.tongue.map_or(vec![None; 3], |t| t.map(Some).to_vec());
+        assert_eq!(tongue(consonant.name), documented, "{}", consonant.name);
+    }
 }
