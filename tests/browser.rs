@@ -460,6 +460,54 @@ async fn check_the_inner_mouth_close_up(browser: &Browser, url: &str, long: Dura
             tokio::time::sleep(Duration::from_millis(200)).await;
         }
     }
+    check_the_tongue(browser, url, long).await;
+}
+
+/// The tongue on a stream of the test's own: the same open jaw with the tongue tip raised
+/// changes the close-up's picture (only the tongue's deltas differ), and the page takes
+/// them without complaint. The close-up button then turns the close-up off.
+async fn check_the_tongue(browser: &Browser, url: &str, long: Duration) {
+    browser
+        .open(&format!("{url}?head=ict&stream=tongue&mouth=1"))
+        .await;
+    let ws = url.replacen("http://", "ws://", 1);
+    let (mut producer, _) =
+        tokio_tungstenite::connect_async(format!("{ws}v1/heads/ict/streams/tongue/produce"))
+            .await
+            .expect("producer connects");
+    produce_line(
+        &mut producer,
+        r#"{"seq":0,"t":0,"au":{"jaw_drop":0.5}}"#.to_string(),
+    )
+    .await;
+    browser
+        .wait_for("the tongue stream live", &state_is("status-0", "live"), long)
+        .await;
+    browser
+        .wait_for(
+            "the parts drawn",
+            "return document.getElementById('inner-0')?.dataset.loaded === '4'",
+            long,
+        )
+        .await;
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let open = browser.screenshot("#canvas-0").await;
+    produce_line(
+        &mut producer,
+        r#"{"seq":1,"t":0.1,"au":{"jaw_drop":0.5},"fap":{"raise_tongue_tip":900,"thrust_tongue_tip":200}}"#
+            .to_string(),
+    )
+    .await;
+    assert!(
+        browser
+            .picture_changes("#canvas-0", &open, Duration::from_secs(5))
+            .await,
+        "the page did not draw the raised tongue in 5 s"
+    );
+    let message = browser.js(&text_of("message-0")).await;
+    assert_eq!(message, "", "the page complains: {message}");
+    producer.close(None).await.unwrap();
+
     // The button turns the close-up off, and the URL follows.
     browser.js("document.getElementById('mouth-view').click()").await;
     let address = browser.js("return location.search").await;
