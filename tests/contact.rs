@@ -5,43 +5,25 @@
 
 mod common;
 
-use common::{data, register};
+use common::{data, ict_head};
 
 use std::path::Path;
 
-use facewire::head::{Head, Part, PartRole};
 use facewire::report::{compare, parse_algorithms, CompareInput, Comparison};
 use facewire::stream::ArkitBasis;
 
-fn ict_parts() -> Vec<Part> {
-    [
-        ("teeth_upper", PartRole::Skull),
-        ("teeth_lower", PartRole::Jaw),
-        ("gums_upper", PartRole::Skull),
-        ("gums_lower_tongue", PartRole::Tongue),
-    ]
-    .into_iter()
-    .map(|(name, role)| Part {
-        name: name.into(),
-        role,
-        mesh: Head::load(&data(&format!("heads/ict_head_{name}.obj"))).unwrap(),
-    })
-    .collect()
-}
-
 /// `algorithms` over `stream` on the ICT head with its parts, as `facewire compare`.
 fn compare_on_ict(algorithms: &str, stream: &Path) -> Comparison {
-    let reg = register("ict_head");
-    let parts = ict_parts();
+    let head = ict_head();
     let basis = ArkitBasis::shipped();
     let algorithms = parse_algorithms(algorithms).unwrap();
     let input = CompareInput {
-        registration: &reg,
+        registration: &head.registration,
         stream,
         basis: &basis,
         algorithms: &algorithms,
         targets: &[],
-        parts: &parts,
+        parts: &head.parts,
     };
     compare(&input, &mut |_| {}).unwrap()
 }

@@ -4,8 +4,8 @@
 
 mod common;
 
-use common::service::{connect, next_frame, next_json, Server};
-use common::{data, register};
+use common::service::{connect, ict_parts, ict_request, next_frame, next_json, Server};
+use common::{data, ict_head, register};
 
 use facewire::animate::{jaw_motion, AnimatedHead, PartInput};
 use facewire::head::{Head, PartRole};
@@ -16,31 +16,6 @@ use futures_util::SinkExt;
 use glam::{Quat, Vec3};
 use serde_json::{json, Value};
 use tokio_tungstenite::tungstenite::Message;
-
-/// The ICT head's shipped parts: (name, file, role to give).
-const ICT_PARTS: [(&str, &str, Option<&str>); 4] = [
-    ("teeth_upper", "ict_head_teeth_upper.obj", None),
-    ("teeth_lower", "ict_head_teeth_lower.obj", None),
-    ("gums_upper", "ict_head_gums_upper.obj", None),
-    (
-        "gums_lower_tongue",
-        "ict_head_gums_lower_tongue.obj",
-        Some("tongue"),
-    ),
-];
-
-/// The ICT head with its shipped parts, as the library animates it.
-fn ict_head() -> AnimatedHead {
-    let parts = ICT_PARTS
-        .iter()
-        .map(|&(name, file, role)| PartInput {
-            name: name.into(),
-            role: role.map(|r| r.parse().unwrap()),
-            mesh: Head::load(&data(&format!("heads/{file}"))).unwrap(),
-        })
-        .collect();
-    AnimatedHead::with_parts(register("ict_head"), parts).unwrap()
-}
 
 #[test]
 fn a_head_has_at_most_one_tongue() {
@@ -67,31 +42,6 @@ fn teeth_and_gums_find_their_roles_by_the_mouth_line() {
         [PartRole::Skull, PartRole::Jaw, PartRole::Skull, PartRole::Tongue]
     );
     assert!(head.has_jaw_parts());
-}
-
-fn ict_request(id: &str, parts: Value) -> Value {
-    json!({
-        "id": id,
-        "obj": std::fs::read_to_string(data("heads/ict_head.obj")).unwrap(),
-        "fit": std::fs::read_to_string(data("heads/ict_head.fit.toml")).unwrap(),
-        "parts": parts,
-    })
-}
-
-fn ict_parts() -> Value {
-    ICT_PARTS
-        .iter()
-        .map(|&(name, file, role)| {
-            let mut part = json!({
-                "name": name,
-                "obj": std::fs::read_to_string(data(&format!("heads/{file}"))).unwrap(),
-            });
-            if let Some(role) = role {
-                part["role"] = json!(role);
-            }
-            part
-        })
-        .collect()
 }
 
 async fn post(server: &Server, body: &Value) -> (u16, Value) {

@@ -369,3 +369,117 @@ async fn the_python_client_decodes_what_the_library_computes() {
         outcome.frames.iter().map(|f| f.seq).collect::<Vec<_>>()
     );
 }
+
+/// Run by `python3 -c` with the server's URL: watches the ICT head with its parts and
+/// prints, as JSON, the first frame whose tongue is shaped: the placed parts and the
+/// tongue's index.
+const PLACE_PARTS: &str = r#"
+import json, sys
+import facewire_client as fw
+viewer = fw.Viewer(sys.argv[1], "ict", "tongue", fetch_parts=True)
+print("connected", flush=True)
+while True:
+    event = viewer.recv(30)
+    if event is None:
+        sys.exit("the viewer closed before a shaped tongue")
+    if isinstance(event, fw.ViewerFrame) and event.tongue is not None:
+        json.dump({"tongue": event.tongue.part, "parts": viewer.place_parts(event)}, sys.stdout)
+        break
+"#;
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_python_client_places_the_parts_and_the_tongue() {
+    use futures_util::SinkExt;
+    use std::io::{BufRead, BufReader, Read};
+    use tokio_tungstenite::tungstenite::Message;
+
+    require_python();
+    let server = Server::start(memory_config()).await;
+    server.register_ict_with_parts("ict").await;
+    let mut child = Command::new("python3")
+        .args(["-c", PLACE_PARTS, &format!("http://{}", server.addr)])
+        .env("PYTHONPATH", repo_path("clients/python"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("python3 starts");
+    let mut stdout = BufReader::new(child.stdout.take().unwrap());
+    let connected = tokio::task::spawn_blocking(move || {
+        let mut line = String::new();
+        stdout.read_line(&mut line).unwrap();
+        (line, stdout)
+    });
+    let (line, mut stdout) = tokio::time::timeout(Duration::from_secs(60), connected)
+        .await
+        .expect("the Python viewer connects")
+        .unwrap();
+    assert_eq!(line.trim(), "connected", "{line}");
+
+    // The jaw open and the tongue tip raised, with the head turned: every motion at once.
+    let frame_line = r#"{"seq":0,"t":0,"au":{"jaw_drop":0.3},"fap":{"raise_tongue_tip":900},"head_rotation_rad":[0,0.3,0]}"#;
+    let (mut producer, _) =
+        tokio_tungstenite::connect_async(server.ws("/v1/heads/ict/streams/tongue/produce"))
+            .await
+            .unwrap();
+    producer.send(Message::Text(frame_line.into())).await.unwrap();
+    let output = tokio::task::spawn_blocking(move || {
+        let mut text = String::new();
+        stdout.read_to_string(&mut text).unwrap();
+        let status = child.wait().unwrap();
+        let mut errors = String::new();
+        child.stderr.take().unwrap().read_to_string(&mut errors).unwrap();
+        (text, status, errors)
+    });
+    let (text, status, errors) = tokio::time::timeout(Duration::from_secs(60), output)
+        .await
+        .expect("the Python viewer prints the placed parts")
+        .unwrap();
+    assert!(status.success(), "{errors}");
+    drop(producer);
+    server.stop().await;
+
+    #[derive(Deserialize)]
+    struct Placed {
+        tongue: usize,
+        parts: Vec<Vec<[f32; 3]>>,
+    }
+    let placed: Placed = serde_json::from_str(&text).unwrap();
+    assert_eq!(placed.tongue, 3);
+
+    // The library's placement of every part for the same frame.
+    let head = common::ict_head();
+    let frame = facewire::stream::JsonlReader::new(frame_line.as_bytes(), &head.registration.fitted.mask)
+        .next()
+        .unwrap()
+        .unwrap();
+    let mut job = facewire::animate::FrameJob::new(
+        std::sync::Arc::new(head),
+        std::sync::Arc::new(bind(
+            &common::register("ict_head"),
+            &"U".parse::<AlgoSpec>().unwrap(),
+        )),
+        std::sync::Arc::new(ArkitBasis::shipped()),
+        false,
+    )
+    .unwrap();
+    job.deform(&frame);
+    let (head_motion, jaw) = (job.head_motion(), job.jaw_motion());
+    let mm = job.head().registration.mm_per_unit();
+    let mut worst = 0.0f32;
+    for (p, part) in job.head().parts.iter().enumerate() {
+        let motion = match part.role.moves_with_jaw() {
+            true => head_motion.after(&jaw),
+            false => head_motion,
+        };
+        assert_eq!(placed.parts[p].len(), part.mesh.positions.len(), "{}", part.name);
+        for (v, (got, rest)) in placed.parts[p].iter().zip(&part.mesh.positions).enumerate() {
+            let shaped = match p == placed.tongue {
+                true => *rest + job.tongue_deltas()[v],
+                false => *rest,
+            };
+            worst = worst.max(Vec3::from_array(*got).distance(motion.apply(shaped)) * mm);
+        }
+    }
+    // Within half a quantization step (the tongue's deltas are quantized) and f32 noise.
+    assert!(worst < 0.5 * STEP_MM * 3f32.sqrt() + 1e-3, "{worst} mm");
+}

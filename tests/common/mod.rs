@@ -13,6 +13,32 @@ use facewire::head::Head;
 use facewire::mask::Mask;
 use glam::Vec3;
 
+/// The ICT head's shipped parts: (name, file under data/heads/, role to give or `None`
+/// to let it be inferred).
+pub const ICT_PARTS: [(&str, &str, Option<&str>); 4] = [
+    ("teeth_upper", "ict_head_teeth_upper.obj", None),
+    ("teeth_lower", "ict_head_teeth_lower.obj", None),
+    ("gums_upper", "ict_head_gums_upper.obj", None),
+    (
+        "gums_lower_tongue",
+        "ict_head_gums_lower_tongue.obj",
+        Some("tongue"),
+    ),
+];
+
+/// The ICT head with its shipped parts, as the library animates it.
+pub fn ict_head() -> facewire::animate::AnimatedHead {
+    let parts = ICT_PARTS
+        .iter()
+        .map(|&(name, file, role)| facewire::animate::PartInput {
+            name: name.into(),
+            role: role.map(|r| r.parse().unwrap()),
+            mesh: Head::load(&data(&format!("heads/{file}"))).unwrap(),
+        })
+        .collect();
+    facewire::animate::AnimatedHead::with_parts(register("ict_head"), parts).unwrap()
+}
+
 /// A path relative to the repository root.
 pub fn repo_path(relative: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(relative)

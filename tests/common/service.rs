@@ -160,6 +160,19 @@ impl Server {
         self.wait_ready(id, query).await
     }
 
+    /// Registers the shipped ICT head as `id` with its parts ([`super::ICT_PARTS`]) and
+    /// waits until it is ready.
+    pub async fn register_ict_with_parts(&self, id: &str) -> HeadInfo {
+        let response = reqwest::Client::new()
+            .post(self.http("/v1/heads"))
+            .json(&ict_request(id, ict_parts()))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(response.status(), 202, "{}", response.text().await.unwrap());
+        self.wait_ready(id, "").await
+    }
+
     /// Polls head info until the head is ready; panics if it fails or takes 30 s.
     pub async fn wait_ready(&self, id: &str, query: &str) -> HeadInfo {
         for _ in 0..600 {
@@ -181,6 +194,33 @@ impl Server {
             .await
             .unwrap()
     }
+}
+
+/// The body of `POST /v1/heads` for the shipped ICT head as `id` with `parts`.
+pub fn ict_request(id: &str, parts: serde_json::Value) -> serde_json::Value {
+    serde_json::json!({
+        "id": id,
+        "obj": std::fs::read_to_string(data("heads/ict_head.obj")).unwrap(),
+        "fit": std::fs::read_to_string(data("heads/ict_head.fit.toml")).unwrap(),
+        "parts": parts,
+    })
+}
+
+/// The ICT head's shipped parts ([`super::ICT_PARTS`]) as `POST /v1/heads` takes them.
+pub fn ict_parts() -> serde_json::Value {
+    super::ICT_PARTS
+        .iter()
+        .map(|&(name, file, role)| {
+            let mut part = serde_json::json!({
+                "name": name,
+                "obj": std::fs::read_to_string(data(&format!("heads/{file}"))).unwrap(),
+            });
+            if let Some(role) = role {
+                part["role"] = serde_json::json!(role);
+            }
+            part
+        })
+        .collect()
 }
 
 pub async fn connect(url: &str) -> Socket {
