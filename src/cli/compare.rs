@@ -17,9 +17,12 @@ use crate::report::{
 use crate::stream::{open_stream, ArkitBasis};
 use crate::targets::ExpressionTarget;
 
-/// The head whose expression targets ship in `makehuman_arkit/` beside it.
-const MAKEHUMAN_HEAD: &str = "makehuman_head.obj";
-const MAKEHUMAN_TARGETS: &str = "makehuman_arkit";
+/// The shipped heads whose expression targets ship beside them: (head file, folder of
+/// targets relative to the head's folder).
+const SHIPPED_TARGETS: [(&str, &str); 2] = [
+    ("makehuman_head.obj", "makehuman_arkit"),
+    ("ict_head.obj", "ict_targets/skin"),
+];
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -36,7 +39,8 @@ pub struct Args {
     #[arg(long)]
     algos: Option<String>,
     /// Folder of the head's expression targets (*.target) for the ground-truth error;
-    /// default: `makehuman_arkit/` beside a head named makehuman_head.obj.
+    /// default: for the shipped heads that have them, `makehuman_arkit/` beside
+    /// makehuman_head.obj and `ict_targets/skin/` beside ict_head.obj.
     #[arg(long)]
     targets: Option<FilePath>,
     /// A part mesh (teeth, gums, tongue) in the head's units and frame, as `PATH` (its
@@ -104,8 +108,8 @@ struct Targets {
     targets: Vec<ExpressionTarget>,
 }
 
-/// The targets to score against: `--targets` must load; the default folder of the
-/// MakeHuman head is used when it loads for this head and skipped otherwise.
+/// The targets to score against: `--targets` must load; a shipped head's own folder
+/// ([`SHIPPED_TARGETS`]) is used when it loads for this head and skipped otherwise.
 fn load_targets(
     args: &Args,
     vertex_count: usize,
@@ -120,20 +124,14 @@ fn load_targets(
             targets,
         }));
     }
-    let is_makehuman = args
-        .fitted
-        .head
-        .file_name()
-        .is_some_and(|n| n.eq_ignore_ascii_case(MAKEHUMAN_HEAD));
-    if !is_makehuman {
+    let head_file = args.fitted.head.file_name().map(|n| n.to_string_lossy().to_lowercase());
+    let Some((_, folder)) = SHIPPED_TARGETS
+        .iter()
+        .find(|(head, _)| head_file.as_deref() == Some(*head))
+    else {
         return Ok(None);
-    }
-    let dir = args
-        .fitted
-        .head
-        .parent()
-        .unwrap_or(Path::new(""))
-        .join(MAKEHUMAN_TARGETS);
+    };
+    let dir = args.fitted.head.parent().unwrap_or(Path::new("")).join(folder);
     match ExpressionTarget::load_dir(&dir, vertex_count) {
         Ok(targets) if !targets.is_empty() => Ok(Some(Targets { dir, targets })),
         Ok(_) => {
