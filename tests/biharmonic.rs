@@ -172,7 +172,9 @@ fn on_the_ict_heads_light_stage_targets_it_follows_them_better_than_u() {
     assert_eq!(targets.len(), 53);
     let u = ground_truth_mm(&reg, &targets, "U");
     let held = ground_truth_mm(&reg, &targets, "biharmonic:hold_mm=40,k=16");
-    eprintln!("ICT ground truth, mean RMS over 53 targets: U {u:.4} mm, biharmonic held at 40 mm {held:.4} mm");
+    eprintln!(
+        "ICT ground truth, mean RMS over 53 targets: U {u:.4} mm, biharmonic held at 40 mm {held:.4} mm"
+    );
     // Measured: U 0.85, held 0.54 (not moving: 2.31).
     assert!(held < 0.56, "biharmonic held at 40 mm: {held} mm");
     assert!(held < 0.7 * u, "biharmonic {held} mm against U {u} mm");

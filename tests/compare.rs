@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use facewire::mask::Mask;
-use facewire::metrics::{LIP_ROWS, TSV_HEADER};
+use facewire::metrics::{FOLDS_TSV_HEADER, LIP_ROWS, TSV_HEADER};
 use facewire::report::{
     algorithms_header, CONTACT_HEADER, FACE_HEADER, GROUND_TRUTH_HEADER, REST_LETTER, REST_SPEC,
     SYLLABLES_HEADER,
@@ -339,6 +339,19 @@ fn deform_writes_the_lip_roughness_table() {
         "one summary row per frame"
     );
     assert!(out.join("frame_00010.obj").is_file());
+
+    // folds.tsv: one row per frame; the face's triangles include the lips', so it turns at
+    // least as many and bends at least as sharply.
+    let (header, folds) = read_tsv(&out.join("folds.tsv"));
+    assert_eq!(header, FOLDS_TSV_HEADER);
+    assert_eq!(folds.len(), 3);
+    for (k, row) in folds.iter().enumerate() {
+        assert_eq!(number(&row[0]) as usize, 8 + k);
+        let v: Vec<f64> = row[2..].iter().map(|f| number(f)).collect();
+        assert!(v.iter().all(|x| x.is_finite() && *x >= 0.0), "{row:?}");
+        assert!(v[0].fract() == 0.0 && v[1] <= v[0], "{row:?}");
+        assert!(v[3] >= v[0] && v[4] >= v[1] && v[5] >= v[2], "{row:?}");
+    }
 }
 
 #[test]

@@ -10,6 +10,7 @@ use std::time::Duration;
 
 use facewire::deform::{bind, AlgoSpec, Registration};
 use facewire::mask::Mask;
+use facewire::metrics::{FoldMeter, LipRegion};
 use facewire::server::Config;
 use facewire::stream::{open_stream, Frame, JsonlWriter};
 use facewire_proto::frame::ViewerFrame;
@@ -96,6 +97,9 @@ async fn viewers_see_what_facewire_deform_computes() {
     }
 
     let step_slack = |frame: &ViewerFrame| 0.5 * frame.step * 1.001 + 1e-6;
+    let lips = LipRegion::new(&reg.head, &reg.anchors, reg.mm_per_unit()).unwrap();
+    let mut fold_meter = FoldMeter::new(&reg.head, lips.union()).unwrap();
+    let mut folded_frames = 0;
     for (spec, reader) in specs.iter().zip(readers) {
         let received = reader.await.unwrap();
         let binding = bind(&reg, spec);
@@ -134,6 +138,15 @@ async fn viewers_see_what_facewire_deform_computes() {
             assert_eq!(viewer.label, frame.label, "{spec}");
             assert_eq!(viewer.lip.per_vertex.len(), 18);
             assert!(viewer.lip.mean.is_finite() && viewer.lip.mean >= 0.0);
+            // The lip folds are the library's, on the unquantized head.
+            let folds = fold_meter.measure(&expected).unwrap();
+            let sent = viewer.folds.expect("every frame carries the lip folds");
+            assert_eq!(u32::from(sent.turned_over_60), folds.turned_over_60, "{spec}");
+            assert_eq!(u32::from(sent.turned_over_90), folds.turned_over_90, "{spec}");
+            assert!(
+                (f64::from(sent.max_dihedral_increase_deg) - folds.max_dihedral_increase_deg).abs() < 1e-3
+            );
+            folded_frames += usize::from(folds.turned_over_60 > 0);
             compared += 1;
         }
         assert!(
@@ -142,6 +155,8 @@ async fn viewers_see_what_facewire_deform_computes() {
             frames.len()
         );
     }
+    // O, C and S fold lip triangles on this stream (docs/reports/scan): the counts are live.
+    assert!(folded_frames > 0, "no frame carried a lip fold");
     server.stop().await;
 }
 

@@ -1,8 +1,8 @@
 //! The browser's decoder (`web/decode.js`) against the server's own encoder: frames encoded
 //! by `facewire_proto::frame::FrameEncoder` (with and without label, face roughness, head
-//! and jaw motion, tongue deltas and deflate; negative and large deltas; malformed ones) and
-//! a `mesh.bin`, written with the values the Rust decoder reads from them to a JSON file
-//! that `node web/decode.test.mjs` checks.
+//! and jaw motion, tongue deltas, lip folds and deflate; negative and large deltas;
+//! malformed ones) and a `mesh.bin`, written with the values the Rust decoder reads from
+//! them to a JSON file that `node web/decode.test.mjs` checks.
 
 mod common;
 
@@ -10,7 +10,9 @@ use common::repo_path;
 
 use std::process::Command;
 
-use facewire_proto::frame::{decode, FrameContent, FrameEncoder, FrameHeader, LipRoughness, RigidMotion};
+use facewire_proto::frame::{
+    decode, FrameContent, FrameEncoder, FrameHeader, LipFolds, LipRoughness, RigidMotion,
+};
 use facewire_proto::DecodeError;
 use serde_json::{json, Value};
 
@@ -31,6 +33,7 @@ struct Case<'a> {
     jaw: Option<RigidMotion>,
     /// The tongue's part index and its deltas.
     tongue: Option<(u8, Vec<[f32; 3]>)>,
+    folds: Option<LipFolds>,
 }
 
 fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8>, Value) {
@@ -47,6 +50,7 @@ fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8
                 head: case.head,
                 jaw: case.jaw,
                 tongue: case.tongue.as_ref().map(|(p, d)| (*p, d.as_slice())),
+                folds: case.folds,
             },
         )
         .to_vec();
@@ -108,6 +112,11 @@ fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8
             "vertexCount": t.vertex_count,
             "movedIndices": t.moved.iter().map(|m| m.0).collect::<Vec<_>>(),
             "movedCounts": t.moved.iter().flat_map(|m| m.1).collect::<Vec<_>>(),
+        })),
+        "folds": frame.folds.map(|f| json!({
+            "turnedOver60": f.turned_over_60,
+            "turnedOver90": f.turned_over_90,
+            "maxDihedralIncreaseDeg": f64::from(f.max_dihedral_increase_deg),
         })),
         "tongueRest": exact(&tongue_rest),
         "tonguePositions": exact(&tongue_positions),
@@ -199,6 +208,7 @@ fn cases() -> Value {
             head: None,
             jaw: None,
             tongue: None,
+            folds: None,
         },
         Case {
             name: "label and face roughness",
@@ -211,6 +221,7 @@ fn cases() -> Value {
             head: None,
             jaw: None,
             tongue: None,
+            folds: None,
         },
         Case {
             name: "large deltas, a multi-byte label, flat face",
@@ -231,9 +242,10 @@ fn cases() -> Value {
             head: None,
             jaw: None,
             tongue: None,
+            folds: None,
         },
         Case {
-            name: "nothing moved",
+            name: "nothing moved, lip folds of a gentle bend",
             header: header(4),
             step: 0.002,
             deltas: vec![[0.0; 3]; 50],
@@ -243,6 +255,11 @@ fn cases() -> Value {
             head: None,
             jaw: None,
             tongue: None,
+            folds: Some(LipFolds {
+                turned_over_60: 0,
+                turned_over_90: 0,
+                max_dihedral_increase_deg: 4.1,
+            }),
         },
         Case {
             name: "every vertex moved",
@@ -257,6 +274,7 @@ fn cases() -> Value {
             head: None,
             jaw: None,
             tongue: None,
+            folds: None,
         },
         Case {
             name: "head motion, label and face roughness",
@@ -269,6 +287,7 @@ fn cases() -> Value {
             head: Some(turn),
             jaw: None,
             tongue: None,
+            folds: None,
         },
         Case {
             name: "head motion only",
@@ -281,9 +300,10 @@ fn cases() -> Value {
             head: Some(turn),
             jaw: Some(open),
             tongue: None,
+            folds: None,
         },
         Case {
-            name: "tongue shaped, head and jaw motion, label and face roughness",
+            name: "tongue shaped, head and jaw motion, lip folds, label and face roughness",
             header: header(8),
             step: 0.001,
             deltas: deltas.clone(),
@@ -293,6 +313,12 @@ fn cases() -> Value {
             head: Some(turn),
             jaw: Some(open),
             tongue: Some((3, tongue_deltas)),
+            // Counts past i16 and u8 (a signed or one-byte read shows), an inexact f32.
+            folds: Some(LipFolds {
+                turned_over_60: 40_000,
+                turned_over_90: 300,
+                max_dihedral_increase_deg: 148.83,
+            }),
         },
         Case {
             name: "tongue sent with nothing moved",
@@ -305,6 +331,7 @@ fn cases() -> Value {
             head: None,
             jaw: Some(open),
             tongue: Some((0, vec![[0.0; 3]; 12])),
+            folds: None,
         },
     ];
     let mut encoder = FrameEncoder::default();
@@ -354,10 +381,17 @@ fn cases() -> Value {
     corrupt_block[0] ^= 0xc0; // a reserved block type
     let mut extra_entry = plain_block.to_vec();
     extra_entry.extend_from_slice(&[0, 0, 0, 0]);
-    // The tongue case (plain): 18 lip values, the label "ta", head and jaw motion, then the
-    // head's delta block; the tongue's fields follow it.
+    // The tongue case (plain): 18 lip values, the label "ta", head and jaw motion, lip
+    // folds, then the head's delta block; the tongue's fields follow it.
     let with_tongue = &encoded[14];
-    let head_block_at = 65 + 18 * 4 + 3 + 2 * 28;
+    let folds_at = 65 + 18 * 4 + 3 + 2 * 28;
+    assert_eq!(with_tongue[4] & 64, 64, "the tongue case has lip folds");
+    assert_eq!(with_tongue[folds_at..folds_at + 2], 40_000u16.to_le_bytes());
+    let mut nan_folds = with_tongue.clone();
+    nan_folds[folds_at + 4..folds_at + 8].copy_from_slice(&f32::NAN.to_le_bytes());
+    let mut negative_folds = with_tongue.clone();
+    negative_folds[folds_at + 4..folds_at + 8].copy_from_slice(&(-1.5f32).to_le_bytes());
+    let head_block_at = folds_at + 8;
     let head_block_length =
         u32::from_le_bytes(with_tongue[head_block_at..head_block_at + 4].try_into().unwrap());
     let tongue_at = head_block_at + 4 + head_block_length as usize;
@@ -372,7 +406,15 @@ fn cases() -> Value {
     // Claims one entry (40 bytes at most) but inflates to 300 entries.
     let mut bomb = encoded[9].clone(); // every vertex moved, deflated
     bomb[48..52].copy_from_slice(&1u32.to_le_bytes());
-    let malformed_frames = vec![
+    let folds_frames = [
+        malformed("truncated lip folds", with_tongue[..folds_at + 5].to_vec()),
+        malformed("lip folds' largest increase NaN", nan_folds),
+        malformed("lip folds' largest increase negative", negative_folds),
+    ];
+    for case in &folds_frames {
+        assert_eq!(case["field"], "lip folds", "{}", case["name"]);
+    }
+    let mut malformed_frames = vec![
         malformed("truncated header", good[..10].to_vec()),
         malformed("truncated deltas", good[..good.len() - 310].to_vec()),
         malformed("truncated face roughness", good[..good.len() - 1].to_vec()),
@@ -410,6 +452,7 @@ fn cases() -> Value {
             with_tongue[..tongue_at + 20].to_vec(),
         ),
     ];
+    malformed_frames.extend(folds_frames);
 
     let positions = [
         [0.0, 0.0, 0.0],

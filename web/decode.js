@@ -13,6 +13,7 @@ const FLAG_DEFLATE = 4;
 const FLAG_HEAD = 8;
 const FLAG_JAW = 16;
 const FLAG_TONGUE = 32;
+const FLAG_FOLDS = 64;
 /** How far from 1 a head rotation quaternion's length may be. */
 const UNIT_QUATERNION_TOLERANCE = 1e-4;
 /** No motion (the head or the jaw at rest): rotation quaternion x, y, z, w and translation (head units). */
@@ -50,6 +51,10 @@ class Reader {
 
   u8(field) {
     return this.bytes[this.need(1, field)];
+  }
+
+  u16(field) {
+    return this.view.getUint16(this.need(2, field), true);
   }
 
   u32(field) {
@@ -213,6 +218,21 @@ function readRigidMotion(r, field) {
 }
 
 /**
+ * The lip region's folds (8 bytes): u16 lip triangles turned over 60 degrees, u16 over
+ * 90, f32 the largest dihedral increase over rest in degrees (finite, not negative).
+ */
+function readLipFolds(r) {
+  const turnedOver60 = r.u16("lip folds");
+  const turnedOver90 = r.u16("lip folds");
+  const at = r.at;
+  const maxDihedralIncreaseDeg = r.f32("lip folds");
+  if (!(Number.isFinite(maxDihedralIncreaseDeg) && maxDihedralIncreaseDeg >= 0)) {
+    throw new DecodeError("lip folds", at, `largest dihedral increase ${maxDihedralIncreaseDeg}`);
+  }
+  return { turnedOver60, turnedOver90, maxDihedralIncreaseDeg };
+}
+
+/**
  * Decodes a whole frame (a promise: a deflated delta block inflates asynchronously).
  * `movedIndices[i]` is a vertex and `movedCounts[3i..3i+3]` its quantized delta:
  * delta = counts x step, head units. `face` is per-vertex roughness (Float32Array) or
@@ -222,6 +242,10 @@ function readRigidMotion(r, field) {
  * (the tongue at rest) or the tongue's deltas, `{part, vertexCount, movedIndices,
  * movedCounts}`: `part` its index in the snapshot's `parts`, the counts of that part's
  * vertices with the frame's `step`, applied before the jaw's and the head's motions.
+ * `folds` is null (not measured) or the lip region's folds after its own rigid motion,
+ * `{turnedOver60, turnedOver90, maxDihedralIncreaseDeg}`: lip triangles whose normal
+ * turned more than 60 and more than 90 degrees from rest, and the largest increase of a
+ * dihedral angle between two lip triangles over rest (degrees).
  */
 export async function decodeFrame(buffer) {
   const r = new Reader(new Uint8Array(buffer));
@@ -244,6 +268,7 @@ export async function decodeFrame(buffer) {
   }
   const head = flags & FLAG_HEAD ? readRigidMotion(r, "head motion") : AT_REST;
   const jaw = flags & FLAG_JAW ? readRigidMotion(r, "jaw motion") : AT_REST;
+  const folds = flags & FLAG_FOLDS ? readLipFolds(r) : null;
   if (moved > vertexCount) {
     throw new DecodeError("moved", 48, `${moved} moved of ${vertexCount} vertices`);
   }
@@ -280,6 +305,7 @@ export async function decodeFrame(buffer) {
     movedIndices,
     movedCounts,
     tongue,
+    folds,
     face,
   };
 }

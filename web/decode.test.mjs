@@ -72,6 +72,7 @@ for (const [i, c] of cases.frames.entries()) {
   same(frame.head, c.head, `${path} head`);
   same(frame.jaw, c.jaw, `${path} jaw`);
   same(frame.tongue, c.tongue, `${path} tongue`);
+  same(frame.folds, c.folds, `${path} folds`);
   const positions = applyFrame(new Float32Array(c.rest), frame, new Float32Array(c.rest.length));
   same(positions, c.positions, `${path} positions`);
   // The matrix the page draws with puts every vertex where the Rust client places it.

@@ -1,8 +1,9 @@
 // panel.js: one view of the page: its algorithm picker and heat-map switch, a viewer
 // socket, the 3D head and the numbers under it (connection state, syllable, fps, latency
-// per hop, bytes per frame). A live stream that stops sending shows as stalled. Frames are kept raw as they arrive (only their fixed header
-// is read, for the numbers and the chart); the page decodes just the one it draws, so a
-// slow machine skips frames instead of falling behind.
+// per hop, bytes per frame, lip roughness and folds). A live stream that stops sending
+// shows as stalled. Frames are kept raw as they arrive (only their fixed header is read,
+// for the numbers and the chart); the page decodes just the one it draws, so a slow
+// machine skips frames instead of falling behind.
 
 import { applyFrame, decodeFrame, motionMatrix, readFrameHeader } from "./decode.js";
 import { HeadRenderer } from "./render.js";
@@ -16,6 +17,9 @@ const KEEP_FRAMES = 8;
 export const DEFAULT_HEAT_MAX = 0.1;
 /** A live stream with no frame for this long is shown as stalled. */
 const STALL_MS = 2000;
+/** A largest dihedral increase below this (degrees), with no triangle turned over 60
+ * degrees, is a bend rather than a fold: the "Lip folds" line says "none". */
+const FOLD_BEND_DEG = 30;
 
 const STATE_TEXT = {
   connecting: "Connecting",
@@ -25,6 +29,23 @@ const STATE_TEXT = {
   reconnecting: "Reconnecting",
   error: "Error",
 };
+
+/**
+ * The "Lip folds" line for a frame's `folds` ({turnedOver60, turnedOver90,
+ * maxDihedralIncreaseDeg}, or null when the server did not measure them).
+ */
+function foldsText(folds) {
+  if (!folds) {
+    return "not sent";
+  }
+  const { turnedOver60, turnedOver90, maxDihedralIncreaseDeg } = folds;
+  const sharpest = `sharpest +${maxDihedralIncreaseDeg.toFixed(1)}°`;
+  if (turnedOver60 === 0) {
+    return maxDihedralIncreaseDeg < FOLD_BEND_DEG ? "none" : `no triangle over 60°, ${sharpest}`;
+  }
+  const triangles = turnedOver60 === 1 ? "triangle" : "triangles";
+  return `${turnedOver60.toLocaleString("en")} ${triangles} over 60° (${turnedOver90.toLocaleString("en")} over 90°), ${sharpest}`;
+}
 
 export class Panel {
   /**
@@ -271,7 +292,7 @@ export class Panel {
     );
   }
 
-  /** Shows a decoded frame: positions, the tongue's shape, heat-map, syllable. */
+  /** Shows a decoded frame: positions, the tongue's shape, heat-map, syllable, lip folds. */
   show(frame) {
     if (frame.vertexCount !== this.mesh.vertexCount) {
       this.showMessage(`A frame for ${frame.vertexCount} vertices arrived for a mesh of ${this.mesh.vertexCount}.`);
@@ -287,6 +308,7 @@ export class Panel {
     this.renderer.setHeat(frame.face, this.settings.heatMax);
     this.parts.syllable.textContent = frame.label ?? "–";
     this.parts.label.textContent = frame.label ?? "";
+    this.folds = frame.folds;
     this.stats.drawn += 1;
     this.needsDraw = true;
   }
@@ -355,7 +377,7 @@ export class Panel {
     this.markStall(now);
     const s = this.stats;
     const seconds = (now - s.since) / 1000;
-    const { fps, latency, bytes, lip } = this.parts;
+    const { fps, latency, bytes, lip, folds } = this.parts;
     if (s.received === 0) {
       fps.textContent = "none in the last second";
       latency.textContent = bytes.textContent = "–";
@@ -369,6 +391,9 @@ export class Panel {
     if (this.lip) {
       const { mean, min, max } = this.lip;
       lip.textContent = `mean ${mean.toFixed(4)} (min ${min.toFixed(4)}, max ${max.toFixed(4)})`;
+    }
+    if (this.folds !== undefined) {
+      folds.textContent = foldsText(this.folds);
     }
     this.resetStats();
   }

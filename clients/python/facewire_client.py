@@ -10,8 +10,8 @@ need:
   the server's answer to each and raises :class:`Refused` (code, field, seq) on a refusal.
 - :class:`Viewer` watches ``/v1/heads/{id}/streams/{stream}/view``: it reads the snapshot,
   downloads the rest mesh (``FWM1``) and decodes every ``FWF1`` frame into seq, time,
-  label, lip roughness and per-vertex positions (plain lists, no numpy), the head's and
-  the jaw's motion and the tongue's deltas; it places the head's parts (teeth, gums,
+  label, lip roughness and folds and per-vertex positions (plain lists, no numpy), the
+  head's and the jaw's motion and the tongue's deltas; it places the head's parts (teeth, gums,
   tongue) for a frame; ``end`` and ``error`` messages come out as :class:`StreamEnd` and
   :class:`ServerError` events.
 - :class:`Client` wraps the HTTP resources: register a head, wait until it is ready, list
@@ -52,6 +52,7 @@ __all__ = [
     "FacewireError",
     "FrameError",
     "HttpError",
+    "LipFolds",
     "LipRoughness",
     "PartDeltas",
     "PartInfo",
@@ -500,6 +501,19 @@ class LipRoughness:
     per_vertex: List[float]
 
 
+@dataclass(frozen=True)
+class LipFolds:
+    """Folds of the lip region in one frame (flag bit 6), after the region's own rigid
+    motion: ``turned_over_60`` and ``turned_over_90`` count the lip triangles whose normal
+    turned more than 60 and more than 90 degrees from rest (at most 65,535), and
+    ``max_dihedral_increase_deg`` is the largest increase of a dihedral angle between two
+    lip triangles over rest, degrees (finite, not negative)."""
+
+    turned_over_60: int
+    turned_over_90: int
+    max_dihedral_increase_deg: float
+
+
 @dataclass
 class RigidMotion:
     """A rigid motion of head units, ``world = rotate(rotation, p) + translation``: the
@@ -566,7 +580,8 @@ class ViewerFrame:
     step``, before the head's own motion ``head`` (:meth:`place` applies it). ``jaw`` is the
     jaw's motion, which places the parts that move with it (before ``head``), and
     ``tongue`` the tongue's deltas (:class:`PartDeltas`, before the jaw's motion), None while
-    the tongue is at rest; :meth:`place_part` places any part. Times: ``producer_time_s`` is
+    the tongue is at rest; :meth:`place_part` places any part. ``folds`` is the lip region's
+    folds (:class:`LipFolds`), None when the frame has none. Times: ``producer_time_s`` is
     the producer's ``t``; the ``_us`` fields are µs since the Unix epoch on the server's
     clock."""
 
@@ -583,6 +598,7 @@ class ViewerFrame:
     head: RigidMotion = field(default_factory=RigidMotion)
     jaw: RigidMotion = field(default_factory=RigidMotion)
     tongue: Optional[PartDeltas] = None
+    folds: Optional[LipFolds] = None
     positions: Optional[List[Tuple[float, float, float]]] = None
 
     def apply(self, rest: Sequence[Tuple[float, float, float]]) -> List[Tuple[float, float, float]]:
@@ -697,7 +713,8 @@ def decode_fwf1(data: bytes) -> ViewerFrame:
     previous starting at -1), then dx, dy, dz as zigzag LEB128 differences from the
     previous entry's counts (starting from 0); it is raw deflate when flag bit 2 is set.
     With flag bit 5 the tongue's part index, vertex count, moved count and a delta block
-    of its own (the same format) follow it: :attr:`ViewerFrame.tongue`."""
+    of its own (the same format) follow it: :attr:`ViewerFrame.tongue`. With flag bit 6
+    the lip folds (u16, u16, f32) follow the jaw's motion: :attr:`ViewerFrame.folds`."""
     r = _Reader(bytes(data))
     magic = r.take(4, "magic")
     if magic != b"FWF1":
@@ -712,6 +729,7 @@ def decode_fwf1(data: bytes) -> ViewerFrame:
     label = r.label() if flags & 2 else None
     head = _rigid_motion(r, "head motion") if flags & 8 else RigidMotion()
     jaw = _rigid_motion(r, "jaw motion") if flags & 16 else RigidMotion()
+    folds = _lip_folds(r) if flags & 64 else None
     if moved_count > vertex_count:
         raise ProtocolError("%d moved of %d vertices" % (moved_count, vertex_count),
                             field="moved", at=48)
@@ -748,6 +766,7 @@ def decode_fwf1(data: bytes) -> ViewerFrame:
         head=head,
         jaw=jaw,
         tongue=tongue,
+        folds=folds,
     )
 
 
@@ -814,6 +833,18 @@ def _rigid_motion(r: "_Reader", name: str) -> RigidMotion:
         raise ProtocolError("%s: rotation quaternion of length %g, not 1" % (name, length),
                             field=name, at=at)
     return RigidMotion(rotation=tuple(values[:4]), translation=tuple(values[4:]))
+
+
+def _lip_folds(r: "_Reader") -> LipFolds:
+    """u16 triangles turned over 60 degrees, u16 over 90, f32 the largest dihedral
+    increase in degrees (finite, not negative)."""
+    turned_over_60, turned_over_90 = r.unpack("HH", "lip folds")
+    at = r.at
+    (max_increase,) = r.unpack("f", "lip folds")
+    if not (math.isfinite(max_increase) and max_increase >= 0.0):
+        raise ProtocolError("largest dihedral increase %r" % (max_increase,),
+                            field="lip folds", at=at)
+    return LipFolds(turned_over_60, turned_over_90, max_increase)
 
 
 def decode_mesh(data: bytes) -> RestMesh:
@@ -1569,6 +1600,11 @@ def _frame_summary(frame: ViewerFrame, received_us: int, positions: bool) -> Dic
         "moved": len(frame.moved),
         "tongue_moved": None if frame.tongue is None else len(frame.tongue.moved),
         "lip_mean": frame.lip.mean,
+        "lip_folds": None if frame.folds is None else {
+            "turned_over_60": frame.folds.turned_over_60,
+            "turned_over_90": frame.folds.turned_over_90,
+            "max_dihedral_increase_deg": frame.folds.max_dihedral_increase_deg,
+        },
         "server_ms": (frame.server_send_us - frame.server_receive_us) / 1000.0,
         "delivery_ms": (received_us - frame.server_send_us) / 1000.0,
     }

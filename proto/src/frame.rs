@@ -7,7 +7,8 @@
 //! offset  size  field
 //!      0     4  magic "FWF1"
 //!      4     1  flags: bit 0 face roughness present, bit 1 label present, bit 2 deltas deflated,
-//!                bit 3 head motion present, bit 4 jaw motion present, bit 5 tongue deltas present
+//!                bit 3 head motion present, bit 4 jaw motion present, bit 5 tongue deltas present,
+//!                bit 6 lip folds present
 //!      5     3  reserved, 0
 //!      8     8  seq (u64): the producer's sequence number
 //!     16     8  producer_time_s (f64): the producer's timestamp
@@ -21,6 +22,8 @@
 //!      .     .  if label: u8 length, then that many UTF-8 bytes
 //!      .    28  if head motion: rotation quaternion x, y, z, w, translation x, y, z (7 x f32)
 //!      .    28  if jaw motion: the same, for the parts that move with the jaw
+//!      .     8  if lip folds: u16 lip triangles turned over 60 degrees, u16 over 90, f32 the
+//!               largest increase of a dihedral angle over rest (degrees)
 //!      .     4  delta block length in bytes (u32), then the block:
 //!               moved x { varint index gap, 3 x zigzag varint count differences },
 //!               raw-deflated (RFC 1951) when flag bit 2 is set
@@ -44,6 +47,7 @@ const FLAG_DEFLATE: u8 = 4;
 const FLAG_HEAD: u8 = 8;
 const FLAG_JAW: u8 = 16;
 const FLAG_TONGUE: u8 = 32;
+const FLAG_FOLDS: u8 = 64;
 /// How far from 1 a head rotation quaternion's length may be (f32 rounding is 1e-7).
 const UNIT_QUATERNION_TOLERANCE: f32 = 1e-4;
 
@@ -64,6 +68,20 @@ pub struct LipRoughness {
     pub max: f32,
     pub mean: f32,
     pub per_vertex: Vec<f32>,
+}
+
+/// Folds of the lip region in one frame (docs/METRICS.md, "Folds"): how much of the skin
+/// around the mouth turned over, after the region's own rigid motion.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct LipFolds {
+    /// Lip triangles whose normal turned more than 60 degrees from rest (saturates at
+    /// 65,535).
+    pub turned_over_60: u16,
+    /// ... more than 90 degrees: facing away.
+    pub turned_over_90: u16,
+    /// The largest increase of a dihedral angle between two lip triangles over its rest
+    /// value, degrees.
+    pub max_dihedral_increase_deg: f32,
 }
 
 /// A rigid motion of head units, `world = rotate(rotation, local) + translation`: the
@@ -119,6 +137,8 @@ pub struct ViewerFrame {
     pub jaw: RigidMotion,
     /// The tongue's deltas (before the jaw's and the head's motions), when it is shaped.
     pub tongue: Option<PartDeltas>,
+    /// The lip region's folds, when the server measured them.
+    pub folds: Option<LipFolds>,
 }
 
 /// Decoded deltas of one part (the tongue): vertices of the part, same step as the head.
@@ -172,6 +192,8 @@ pub struct FrameContent<'a> {
     /// The tongue's deltas against its rest mesh (head units, before the jaw's motion)
     /// and its index among the head's parts; `None` for a tongue at rest.
     pub tongue: Option<(u8, &'a [[f32; 3]])>,
+    /// The lip region's folds in this frame.
+    pub folds: Option<LipFolds>,
 }
 
 /// Encodes frames into reused buffers.
@@ -190,7 +212,7 @@ impl FrameEncoder {
     pub fn for_head(vertices: usize, lip_values: usize) -> FrameEncoder {
         // Gap and three counts, each a LEB128 varint of at most 5 bytes (u32 and zigzag i32).
         let block = vertices * 20;
-        let header = 64 + 1 + 4 * lip_values + 256 + 2 * 28 + 4;
+        let header = 64 + 1 + 4 * lip_values + 256 + 2 * 28 + 8 + 4;
         // Deflate's worst case stays under the stored size plus its 5-byte block headers;
         // the loop reserves half a block and 64 bytes more before each call.
         let deflated = block + block / 2 + 64 + 5 * (block / 16_384 + 1);
@@ -226,6 +248,9 @@ impl FrameEncoder {
         if content.tongue.is_some() {
             flags |= FLAG_TONGUE;
         }
+        if content.folds.is_some() {
+            flags |= FLAG_FOLDS;
+        }
         out.extend_from_slice(&[flags, 0, 0, 0]);
         out.extend_from_slice(&header.seq.to_le_bytes());
         out.extend_from_slice(&header.producer_time_s.to_le_bytes());
@@ -250,6 +275,11 @@ impl FrameEncoder {
             for x in motion.rotation.iter().chain(&motion.translation) {
                 out.extend_from_slice(&x.to_le_bytes());
             }
+        }
+        if let Some(folds) = content.folds {
+            out.extend_from_slice(&folds.turned_over_60.to_le_bytes());
+            out.extend_from_slice(&folds.turned_over_90.to_le_bytes());
+            out.extend_from_slice(&folds.max_dihedral_increase_deg.to_le_bytes());
         }
 
         let moved = self.write_deltas(content.deltas, content.step, content.deflate);
@@ -435,6 +465,26 @@ pub fn decode(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
     } else {
         RigidMotion::IDENTITY
     };
+    let folds = if flags & FLAG_FOLDS != 0 {
+        let turned_over_60 = r.u16("lip folds")?;
+        let turned_over_90 = r.u16("lip folds")?;
+        let at = r.position();
+        let max_dihedral_increase_deg = r.f32("lip folds")?;
+        if !(max_dihedral_increase_deg.is_finite() && max_dihedral_increase_deg >= 0.0) {
+            return Err(DecodeError::Invalid {
+                field: "lip folds",
+                at,
+                problem: format!("largest dihedral increase {max_dihedral_increase_deg}"),
+            });
+        }
+        Some(LipFolds {
+            turned_over_60,
+            turned_over_90,
+            max_dihedral_increase_deg,
+        })
+    } else {
+        None
+    };
     if moved_count > vertex_count {
         return Err(DecodeError::Invalid {
             field: "moved",
@@ -488,6 +538,7 @@ pub fn decode(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
         head,
         jaw,
         tongue,
+        folds,
     })
 }
 
@@ -604,6 +655,36 @@ mod tests {
             head: None,
             jaw: None,
             tongue: None,
+            folds: None,
+        }
+    }
+
+    #[test]
+    fn lip_folds_travel_and_bad_ones_are_refused() {
+        let lip = LipRoughness::default();
+        let folds = LipFolds {
+            turned_over_60: 12,
+            turned_over_90: 3,
+            max_dihedral_increase_deg: 97.5,
+        };
+        let mut encoder = FrameEncoder::default();
+        let with = |folds| FrameContent {
+            folds,
+            ..content(&[[0.0; 3]], &lip, true)
+        };
+        let bytes = encoder.encode(&header(), &with(Some(folds))).to_vec();
+        assert_eq!(decode(&bytes).unwrap().folds, Some(folds));
+        let plain = encoder.encode(&header(), &with(None)).to_vec();
+        assert_eq!(bytes.len(), plain.len() + 8);
+        assert_eq!(decode(&plain).unwrap().folds, None);
+        let nan = LipFolds {
+            max_dihedral_increase_deg: f32::NAN,
+            ..folds
+        };
+        let bytes = encoder.encode(&header(), &with(Some(nan))).to_vec();
+        match decode(&bytes) {
+            Err(DecodeError::Invalid { field, .. }) => assert_eq!(field, "lip folds"),
+            other => panic!("{other:?}"),
         }
     }
 
@@ -668,6 +749,7 @@ mod tests {
                         head: None,
                         jaw: None,
                         tongue: None,
+                        folds: None,
                     },
                 )
                 .to_vec();

@@ -9,9 +9,9 @@ use glam::Vec3;
 use super::{head_motion, jaw_motion, AnimatedHead, RigidMotion};
 use crate::deform::{Binding, DeformScratch};
 use crate::mask::LIP_VERTICES;
-use crate::metrics::{LipRoughness, Roughness, RoughnessError};
+use crate::metrics::{FoldMeter, LipRoughness, RegionError, Roughness, RoughnessError};
 use crate::stream::{ArkitBasis, Frame, FramePoser};
-use facewire_proto::frame::{FrameContent, FrameEncoder, FrameHeader, LipRoughness as WireLip};
+use facewire_proto::frame::{FrameContent, FrameEncoder, FrameHeader, LipFolds, LipRoughness as WireLip};
 
 /// The server's clock readings a viewer frame carries (µs since the Unix epoch).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -26,6 +26,8 @@ pub struct FrameTimes {
 pub enum FrameJobError {
     #[error("roughness: {0}")]
     Roughness(#[from] RoughnessError),
+    #[error("lip folds: {0}")]
+    Folds(#[from] RegionError),
     /// Cannot happen for frames within the documented parameter ranges; checked so that
     /// nothing non-finite ever reaches a viewer.
     #[error("frame {seq}: the deformed head has a non-finite position at vertex {vertex}")]
@@ -50,6 +52,7 @@ pub struct FrameJob {
     tongue_wire: Vec<[f32; 3]>,
     lip: LipRoughness,
     lip_wire: WireLip,
+    lip_folds: FoldMeter,
     face: Option<(Roughness, Vec<f32>)>,
     encoder: FrameEncoder,
 }
@@ -67,6 +70,7 @@ impl FrameJob {
         let n = reg.vertex_count();
         let tongue_n = head.tongue.as_ref().map_or(0, |(_, t)| t.vertex_count());
         let lip = LipRoughness::new(&reg.head, &head.lip_region)?;
+        let lip_folds = FoldMeter::new(&reg.head, head.lip_region.union())?;
         let face = match face {
             true => Some((Roughness::whole_mesh(&reg.head)?, vec![0.0; n])),
             false => None,
@@ -82,6 +86,7 @@ impl FrameJob {
             tongue_shaped: false,
             tongue_wire: vec![[0.0; 3]; tongue_n],
             lip,
+            lip_folds,
             lip_wire: WireLip {
                 per_vertex: vec![0.0; LIP_VERTICES.len()],
                 ..WireLip::default()
@@ -155,8 +160,8 @@ impl FrameJob {
     }
 
     /// Encodes the head as [`FrameJob::deform`] left it, for `frame`: quantized deltas
-    /// against the rest mesh, the head's motion, lip roughness, the label, face roughness
-    /// if asked for.
+    /// against the rest mesh, the head's and the jaw's motions, the tongue's deltas, lip
+    /// roughness and folds, the label, face roughness if asked for.
     pub fn encode(&mut self, frame: &Frame, times: FrameTimes) -> Result<&[u8], FrameJobError> {
         let rest = &self.head.registration.head.positions;
         if let Some(vertex) = self.deformed.iter().position(|p| !p.is_finite()) {
@@ -177,6 +182,7 @@ impl FrameJob {
             *slot = row.mean as f32;
         }
         let summary = rows[rows.len() - 1];
+        let folds = self.lip_folds.measure(&self.deformed)?;
         self.lip_wire.min = summary.min as f32;
         self.lip_wire.max = summary.max as f32;
         self.lip_wire.mean = summary.mean as f32;
@@ -207,6 +213,11 @@ impl FrameJob {
                 tongue: tongue_part
                     .filter(|_| self.tongue_shaped)
                     .map(|part| (part, self.tongue_wire.as_slice())),
+                folds: Some(LipFolds {
+                    turned_over_60: folds.turned_over_60.min(u32::from(u16::MAX)) as u16,
+                    turned_over_90: folds.turned_over_90.min(u32::from(u16::MAX)) as u16,
+                    max_dihedral_increase_deg: folds.max_dihedral_increase_deg as f32,
+                }),
             },
         ))
     }

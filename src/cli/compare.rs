@@ -124,7 +124,11 @@ fn load_targets(
             targets,
         }));
     }
-    let head_file = args.fitted.head.file_name().map(|n| n.to_string_lossy().to_lowercase());
+    let head_file = args
+        .fitted
+        .head
+        .file_name()
+        .map(|n| n.to_string_lossy().to_lowercase());
     let Some((_, folder)) = SHIPPED_TARGETS
         .iter()
         .find(|(head, _)| head_file.as_deref() == Some(*head))

@@ -15,7 +15,7 @@ use super::{CliResult, FilePath};
 use crate::animate::{AnimatedHead, FrameJob};
 use crate::deform::{bind, AlgoSpec, Registration};
 use crate::head::obj;
-use crate::metrics::{LipRoughness, RoughnessTsvWriter};
+use crate::metrics::{FaceVertices, FoldMeter, LipRoughness, RoughnessTsvWriter, FOLDS_TSV_HEADER};
 use crate::stream::{open_stream, ArkitBasis};
 
 #[derive(Debug, clap::Args)]
@@ -30,7 +30,8 @@ pub struct Args {
     stream: FilePath,
     /// Output directory (created if missing): frame_NNNNN.obj (the head deformed and moved by
     /// the frame's head rotation and translation), control.tsv (the mask before that
-    /// motion), metrics.tsv.
+    /// motion), metrics.tsv (lip roughness, the thesis's layout), folds.tsv (the lip
+    /// region's and the face's folds per frame).
     #[arg(long)]
     out: FilePath,
     /// Only frames A..B (0-based, B excluded; either end may be left out: `10..`, `..50`).
@@ -109,6 +110,18 @@ pub fn run(args: Args) -> CliResult {
     let metrics_path = args.out.join("metrics.tsv");
     let in_metrics = |e| format!("{}: {e}", metrics_path.display());
     let mut metrics = RoughnessTsvWriter::new(BufWriter::new(create(&metrics_path)?)).map_err(in_metrics)?;
+    let mm = registration.mm_per_unit();
+    let face = FaceVertices::new(
+        &registration.head,
+        &registration.fitted.mask,
+        &registration.anchors,
+        mm,
+    )?;
+    let mut lip_folds = FoldMeter::new(&registration.head, animated.lip_region.union())?;
+    let mut face_folds = FoldMeter::new(&registration.head, &face.triangles(&registration.head))?;
+    let folds_path = args.out.join("folds.tsv");
+    let mut folds = BufWriter::new(create(&folds_path)?);
+    writeln!(folds, "{FOLDS_TSV_HEADER}")?;
 
     let mut job = FrameJob::new(
         animated.clone(),
@@ -165,6 +178,18 @@ pub fn run(args: Args) -> CliResult {
         file.flush()?;
         let rows = lips.rows(deformed, index as u64, frame.time_s)?;
         metrics.write_rows(&rows).map_err(in_metrics)?;
+        let (lip, face) = (lip_folds.measure(deformed)?, face_folds.measure(deformed)?);
+        writeln!(
+            folds,
+            "{index}\t{}\t{}\t{}\t{}\t{}\t{}\t{}",
+            frame.time_s,
+            lip.turned_over_60,
+            lip.turned_over_90,
+            lip.max_dihedral_increase_deg,
+            face.turned_over_60,
+            face.turned_over_90,
+            face.max_dihedral_increase_deg
+        )?;
         for (j, (now, rest)) in mask_now.iter().zip(registration.mask_rest()).enumerate() {
             let d = *now - *rest;
             writeln!(
@@ -180,6 +205,7 @@ pub fn run(args: Args) -> CliResult {
     }
     control.flush()?;
     metrics.finish().map_err(in_metrics)?;
+    folds.flush()?;
     eprintln!("\rwrote {written} frames to {}", args.out.display());
     Ok(())
 }

@@ -21,6 +21,10 @@ pub const FOLD_DEG: f64 = 60.0;
 /// A normal turned more than this faces away, degrees.
 pub const FLIP_DEG: f64 = 90.0;
 
+/// Header of the per-frame folds table `facewire deform` writes (`folds.tsv`): the lip
+/// region's folds, then the face's (the face vertices' triangles).
+pub const FOLDS_TSV_HEADER: &str = "frame\ttime_s\tlip_turned_over_60\tlip_turned_over_90\tlip_max_dihedral_increase_deg\tface_turned_over_60\tface_turned_over_90\tface_max_dihedral_increase_deg";
+
 /// The folds of one pose over a region.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Folds {
@@ -49,6 +53,8 @@ pub struct FoldMeter {
     rest_positions: Vec<DVec3>,
     /// Unit normals of the pose being measured (zero for a collapsed triangle).
     normals: Vec<DVec3>,
+    /// How far each triangle turned in the last pose measured, degrees.
+    turns: Vec<f64>,
     /// The head's vertex count, which every pose must have.
     head_vertices: usize,
 }
@@ -93,6 +99,7 @@ impl FoldMeter {
         let rest_positions = vertices.iter().map(|&v| rest[v as usize].as_dvec3()).collect();
         Ok(FoldMeter {
             normals: vec![DVec3::ZERO; triangles.len()],
+            turns: vec![0.0; triangles.len()],
             triangles,
             edges,
             rest_normals,
@@ -141,12 +148,13 @@ impl FoldMeter {
         })
         .map_or(DMat3::IDENTITY, |s| s.rotation);
         let (mut turned_over_60, mut turned_over_90) = (0, 0);
-        for (&now, &rest) in self.normals.iter().zip(&self.rest_normals) {
+        for ((&now, &rest), turn) in self.normals.iter().zip(&self.rest_normals).zip(&mut self.turns) {
             let turned = if now == DVec3::ZERO {
                 180.0
             } else {
                 angle_deg(now, rotation * rest)
             };
+            *turn = turned;
             turned_over_60 += u32::from(turned > FOLD_DEG);
             turned_over_90 += u32::from(turned > FLIP_DEG);
         }
@@ -155,6 +163,22 @@ impl FoldMeter {
             turned_over_60,
             turned_over_90,
         })
+    }
+}
+
+impl FoldMeter {
+    /// Per head vertex, the largest turn (degrees) of its triangles in the region in the
+    /// last pose [`FoldMeter::measure`]d; 0 for vertices outside the region. `out` has one
+    /// slot per head vertex. Allocates nothing.
+    pub fn vertex_turns_deg(&self, out: &mut [f32]) {
+        out.fill(0.0);
+        for (t, &turn) in self.triangles.iter().zip(&self.turns) {
+            for &v in t {
+                if let Some(slot) = out.get_mut(v as usize) {
+                    *slot = slot.max(turn as f32);
+                }
+            }
+        }
     }
 }
 
@@ -180,6 +204,31 @@ mod tests {
 
     fn every_triangle(head: &Head) -> Vec<u32> {
         (0..head.triangles.len() as u32).collect()
+    }
+
+    #[test]
+    fn vertex_turns_are_the_largest_turn_of_their_triangles() {
+        let head = grid();
+        let mut meter = FoldMeter::new(&head, &every_triangle(&head)).unwrap();
+        let mut turns = vec![9.0f32; head.positions.len()];
+        meter.measure(&head.positions).unwrap();
+        meter.vertex_turns_deg(&mut turns);
+        assert!(turns.iter().all(|&t| t == 0.0));
+        // Push the middle vertex (2, 2) far through the plane: its triangles tilt, the
+        // grid's corners do not move.
+        let mut pushed = head.positions.clone();
+        let middle = pushed
+            .iter()
+            .position(|p| *p == Vec3::new(2.0, 2.0, 0.0))
+            .unwrap();
+        pushed[middle].z = -3.0;
+        let folds = meter.measure(&pushed).unwrap();
+        meter.vertex_turns_deg(&mut turns);
+        assert!(turns[middle] > 60.0, "{}", turns[middle]);
+        let corner = pushed.iter().position(|p| *p == Vec3::ZERO).unwrap();
+        assert!(turns[corner] < turns[middle]);
+        let over_60 = turns.iter().filter(|&&t| t > 60.0).count();
+        assert!(over_60 >= 1 && folds.turned_over_60 > 0, "{folds:?}");
     }
 
     #[test]

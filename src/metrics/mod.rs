@@ -26,7 +26,7 @@ pub use fidelity::{
     control_error, ground_truth_error, mouth_opening, ControlError, FidelityError, GroundTruthError,
     MouthOpening, MIN_MASK_OPENING_MM, MOVING_CONTROL_MM,
 };
-pub use folds::{FoldMeter, Folds, FLIP_DEG, FOLD_DEG};
+pub use folds::{FoldMeter, Folds, FLIP_DEG, FOLDS_TSV_HEADER, FOLD_DEG};
 pub use lip_region::{LipRegion, LIP_RADIUS_MM};
 pub use lip_roughness::{LipRoughness, LipRoughnessRow, LIP_ROWS, SUMMARY_MASK_VERTEX};
 pub use region::RegionError;
