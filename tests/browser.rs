@@ -546,4 +546,34 @@ async fn check_the_heat_map_scale(browser: &Browser, url: &str, long: Duration) 
         address.contains("heat=1") && address.contains("heatmax=0.05"),
         "the URL keeps the heat-map and its scale: {address}"
     );
+
+    // Coloured by folds: the view reconnects asking for them, the legend reads degrees,
+    // the roughness scale hides, the URL follows; the picture changes as the head talks.
+    browser
+        .js(
+            "const s = document.getElementById('heatkind-0'); s.value = 'folds'; \
+             s.dispatchEvent(new Event('change')); return s.value",
+        )
+        .await;
+    browser
+        .wait_for("the folds view live", &state_is("status-0", "live"), long)
+        .await;
+    let legend = browser.js(&text_of("legendmax-0")).await;
+    assert_eq!(legend, "90° turned or more");
+    let hidden = browser
+        .js("return document.getElementById('heatfield-0').hidden")
+        .await;
+    assert_eq!(hidden, true, "the roughness scale hides for folds");
+    let address = browser.js("return location.search").await;
+    assert!(
+        address.as_str().unwrap().contains("heat=folds"),
+        "the URL keeps the folds: {address}"
+    );
+    let first = browser.screenshot("#canvas-0").await;
+    assert!(
+        browser
+            .picture_changes("#canvas-0", &first, Duration::from_secs(3))
+            .await,
+        "the folds view does not move"
+    );
 }

@@ -46,8 +46,13 @@ fn a_frame_with_only_head_motion_moves_every_vertex_rigidly_about_the_neck_pivot
         for spec in ["U", "biharmonic", "A", "O"] {
             let spec: AlgoSpec = spec.parse().unwrap();
             let binding = Arc::new(bind(reg, &spec));
-            let mut job =
-                FrameJob::new(head.clone(), binding, Arc::new(ArkitBasis::shipped()), false).unwrap();
+            let mut job = FrameJob::new(
+                head.clone(),
+                binding,
+                Arc::new(ArkitBasis::shipped()),
+                facewire::animate::Heat::None,
+            )
+            .unwrap();
             let frame = motion_only();
             let local_worst = job
                 .deform(&frame)

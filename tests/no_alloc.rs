@@ -1,7 +1,7 @@
 //! Per-frame code allocates nothing: a counting global allocator watches one thread while
 //! the per-frame job (`animate::FrameJob`) turns stream frames into deformed heads and
-//! encoded viewer frames, with every preset and `biharmonic`, with and without face
-//! roughness.
+//! encoded viewer frames, with every preset and `biharmonic`, with no per-vertex values,
+//! with face roughness and with folds.
 
 mod common;
 
@@ -10,7 +10,7 @@ use std::cell::Cell;
 use std::sync::Arc;
 
 use common::data;
-use facewire::animate::{AnimatedHead, FrameJob, FrameTimes};
+use facewire::animate::{AnimatedHead, FrameJob, FrameTimes, Heat};
 use facewire::deform::{bind, AlgoSpec};
 use facewire::mask::Mask;
 use facewire::stream::{open_stream, ArkitBasis};
@@ -54,9 +54,9 @@ fn the_per_frame_job_allocates_nothing() {
     let biharmonic: AlgoSpec = "biharmonic".parse().unwrap();
     let specs = AlgoSpec::presets().into_iter().map(|(_, spec, _)| spec);
     for spec in specs.chain([biharmonic]) {
-        for face in [false, true] {
+        for heat in [Heat::None, Heat::Roughness, Heat::Folds] {
             let binding = Arc::new(bind(&head.registration, &spec));
-            let mut job = FrameJob::new(head.clone(), binding, basis.clone(), face).unwrap();
+            let mut job = FrameJob::new(head.clone(), binding, basis.clone(), heat).unwrap();
             // The first frame sizes the encoder's buffers.
             job.deform(&frames[0]);
             job.encode(&frames[0], FrameTimes::default()).unwrap();
@@ -69,7 +69,7 @@ fn the_per_frame_job_allocates_nothing() {
             assert_eq!(
                 count,
                 0,
-                "{spec} (face roughness {face}) allocated {count} times over {} frames",
+                "{spec} (heat {heat:?}) allocated {count} times over {} frames",
                 frames.len()
             );
         }

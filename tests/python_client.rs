@@ -459,7 +459,7 @@ async fn the_python_client_places_the_parts_and_the_tongue() {
             &"U".parse::<AlgoSpec>().unwrap(),
         )),
         std::sync::Arc::new(ArkitBasis::shipped()),
-        false,
+        facewire::animate::Heat::None,
     )
     .unwrap();
     job.deform(&frame);

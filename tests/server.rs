@@ -564,3 +564,56 @@ async fn fast_and_idle_producers_are_told_why() {
     small.stop().await;
     server.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn viewers_can_colour_by_folds() {
+    let server = Server::start(memory_config()).await;
+    server.register("mh", "makehuman_head", "").await;
+    // A heat the server does not know is refused, naming it.
+    let mut bad = connect(&server.ws("/v1/heads/mh/streams/main/view?heat=wobble")).await;
+    match next_json(&mut bad).await {
+        ServerMessage::Error { code, message, .. } => {
+            assert_eq!(code.as_str(), "bad_request");
+            assert!(message.contains("heat=wobble"), "{message}");
+        }
+        other => panic!("{other:?}"),
+    }
+    // O (renato2) folds the lips when the jaw drops.
+    let mut viewer = connect(&server.ws("/v1/heads/mh/streams/main/view?algo=O&heat=folds")).await;
+    match next_json(&mut viewer).await {
+        ServerMessage::Snapshot(s) => {
+            assert_eq!(s.heat.as_deref(), Some("folds"));
+            assert!(!s.face_roughness);
+        }
+        other => panic!("{other:?}"),
+    }
+    let mut producer = connect(&server.ws("/v1/heads/mh/streams/main/produce")).await;
+    let line = r#"{"seq":0,"t":0,"au":{"jaw_drop":0.6}}"#;
+    producer.send(Message::Text(line.into())).await.unwrap();
+    let frame = next_frame(&mut viewer).await;
+    let sent = frame.face.expect("per-vertex folds");
+
+    // The library's: the largest turn of each vertex's triangles over the whole head.
+    let reg = register("makehuman_head");
+    let mut weights = vec![0.0; 65];
+    weights[1] = 0.6;
+    let mask_now = common::posed(&reg, &weights);
+    let binding = bind(&reg, &"O".parse().unwrap());
+    let deformed = common::deform_with(&reg, &binding, &mask_now);
+    let all: Vec<u32> = (0..reg.head.triangles.len() as u32).collect();
+    let mut meter = FoldMeter::new(&reg.head, &all).unwrap();
+    meter.measure(&deformed).unwrap();
+    let mut expected = vec![0.0f32; reg.vertex_count()];
+    meter.vertex_turns_deg(&mut expected);
+    let max = expected.iter().copied().fold(0.0f32, f32::max);
+    assert!(max > 60.0, "O should fold something: {max}");
+    for (v, (got, want)) in sent.iter().zip(&expected).enumerate() {
+        // Sent as a byte of the frame's largest value.
+        assert!(
+            (got - want).abs() <= max / 255.0 * 0.51 + 1e-3,
+            "vertex {v}: {got} vs {want}"
+        );
+    }
+    drop((viewer, producer, bad));
+    server.stop().await;
+}

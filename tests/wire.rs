@@ -24,7 +24,13 @@ fn measure(head: &Arc<AnimatedHead>, spec: &AlgoSpec) -> (f64, f32) {
         .map(Result::unwrap)
         .collect();
     let binding = Arc::new(bind(reg, spec));
-    let mut job = FrameJob::new(head.clone(), binding, Arc::new(ArkitBasis::shipped()), false).unwrap();
+    let mut job = FrameJob::new(
+        head.clone(),
+        binding,
+        Arc::new(ArkitBasis::shipped()),
+        facewire::animate::Heat::None,
+    )
+    .unwrap();
     let rest: Vec<f32> = reg.head.positions.iter().flat_map(|p| p.to_array()).collect();
     let (mut bytes, mut worst) = (0usize, 0.0f32);
     let mut decoded = Vec::new();
@@ -78,8 +84,14 @@ fn a_turning_head_compresses_like_a_still_one() {
     let spec: AlgoSpec = facewire::server::config::DEFAULT_ALGORITHM.parse().unwrap();
     let binding = Arc::new(bind(reg, &spec));
     let basis = Arc::new(ArkitBasis::shipped());
-    let mut still = FrameJob::new(head.clone(), binding.clone(), basis.clone(), false).unwrap();
-    let mut turning = FrameJob::new(head.clone(), binding, basis, false).unwrap();
+    let mut still = FrameJob::new(
+        head.clone(),
+        binding.clone(),
+        basis.clone(),
+        facewire::animate::Heat::None,
+    )
+    .unwrap();
+    let mut turning = FrameJob::new(head.clone(), binding, basis, facewire::animate::Heat::None).unwrap();
     let rest: Vec<f32> = reg.head.positions.iter().flat_map(|p| p.to_array()).collect();
     let mut placed = Vec::new();
     let frames = open_stream(&data("streams/syllables.jsonl"), &reg.fitted.mask).unwrap();

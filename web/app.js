@@ -1,4 +1,5 @@
-// app.js: the page. Reads ?head=&stream=&algo=&algo2=&heat=&heat2=&heatmax=&heatmax2=&mouth=&token=,
+// app.js: the page. Reads ?head=&stream=&algo=&algo2=&heat=&heat2=&heatmax=&heatmax2=&mouth=&token=
+// (heat=1 colours by roughness, heat=folds by folds),
 // fills the pickers from /v1/heads (read again every few seconds, so new heads and streams
 // appear) and /v1/algorithms, runs one view or two side by side (one shared camera), and
 // the drawing loop: once per animation frame each view decodes only its newest frame, and
@@ -120,7 +121,7 @@ function writeUrl() {
     const suffix = i === 0 ? "" : "2";
     query.set(`algo${suffix}`, shortAlgorithm(panel.settings.algorithm));
     if (panel.settings.heat) {
-      query.set(`heat${suffix}`, "1");
+      query.set(`heat${suffix}`, panel.settings.heat === "folds" ? "folds" : "1");
     }
     if (panel.settings.heatMax !== DEFAULT_HEAT_MAX) {
       query.set(`heatmax${suffix}`, String(panel.settings.heatMax));
@@ -146,6 +147,11 @@ function connectSettings({ algorithm, heat, heatMax }) {
     token: page.token,
     knownStreams: streamsOf(page.head),
   };
+}
+
+/** The `heat` (or `heat2`) URL parameter: `1` roughness, `folds` folds, else none. */
+function heatParam(name) {
+  return { 1: "roughness", folds: "folds" }[params.get(name)] ?? null;
 }
 
 /** The `heatmax` (or `heatmax2`) URL parameter, when it is a positive number. */
@@ -192,7 +198,7 @@ function setCompare(on) {
     const other = page.algorithms.find((a) => a.spec !== first)?.spec ?? first;
     addPanel(
       params.has("algo2") ? resolveAlgorithm(params.get("algo2")) : other,
-      params.get("heat2") === "1",
+      heatParam("heat2"),
       heatMaxParam("heatmax2"),
     );
   } else if (!on && page.panels.length === 2) {
@@ -300,7 +306,7 @@ async function start() {
   fillHeadPicker();
   fillStreamPicker();
   try {
-    addPanel(resolveAlgorithm(params.get("algo")), params.get("heat") === "1", heatMaxParam("heatmax"));
+    addPanel(resolveAlgorithm(params.get("algo")), heatParam("heat"), heatMaxParam("heatmax"));
   } catch (error) {
     showPageMessage(`The 3D view cannot start: ${error.message}`);
     return;

@@ -20,6 +20,8 @@ const STALL_MS = 2000;
 /** A largest dihedral increase below this (degrees), with no triangle turned over 60
  * degrees, is a bend rather than a fold: the "Lip folds" line says "none". */
 const FOLD_BEND_DEG = 30;
+/** Coloured by folds, a vertex whose triangles turned this far (degrees) tops the ramp. */
+const FOLDS_RAMP_TOP_DEG = 90;
 
 const STATE_TEXT = {
   connecting: "Connecting",
@@ -67,7 +69,7 @@ export class Panel {
     for (const label of fragment.querySelectorAll("label[data-for]")) {
       label.htmlFor = `${label.dataset.for}-${index}`;
     }
-    const { view: root, title, algo, heat, heatmax, canvas } = this.parts;
+    const { view: root, title, algo, heat, heatkind, heatmax, canvas } = this.parts;
     root.classList.add(`view-${index}`);
     root.setAttribute("aria-labelledby", title.id);
     title.textContent = `View ${index + 1}`;
@@ -80,7 +82,13 @@ export class Panel {
       onSettings();
     });
     heat.addEventListener("change", () => {
-      this.settings.heat = heat.checked;
+      this.settings.heat = heat.checked ? heatkind.value : null;
+      this.showHeatControls();
+      this.reconnect();
+      onSettings();
+    });
+    heatkind.addEventListener("change", () => {
+      this.settings.heat = heatkind.value;
       this.showHeatControls();
       this.reconnect();
       onSettings();
@@ -88,7 +96,6 @@ export class Panel {
     heatmax.addEventListener("change", () => {
       this.settings.heatMax = Number(heatmax.value);
       this.showHeatControls();
-      this.renderer.setHeatScale(this.settings.heatMax);
       this.needsDraw = true;
       onSettings();
     });
@@ -113,17 +120,18 @@ export class Panel {
   }
 
   /**
-   * Connects with `settings`: { head, stream, algorithm, heat, heatMax, token,
-   * knownStreams }.
+   * Connects with `settings`: { head, stream, algorithm, heat (null, "roughness" or
+   * "folds"), heatMax, token, knownStreams }.
    */
   connect(settings) {
     this.settings = { ...settings };
-    const { algo, heat, heatmax } = this.parts;
+    const { algo, heat, heatkind, heatmax } = this.parts;
     if (![...algo.options].some((o) => o.value === settings.algorithm)) {
       algo.add(new Option(`${settings.algorithm} (as given)`, settings.algorithm));
     }
     algo.value = settings.algorithm;
-    heat.checked = settings.heat;
+    heat.checked = Boolean(settings.heat);
+    heatkind.value = settings.heat ?? "roughness";
     const scale = String(settings.heatMax);
     if (![...heatmax.options].some((o) => o.value === scale)) {
       heatmax.add(new Option(`${scale} (as given)`, scale));
@@ -139,16 +147,24 @@ export class Panel {
   }
 
   showHeatControls() {
-    const { heat, heatfield, legend, legendmax } = this.parts;
-    heatfield.hidden = legend.hidden = !heat.checked;
-    legendmax.textContent = `${this.settings.heatMax} or more`;
+    const { heat, kindfield, heatfield, legend, legendmax } = this.parts;
+    const folds = this.settings.heat === "folds";
+    kindfield.hidden = legend.hidden = !heat.checked;
+    heatfield.hidden = !heat.checked || folds;
+    legendmax.textContent = folds ? `${FOLDS_RAMP_TOP_DEG}° turned or more` : `${this.settings.heatMax} or more`;
+    this.renderer.setHeatScale(this.heatScale());
+  }
+
+  /** The value at the top of the heat-map's ramp: degrees for folds, else the chosen roughness. */
+  heatScale() {
+    return this.settings.heat === "folds" ? FOLDS_RAMP_TOP_DEG : this.settings.heatMax;
   }
 
   reconnect() {
     const { head, stream, algorithm, heat, token } = this.settings;
     const query = new URLSearchParams({ algo: algorithm });
     if (heat) {
-      query.set("face", "1");
+      query.set("heat", heat);
     }
     if (token) {
       query.set("token", token);
@@ -305,7 +321,7 @@ export class Panel {
       this.showMessage(problem);
     }
     this.renderer.setMotion(motionMatrix(frame.head), motionMatrix(frame.jaw));
-    this.renderer.setHeat(frame.face, this.settings.heatMax);
+    this.renderer.setHeat(frame.face, this.heatScale());
     this.parts.syllable.textContent = frame.label ?? "–";
     this.parts.label.textContent = frame.label ?? "";
     this.folds = frame.folds;

@@ -26,6 +26,11 @@ pub struct Snapshot {
     pub lip_vertices: Vec<u32>,
     /// Whether frames carry per-vertex face roughness.
     pub face_roughness: bool,
+    /// What the frames' per-vertex values (the block of flag bit 0) measure: `roughness`
+    /// (face roughness) or `folds` (the largest turn of each vertex's triangles, degrees);
+    /// absent when frames carry none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heat: Option<String>,
     /// The mouth at rest, head units: the midpoint of the inner-lip anchors (what a
     /// close-up looks at).
     pub mouth: [f32; 3],

@@ -13,6 +13,36 @@ use crate::metrics::{FoldMeter, LipRoughness, RegionError, Roughness, RoughnessE
 use crate::stream::{ArkitBasis, Frame, FramePoser};
 use facewire_proto::frame::{FrameContent, FrameEncoder, FrameHeader, LipFolds, LipRoughness as WireLip};
 
+/// What a frame's per-vertex values (the page's heat-map) measure.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+pub enum Heat {
+    /// No per-vertex values.
+    #[default]
+    None,
+    /// Face roughness: mean `1 - n.n` around each vertex.
+    Roughness,
+    /// Folds: the largest turn of each vertex's triangles from rest, degrees, after the
+    /// head's own rigid motion is taken out (docs/METRICS.md, "Folds").
+    Folds,
+}
+
+impl Heat {
+    /// Its name in a viewer's query and the snapshot (`None` for no values).
+    pub fn name(self) -> Option<&'static str> {
+        match self {
+            Heat::None => None,
+            Heat::Roughness => Some("roughness"),
+            Heat::Folds => Some("folds"),
+        }
+    }
+}
+
+/// The meter behind a frame's per-vertex values.
+enum HeatMeter {
+    Roughness(Roughness),
+    Folds(FoldMeter),
+}
+
 /// The server's clock readings a viewer frame carries (µs since the Unix epoch).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct FrameTimes {
@@ -53,27 +83,35 @@ pub struct FrameJob {
     lip: LipRoughness,
     lip_wire: WireLip,
     lip_folds: FoldMeter,
-    face: Option<(Roughness, Vec<f32>)>,
+    heat: Option<(HeatMeter, Vec<f32>)>,
     encoder: FrameEncoder,
 }
 
 impl FrameJob {
     /// A job for `head` deformed by `binding` (bound on that head), retargeting ARKit
-    /// weights through `basis`; `face` adds per-vertex face roughness to every frame.
+    /// weights through `basis`; `heat` adds per-vertex values to every frame.
     pub fn new(
         head: Arc<AnimatedHead>,
         binding: Arc<Binding>,
         basis: Arc<ArkitBasis>,
-        face: bool,
+        heat: Heat,
     ) -> Result<FrameJob, FrameJobError> {
         let reg = &head.registration;
         let n = reg.vertex_count();
         let tongue_n = head.tongue.as_ref().map_or(0, |(_, t)| t.vertex_count());
         let lip = LipRoughness::new(&reg.head, &head.lip_region)?;
         let lip_folds = FoldMeter::new(&reg.head, head.lip_region.union())?;
-        let face = match face {
-            true => Some((Roughness::whole_mesh(&reg.head)?, vec![0.0; n])),
-            false => None,
+        let all_triangles: Vec<u32> = (0..reg.head.triangles.len() as u32).collect();
+        let heat = match heat {
+            Heat::None => None,
+            Heat::Roughness => Some((
+                HeatMeter::Roughness(Roughness::whole_mesh(&reg.head)?),
+                vec![0.0; n],
+            )),
+            Heat::Folds => Some((
+                HeatMeter::Folds(FoldMeter::new(&reg.head, &all_triangles)?),
+                vec![0.0; n],
+            )),
         };
         Ok(FrameJob {
             poser: FramePoser::new(&reg.fitted),
@@ -91,7 +129,7 @@ impl FrameJob {
                 per_vertex: vec![0.0; LIP_VERTICES.len()],
                 ..WireLip::default()
             },
-            face,
+            heat,
             encoder: FrameEncoder::for_head(n + tongue_n, LIP_VERTICES.len()),
             head,
             binding,
@@ -161,7 +199,7 @@ impl FrameJob {
 
     /// Encodes the head as [`FrameJob::deform`] left it, for `frame`: quantized deltas
     /// against the rest mesh, the head's and the jaw's motions, the tongue's deltas, lip
-    /// roughness and folds, the label, face roughness if asked for.
+    /// roughness and folds, the label, per-vertex heat values if asked for.
     pub fn encode(&mut self, frame: &Frame, times: FrameTimes) -> Result<&[u8], FrameJobError> {
         let rest = &self.head.registration.head.positions;
         if let Some(vertex) = self.deformed.iter().position(|p| !p.is_finite()) {
@@ -186,9 +224,14 @@ impl FrameJob {
         self.lip_wire.min = summary.min as f32;
         self.lip_wire.max = summary.max as f32;
         self.lip_wire.mean = summary.mean as f32;
-        let face = match &mut self.face {
-            Some((roughness, values)) => {
+        let face = match &mut self.heat {
+            Some((HeatMeter::Roughness(roughness), values)) => {
                 roughness.face_vertex_roughness(&self.deformed, values)?;
+                Some(values.as_slice())
+            }
+            Some((HeatMeter::Folds(meter), values)) => {
+                meter.measure(&self.deformed)?;
+                meter.vertex_turns_deg(values);
                 Some(values.as_slice())
             }
             None => None,

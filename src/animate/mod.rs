@@ -15,7 +15,7 @@ mod tongue;
 pub use head::{AnimatedHead, AnimatedHeadError, PartInput, STEP_MM};
 pub use head_motion::{head_motion, NECK_PIVOT_MASK};
 pub use jaw::{jaw_motion, CHIN_VERTICES, JAW_PIVOT_MASK};
-pub use job::{FrameJob, FrameJobError, FrameTimes};
+pub use job::{FrameJob, FrameJobError, FrameTimes, Heat};
 pub use part_role::infer_role;
 pub use rigid::RigidMotion;
 pub use tongue::{

@@ -12,7 +12,7 @@ use std::time::Instant;
 use super::fitted_head::FittedHeadArgs;
 use super::part_arg::load_parts;
 use super::{CliResult, FilePath};
-use crate::animate::{AnimatedHead, FrameJob};
+use crate::animate::{AnimatedHead, FrameJob, Heat};
 use crate::deform::{bind, AlgoSpec, Registration};
 use crate::head::obj;
 use crate::metrics::{FaceVertices, FoldMeter, LipRoughness, RoughnessTsvWriter, FOLDS_TSV_HEADER};
@@ -127,7 +127,7 @@ pub fn run(args: Args) -> CliResult {
         animated.clone(),
         Arc::new(binding),
         Arc::new(ArkitBasis::shipped()),
-        false,
+        Heat::None,
     )?;
     let header = vec![
         format!("facewire deform: {} with {spec}", args.fitted.head.display()),

@@ -13,14 +13,14 @@ use tokio::sync::watch;
 use super::stream::ParamTimeline;
 use super::telemetry::Telemetry;
 use super::timeline::{Step, Timeline};
-use crate::animate::{FrameJob, FrameTimes};
+use crate::animate::{FrameJob, FrameTimes, Heat};
 
-/// What a pipeline computes: an algorithm (canonical spec) with or without per-vertex
-/// face roughness.
+/// What a pipeline computes: an algorithm (canonical spec) and the per-vertex values its
+/// frames carry.
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
 pub struct PipelineKey {
     pub spec: String,
-    pub face: bool,
+    pub heat: Heat,
 }
 
 /// An encoded viewer frame, shared by every viewer of a pipeline.

@@ -19,7 +19,7 @@ use super::pipeline::{Encoded, Pipeline, PipelineKey};
 use super::socket::{close, refuse, text};
 use super::timeline::{Step, Timeline};
 use super::AppState;
-use crate::animate::FrameJob;
+use crate::animate::{FrameJob, Heat};
 use crate::deform::AlgoSpec;
 use crate::mask::LIP_VERTICES;
 use facewire_proto::codes::{CloseCode, EndReason, ErrorCode};
@@ -29,8 +29,27 @@ use facewire_proto::messages::{ServerMessage, Snapshot};
 pub struct ViewQuery {
     /// Algorithm spec or letter; the server's default when absent.
     pub algo: Option<String>,
-    /// `1` or `true`: frames carry per-vertex face roughness.
+    /// `1` or `true`: frames carry per-vertex face roughness (as `heat=roughness`).
     pub face: Option<String>,
+    /// `roughness` or `folds`: what the frames' per-vertex values measure.
+    pub heat: Option<String>,
+}
+
+impl ViewQuery {
+    /// The per-vertex values asked for: `heat` by name, else `face`.
+    fn heat(&self) -> Result<Heat, ApiError> {
+        match (self.heat.as_deref(), self.face.as_deref()) {
+            (Some("roughness"), _) => Ok(Heat::Roughness),
+            (Some("folds"), _) => Ok(Heat::Folds),
+            (Some("none" | ""), _) => Ok(Heat::None),
+            (Some(other), _) => Err(ApiError::BadRequest(format!(
+                "heat={}: expected roughness, folds or none",
+                crate::quote::clip(other)
+            ))),
+            (None, Some("1" | "true")) => Ok(Heat::Roughness),
+            (None, _) => Ok(Heat::None),
+        }
+    }
 }
 
 /// How long a viewer waits for a head that is still registering.
@@ -94,7 +113,7 @@ async fn open_view(
     })?;
     let head = state.registry.head(id).map_err(refused)?;
     let spec = state.viewer_algorithm(query.algo.as_deref()).map_err(refused)?;
-    let face = matches!(query.face.as_deref(), Some("1" | "true"));
+    let heat = query.heat().map_err(refused)?;
     let ready = tokio::select! {
         ready = head.wait_ready(REGISTRATION_WAIT) => ready.map_err(refused)?,
         _ = head.deleted.cancelled() => return Err(refused(ApiError::UnknownHead(id.to_string()))),
@@ -109,11 +128,11 @@ async fn open_view(
         .map_err(refused)?;
     let key = PipelineKey {
         spec: spec.to_string(),
-        face,
+        heat,
     };
     let frames = stream
         .pipeline(key, |params| {
-            let job = FrameJob::new(ready.animated.clone(), binding, state.arkit.clone(), face)
+            let job = FrameJob::new(ready.animated.clone(), binding, state.arkit.clone(), heat)
                 .map_err(ApiError::internal)?;
             Ok(Pipeline::start(job, params, state.telemetry.clone()))
         })
@@ -131,7 +150,8 @@ async fn open_view(
         mm_per_unit: reg.mm_per_unit(),
         step: ready.animated.step,
         lip_vertices: LIP_VERTICES.iter().map(|&v| v as u32).collect(),
-        face_roughness: face,
+        face_roughness: heat == Heat::Roughness,
+        heat: heat.name().map(str::to_string),
         mouth: ready.animated.mouth().to_array(),
         parts: ready.part_infos(id),
     };
