@@ -370,12 +370,21 @@ async fn the_python_client_decodes_what_the_library_computes() {
     );
 }
 
-/// Run by `python3 -c` with the server's URL: watches the ICT head with its parts and
-/// prints, as JSON, the first frame whose tongue is shaped: the placed parts and the
-/// tongue's index.
+/// Run by `python3 -c` with the server's URL and the shipped heads' folder: registers the
+/// ICT head with its parts through the client, watches it and prints, as JSON, the first
+/// frame whose tongue is shaped: the placed parts and the tongue's index.
 const PLACE_PARTS: &str = r#"
 import json, sys
 import facewire_client as fw
+client = fw.Client(sys.argv[1])
+read = lambda path: open(path, encoding="utf-8").read()
+heads = sys.argv[2]
+parts = [(name, read("%s/ict_head_%s.obj" % (heads, name)), role)
+         for name, role in [("teeth_upper", None), ("teeth_lower", None), ("gums_upper", None),
+                            ("gums_lower_tongue", "tongue")]]
+client.register_head("ict", read(heads + "/ict_head.obj"), fit=read(heads + "/ict_head.fit.toml"),
+                     parts=parts)
+client.wait_ready("ict")
 viewer = fw.Viewer(sys.argv[1], "ict", "tongue", fetch_parts=True)
 print("connected", flush=True)
 while True:
@@ -395,9 +404,9 @@ async fn the_python_client_places_the_parts_and_the_tongue() {
 
     require_python();
     let server = Server::start(memory_config()).await;
-    server.register_ict_with_parts("ict").await;
+    let heads = repo_path("data/heads").display().to_string();
     let mut child = Command::new("python3")
-        .args(["-c", PLACE_PARTS, &format!("http://{}", server.addr)])
+        .args(["-c", PLACE_PARTS, &format!("http://{}", server.addr), &heads])
         .env("PYTHONPATH", repo_path("clients/python"))
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -409,7 +418,7 @@ async fn the_python_client_places_the_parts_and_the_tongue() {
         stdout.read_line(&mut line).unwrap();
         (line, stdout)
     });
-    let (line, mut stdout) = tokio::time::timeout(Duration::from_secs(60), connected)
+    let (line, mut stdout) = tokio::time::timeout(Duration::from_secs(120), connected)
         .await
         .expect("the Python viewer connects")
         .unwrap();

@@ -957,14 +957,21 @@ class Client:
 
     def register_head(self, head_id: str, obj: str, *, fit: Optional[str] = None,
                       landmarks: Optional[str] = None, producer_token: Optional[str] = None,
-                      token: Optional[str] = None) -> Dict[str, Any]:
+                      token: Optional[str] = None,
+                      parts: Optional[Sequence[Tuple[str, str, Optional[str]]]] = None
+                      ) -> Dict[str, Any]:
         """``POST /v1/heads`` with the OBJ text and exactly one of ``fit`` (a ``.fit.toml``
         text) or ``landmarks`` (a ``.landmarks.toml`` text, the server solves the fit).
+        ``parts`` are the head's part meshes as ``(name, obj text, role)`` with role
+        ``"skull"``, ``"jaw"``, ``"tongue"`` or ``None`` (the server infers skull or jaw).
         Registration runs in the background: follow with :meth:`wait_ready`. ``token`` is
         the admin token."""
         if (fit is None) == (landmarks is None):
             raise FacewireError("register_head: give exactly one of fit and landmarks")
         payload: Dict[str, Any] = {"id": head_id, "obj": obj}
+        if parts:
+            payload["parts"] = [dict({"name": name, "obj": text}, **({"role": role} if role else {}))
+                                for name, text, role in parts]
         if fit is not None:
             payload["fit"] = fit
         if landmarks is not None:

@@ -160,19 +160,6 @@ impl Server {
         self.wait_ready(id, query).await
     }
 
-    /// Registers the shipped ICT head as `id` with its parts ([`super::ICT_PARTS`]) and
-    /// waits until it is ready.
-    pub async fn register_ict_with_parts(&self, id: &str) -> HeadInfo {
-        let response = reqwest::Client::new()
-            .post(self.http("/v1/heads"))
-            .json(&ict_request(id, ict_parts()))
-            .send()
-            .await
-            .unwrap();
-        assert_eq!(response.status(), 202, "{}", response.text().await.unwrap());
-        self.wait_ready(id, "").await
-    }
-
     /// Polls head info until the head is ready; panics if it fails or takes 30 s.
     pub async fn wait_ready(&self, id: &str, query: &str) -> HeadInfo {
         for _ in 0..600 {
