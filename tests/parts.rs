@@ -106,6 +106,19 @@ async fn parts_register_serve_travel_and_survive_a_restart() {
     .map(|(n, r)| (n.to_string(), r.to_string()))
     .to_vec();
     assert_eq!(roles(&info), expected_roles);
+    // Head info says how well the fit lays the mask on the head, as `facewire fit` does.
+    let reg = register("ict_head");
+    let residuals = facewire::fit::residuals::measure(
+        &reg.head,
+        &reg.fitted.neutral,
+        &reg.fitted.mask.used_vertices(),
+        &[],
+        reg.mm_per_unit(),
+    );
+    let fit = info.fit.expect("a fit summary");
+    assert_eq!(fit.surface_mean_mm, residuals.surface.mean_mm);
+    assert_eq!(fit.surface_max_mm, residuals.surface.max_mm);
+    assert!((1.4..1.6).contains(&fit.surface_mean_mm), "{fit:?}");
 
     // Each part's mesh, as listed.
     for part in &info.parts {

@@ -108,6 +108,19 @@ pub struct HeadInfo {
     /// Its parts, once registered.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub parts: Vec<PartInfo>,
+    /// How well the fit lays the mask on the head, once registered.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit: Option<FitSummary>,
+}
+
+/// How well a head's fit lays the CANDIDE mask on it: the distance from each fitted mask
+/// vertex (those a triangle uses) to the head's surface, mm.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FitSummary {
+    pub surface_mean_mm: f32,
+    pub surface_max_mm: f32,
+    /// The mask vertex furthest from the surface.
+    pub worst_mask_vertex: u32,
 }
 
 impl ServerMessage {

@@ -19,7 +19,7 @@ use super::store::HeadMeta;
 use super::stream::Stream;
 use crate::animate::AnimatedHead;
 use facewire_proto::codes::EndReason;
-use facewire_proto::messages::{HeadInfo, PartInfo};
+use facewire_proto::messages::{FitSummary, HeadInfo, PartInfo};
 
 /// A head ready to animate.
 pub struct ReadyHead {
@@ -29,6 +29,8 @@ pub struct ReadyHead {
     pub rest_obj: Bytes,
     /// `mesh.bin` of each part, in `animated.parts` order.
     pub part_bins: Vec<Bytes>,
+    /// The fit's residuals, for head info.
+    pub fit: FitSummary,
     pub bindings: BindingCache,
 }
 
@@ -206,6 +208,7 @@ impl HeadEntry {
             error,
             streams,
             parts: ready.as_ref().map(|r| r.part_infos(&self.id)).unwrap_or_default(),
+            fit: ready.as_ref().map(|r| r.fit),
             algorithms: ready.map(|r| r.bindings.bound()).unwrap_or_default(),
         }
     }

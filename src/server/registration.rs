@@ -18,6 +18,7 @@ use crate::fit::{FitError, FitFile, FitFileError, FittedMask, Landmarks};
 use crate::head::{Head, ObjError};
 use crate::mask::Mask;
 use facewire_proto::mesh::RestMesh;
+use facewire_proto::messages::FitSummary;
 
 #[derive(Debug, thiserror::Error)]
 pub enum RegistrationError {
@@ -132,11 +133,24 @@ pub fn register(
         &reg.head.triangles,
     )
     .expect("writing to memory cannot fail");
+    let residuals = crate::fit::residuals::measure(
+        &reg.head,
+        &reg.fitted.neutral,
+        &reg.fitted.mask.used_vertices(),
+        &[],
+        reg.mm_per_unit(),
+    );
+    let fit = FitSummary {
+        surface_mean_mm: residuals.surface.mean_mm,
+        surface_max_mm: residuals.surface.max_mm,
+        worst_mask_vertex: residuals.surface.worst_mask_vertex,
+    };
     stage(1.0)?;
     Ok(ReadyHead {
         animated: Arc::new(animated),
         rest_bin,
         part_bins,
+        fit,
         rest_obj: Bytes::from(rest_obj),
         bindings: BindingCache::new(input.max_bindings),
     })

@@ -156,7 +156,13 @@ impl Registry {
             let progress = |p| job_entry.set_status(HeadStatus::Registering { progress: p });
             let status = match register(input, cancelled, progress) {
                 Ok(ready) => {
-                    tracing::info!(head = %job_entry.id, vertices = ready.animated.registration.vertex_count(), "head registered");
+                    tracing::info!(
+                        head = %job_entry.id,
+                        vertices = ready.animated.registration.vertex_count(),
+                        fit_surface_mean_mm = ready.fit.surface_mean_mm,
+                        fit_surface_max_mm = ready.fit.surface_max_mm,
+                        "head registered"
+                    );
                     HeadStatus::Ready(Arc::new(ready))
                 }
                 Err(RegistrationError::Cancelled) => {
