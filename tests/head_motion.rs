@@ -8,7 +8,7 @@ use common::{data, facewire_deform, obj_positions, register};
 
 use std::sync::Arc;
 
-use facewire::animate::{head_motion, AnimatedHead, FrameJob, FrameTimes, NECK_PIVOT_MASK};
+use facewire::animate::{head_motion, AnimatedHead, FrameJob, FrameTimes, Heat, NECK_PIVOT_MASK};
 use facewire::deform::{bind, AlgoSpec, Registration};
 use facewire::mask::MaskPose;
 use facewire::stream::{open_stream, ArkitBasis, Frame};
@@ -46,13 +46,8 @@ fn a_frame_with_only_head_motion_moves_every_vertex_rigidly_about_the_neck_pivot
         for spec in ["U", "biharmonic", "A", "O"] {
             let spec: AlgoSpec = spec.parse().unwrap();
             let binding = Arc::new(bind(reg, &spec));
-            let mut job = FrameJob::new(
-                head.clone(),
-                binding,
-                Arc::new(ArkitBasis::shipped()),
-                facewire::animate::Heat::None,
-            )
-            .unwrap();
+            let mut job =
+                FrameJob::new(head.clone(), binding, Arc::new(ArkitBasis::shipped()), Heat::None).unwrap();
             let frame = motion_only();
             let local_worst = job
                 .deform(&frame)

@@ -21,7 +21,7 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use facewire::animate::{head_motion, RigidMotion, STEP_MM};
+use facewire::animate::{head_motion, FrameJob, Heat, RigidMotion, STEP_MM};
 use facewire::deform::{bind, AlgoSpec};
 use facewire::mask::fap::FAPS;
 use facewire::mask::Mask;
@@ -461,14 +461,14 @@ async fn the_python_client_places_the_parts_and_the_tongue() {
         .next()
         .unwrap()
         .unwrap();
-    let mut job = facewire::animate::FrameJob::new(
+    let mut job = FrameJob::new(
         std::sync::Arc::new(head),
         std::sync::Arc::new(bind(
             &common::register("ict_head"),
             &"U".parse::<AlgoSpec>().unwrap(),
         )),
         std::sync::Arc::new(ArkitBasis::shipped()),
-        facewire::animate::Heat::None,
+        Heat::None,
     )
     .unwrap();
     job.deform(&frame);

@@ -8,7 +8,7 @@ use common::{data, register};
 
 use std::sync::Arc;
 
-use facewire::animate::{AnimatedHead, FrameJob, PartInput};
+use facewire::animate::{AnimatedHead, FrameJob, Heat, PartInput};
 use facewire::deform::{bind, AlgoSpec};
 use facewire::head::{Head, PartRole};
 use facewire::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
@@ -58,7 +58,7 @@ fn a_viseme_track_gives_each_sound_its_mouth() {
         head.clone(),
         Arc::new(bind(reg, &spec)),
         Arc::new(ArkitBasis::shipped()),
-        facewire::animate::Heat::None,
+        Heat::None,
     )
     .unwrap();
     let contact = MouthContact::new(
@@ -155,7 +155,7 @@ fn mpeg4_expressions_move_the_face() {
         head.clone(),
         Arc::new(bind(reg, &"U".parse::<AlgoSpec>().unwrap())),
         Arc::new(ArkitBasis::shipped()),
-        facewire::animate::Heat::None,
+        Heat::None,
     )
     .unwrap();
     // The brows: the mask vertices the outer brow raiser moves, mean height in mm.

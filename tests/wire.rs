@@ -9,7 +9,7 @@ use common::{data, register};
 
 use std::sync::Arc;
 
-use facewire::animate::{AnimatedHead, FrameJob, FrameTimes};
+use facewire::animate::{AnimatedHead, FrameJob, FrameTimes, Heat};
 use facewire::deform::{bind, AlgoSpec};
 use facewire::stream::{open_stream, ArkitBasis};
 use facewire_proto::frame::decode;
@@ -24,13 +24,7 @@ fn measure(head: &Arc<AnimatedHead>, spec: &AlgoSpec) -> (f64, f32) {
         .map(Result::unwrap)
         .collect();
     let binding = Arc::new(bind(reg, spec));
-    let mut job = FrameJob::new(
-        head.clone(),
-        binding,
-        Arc::new(ArkitBasis::shipped()),
-        facewire::animate::Heat::None,
-    )
-    .unwrap();
+    let mut job = FrameJob::new(head.clone(), binding, Arc::new(ArkitBasis::shipped()), Heat::None).unwrap();
     let rest: Vec<f32> = reg.head.positions.iter().flat_map(|p| p.to_array()).collect();
     let (mut bytes, mut worst) = (0usize, 0.0f32);
     let mut decoded = Vec::new();
@@ -84,14 +78,8 @@ fn a_turning_head_compresses_like_a_still_one() {
     let spec: AlgoSpec = facewire::server::config::DEFAULT_ALGORITHM.parse().unwrap();
     let binding = Arc::new(bind(reg, &spec));
     let basis = Arc::new(ArkitBasis::shipped());
-    let mut still = FrameJob::new(
-        head.clone(),
-        binding.clone(),
-        basis.clone(),
-        facewire::animate::Heat::None,
-    )
-    .unwrap();
-    let mut turning = FrameJob::new(head.clone(), binding, basis, facewire::animate::Heat::None).unwrap();
+    let mut still = FrameJob::new(head.clone(), binding.clone(), basis.clone(), Heat::None).unwrap();
+    let mut turning = FrameJob::new(head.clone(), binding, basis, Heat::None).unwrap();
     let rest: Vec<f32> = reg.head.positions.iter().flat_map(|p| p.to_array()).collect();
     let mut placed = Vec::new();
     let frames = open_stream(&data("streams/syllables.jsonl"), &reg.fitted.mask).unwrap();
