@@ -476,6 +476,34 @@ async fn oversized_and_malformed_producer_messages_close_with_the_right_code() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_viewer_that_sends_a_large_message_is_closed_and_others_keep_watching() {
+    let server = Server::start(memory_config()).await;
+    server.register("mh", "makehuman_head", "").await;
+    let view = server.ws("/v1/heads/mh/streams/s/view");
+    let mut rude = connect(&view).await;
+    let mut polite = connect(&view).await;
+    for socket in [&mut rude, &mut polite] {
+        assert!(matches!(next_json(socket).await, ServerMessage::Snapshot(_)));
+    }
+    // Viewers have nothing to say beyond control frames: 64 KiB is refused with 1009.
+    rude.send(Message::Binary(vec![0u8; 64 << 10].into()))
+        .await
+        .unwrap();
+    assert_eq!(close_code(&mut rude).await, 1009);
+    let mut producer = connect(&server.ws("/v1/heads/mh/streams/s/produce")).await;
+    producer
+        .send(Message::Text(jaw_line(0, 0.0).into()))
+        .await
+        .unwrap();
+    assert!(matches!(
+        next_json(&mut producer).await,
+        ServerMessage::Ack { seq: 0, .. }
+    ));
+    assert_eq!(common::service::next_frame(&mut polite).await.header.seq, 0);
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn extreme_values_are_refused_in_both_formats_with_field_and_seq() {
     let server = Server::start(memory_config()).await;
     server.register("mh", "makehuman_head", "").await;

@@ -326,7 +326,7 @@ impl FrameEncoder {
         let mut previous_q = [0i64; 3];
         for (v, d) in deltas.iter().enumerate() {
             // Counts saturate at the i32 range the decoder accepts (NaN counts as 0).
-            let q = d.map(|x| ((x * inverse).round() as i64).clamp(i32::MIN.into(), i32::MAX.into()));
+            let q = d.map(|x| round_half_away(x * inverse).clamp(i32::MIN.into(), i32::MAX.into()));
             if q == [0, 0, 0] {
                 continue;
             }
@@ -363,6 +363,15 @@ impl FrameEncoder {
         out[length_at..length_at + 4].copy_from_slice(&length.to_le_bytes());
         moved
     }
+}
+
+/// `x.round() as i64`, without the call to the C library's `roundf` that `f32::round`
+/// compiles to on x86-64 (a tenth of the frame encoder's time). In f64 the half added is
+/// exact for every f32, so the result is the same for every input, NaN (0) and
+/// infinities (saturated) included.
+fn round_half_away(x: f32) -> i64 {
+    let x = f64::from(x);
+    (x + 0.5f64.copysign(x)) as i64
 }
 
 /// A label of at most 255 bytes, cut at a character boundary: u8 length, UTF-8 bytes.
@@ -634,6 +643,37 @@ fn read_rigid_motion(r: &mut Reader<'_>, field: &'static str) -> Result<RigidMot
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rounding_matches_the_standard_library_for_every_kind_of_f32() {
+        let mut cases = vec![
+            0.0f32,
+            -0.0,
+            0.5,
+            -0.5,
+            1.5,
+            -1.5,
+            2.5,
+            0.49999997,
+            -0.49999997,
+            8_388_607.5,
+            16_777_217.0,
+            1e20,
+            -1e20,
+            f32::MAX,
+            f32::MIN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            f32::MIN_POSITIVE,
+            f32::EPSILON,
+        ];
+        // Every 997th f32 bit pattern: all exponents, both signs.
+        cases.extend((0..u32::MAX / 997).map(|i| f32::from_bits(i * 997)));
+        for x in cases {
+            assert_eq!(round_half_away(x), x.round() as i64, "{x:e} ({:#x})", x.to_bits());
+        }
+    }
 
     fn header() -> FrameHeader {
         FrameHeader {

@@ -11,14 +11,13 @@ use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{Path, State};
 use axum::response::Response;
 use futures_util::{Sink, SinkExt, StreamExt};
-use tokio_tungstenite::tungstenite;
 use tokio_util::sync::CancellationToken;
 
 use super::error::ApiError;
 use super::head::HeadEntry;
 use super::ingest::{parse_binary, parse_text, Incoming};
 use super::rate::ProducerGate;
-use super::socket::{close, error, refuse, text};
+use super::socket::{close, close_for, error, refuse, text};
 use super::stream::{ProducerPermit, Stream};
 use super::{now_us, AppState};
 use facewire_proto::codes::{CloseCode, EndReason, ErrorCode};
@@ -171,22 +170,6 @@ where
         if socket.send(text(&reply)).await.is_err() {
             return Ending::Gone(None);
         }
-    }
-}
-
-/// The close to answer a failed read with: 1009 for a message over the limit, 1007 for
-/// text that is not UTF-8.
-fn close_for(e: axum::Error, limit: usize) -> Option<(CloseCode, String)> {
-    match e.into_inner().downcast::<tungstenite::Error>().map(|e| *e) {
-        Ok(tungstenite::Error::Capacity(_)) => Some((
-            CloseCode::MessageTooBig,
-            format!("message_too_large: the limit is {limit} bytes"),
-        )),
-        Ok(tungstenite::Error::Utf8(_)) => {
-            Some((CloseCode::InvalidPayload, "a text message is not UTF-8".into()))
-        }
-        Ok(tungstenite::Error::Protocol(p)) => Some((CloseCode::InvalidPayload, p.to_string())),
-        _ => None,
     }
 }
 

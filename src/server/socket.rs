@@ -8,6 +8,7 @@ use std::time::Duration;
 use axum::extract::ws::{CloseFrame, Message, WebSocket};
 use facewire_proto::codes::{CloseCode, ErrorCode};
 use facewire_proto::messages::ServerMessage;
+use tokio_tungstenite::tungstenite;
 
 /// How long the server waits for the client's close frame after sending its own.
 const CLOSE_WAIT: Duration = Duration::from_secs(2);
@@ -49,6 +50,22 @@ pub async fn close(socket: &mut WebSocket, code: CloseCode, reason: &str) {
 pub async fn refuse(socket: &mut WebSocket, code: ErrorCode, close_code: CloseCode, message: String) {
     let _ = socket.send(text(&error(code, message.clone()))).await;
     close(socket, close_code, &message).await;
+}
+
+/// The close to answer a failed read with: 1009 for a message over the limit, 1007 for
+/// text that is not UTF-8.
+pub fn close_for(e: axum::Error, limit: usize) -> Option<(CloseCode, String)> {
+    match e.into_inner().downcast::<tungstenite::Error>().map(|e| *e) {
+        Ok(tungstenite::Error::Capacity(_)) => Some((
+            CloseCode::MessageTooBig,
+            format!("message_too_large: the limit is {limit} bytes"),
+        )),
+        Ok(tungstenite::Error::Utf8(_)) => {
+            Some((CloseCode::InvalidPayload, "a text message is not UTF-8".into()))
+        }
+        Ok(tungstenite::Error::Protocol(p)) => Some((CloseCode::InvalidPayload, p.to_string())),
+        _ => None,
+    }
 }
 
 /// At most `max` bytes of `text`, cut at a character boundary.

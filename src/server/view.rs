@@ -10,13 +10,17 @@ use std::time::Duration;
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{Path, Query, State};
 use axum::response::Response;
+use futures_util::stream::{SplitSink, SplitStream};
+use futures_util::{SinkExt, StreamExt};
 use serde::Deserialize;
 use tokio::sync::watch;
+use tokio::task::JoinHandle;
+use tokio_util::sync::CancellationToken;
 
 use super::error::ApiError;
 use super::head::HeadEntry;
 use super::pipeline::{Encoded, Pipeline, PipelineKey};
-use super::socket::{close, refuse, text};
+use super::socket::{close, close_for, refuse, text};
 use super::timeline::{Step, Timeline};
 use super::AppState;
 use crate::animate::{FrameJob, Heat};
@@ -52,6 +56,15 @@ impl ViewQuery {
     }
 }
 
+/// The most a viewer may send in one message. Viewers only send control frames (pings and
+/// the close); anything larger closes the socket with 1009.
+const VIEWER_MESSAGE_LIMIT: usize = 4096;
+
+/// The read buffer of a viewer's socket. The WebSocket layer zeroes a whole buffer on each
+/// read attempt, made for every frame sent; its 128 KiB default cost a fifth of the
+/// server's CPU at 600 viewers (docs/PERFORMANCE.md, "What limited the fan-out").
+const VIEWER_READ_BUFFER: usize = VIEWER_MESSAGE_LIMIT;
+
 /// How long a viewer waits for a head that is still registering.
 const REGISTRATION_WAIT: Duration = Duration::from_secs(120);
 
@@ -65,15 +78,18 @@ pub async fn view(
     Query(query): Query<ViewQuery>,
 ) -> Response {
     let session = state.sessions.token();
-    ws.on_upgrade(move |mut socket| async move {
-        match open_view(&state, &id, &stream, &query).await {
-            Ok(view) => view.run(&mut socket, &state).await,
-            Err((error, close_code)) => {
-                refuse(&mut socket, error.code(), close_code, error.to_string()).await;
+    ws.read_buffer_size(VIEWER_READ_BUFFER)
+        .max_message_size(VIEWER_MESSAGE_LIMIT)
+        .max_frame_size(VIEWER_MESSAGE_LIMIT)
+        .on_upgrade(move |mut socket| async move {
+            match open_view(&state, &id, &stream, &query).await {
+                Ok(view) => view.run(socket, &state).await,
+                Err((error, close_code)) => {
+                    refuse(&mut socket, error.code(), close_code, error.to_string()).await;
+                }
             }
-        }
-        drop(session);
-    })
+            drop(session);
+        })
 }
 
 /// A viewer's place: the slot it holds, its head and stream, and its pipeline's frames.
@@ -164,76 +180,150 @@ async fn open_view(
     })
 }
 
+/// How a viewer's session ended.
+enum ViewEnding {
+    /// The viewer closed or the connection failed.
+    Left,
+    /// The stream or the server ended it: the end to send and the close code.
+    Ended(EndReason, CloseCode),
+    /// The viewer sent what a viewer may not: the close code and why.
+    BadMessage(CloseCode, String),
+}
+
+type ViewerSink = SplitSink<WebSocket, Message>;
+type ViewerStream = SplitStream<WebSocket>;
+
 impl View {
-    async fn run(mut self, socket: &mut WebSocket, state: &AppState) {
+    async fn run(mut self, socket: WebSocket, state: &AppState) {
         state.telemetry.viewers.inc();
-        if socket
-            .send(text(&ServerMessage::Snapshot(self.snapshot.clone())))
-            .await
-            .is_ok()
-        {
-            let ending = self.send_frames(socket, state).await;
-            if let Some((reason, code)) = ending {
-                let _ = socket.send(text(&ServerMessage::end(reason))).await;
-                close(socket, code, reason.message()).await;
+        let (mut sink, stream) = socket.split();
+        let snapshot = text(&ServerMessage::Snapshot(self.snapshot.clone()));
+        if sink.send(snapshot).await.is_ok() {
+            let stop = CancellationToken::new();
+            let listener = tokio::spawn(listen(
+                stream,
+                stop.clone(),
+                state.shutdown.clone(),
+                self.head.deleted.clone(),
+            ));
+            let (ending, stream) = self.send_frames(&mut sink, listener, &stop, state).await;
+            if let Some(mut socket) = stream.and_then(|stream| sink.reunite(stream).ok()) {
+                match ending {
+                    ViewEnding::Left => {}
+                    ViewEnding::Ended(reason, code) => {
+                        let _ = socket.send(text(&ServerMessage::end(reason))).await;
+                        close(&mut socket, code, reason.message()).await;
+                    }
+                    ViewEnding::BadMessage(code, why) => close(&mut socket, code, &why).await,
+                }
             }
         }
         state.telemetry.viewers.dec();
     }
 
-    /// Sends frames and ends until the viewer leaves (None) or the server closes the
-    /// socket (the end to send and the close code).
+    /// Sends frames and ends until the listener reports an ending or a send fails; returns
+    /// the ending and the socket's reading half, for the closing handshake.
     async fn send_frames(
         &mut self,
-        socket: &mut WebSocket,
+        sink: &mut ViewerSink,
+        mut listener: JoinHandle<(ViewerStream, ViewEnding)>,
+        stop: &CancellationToken,
         state: &AppState,
-    ) -> Option<(EndReason, CloseCode)> {
+    ) -> (ViewEnding, Option<ViewerStream>) {
         let mut done = self.frames.borrow().join_point();
         let mut last_frame: Option<u64> = None;
         self.frames.mark_changed();
-        loop {
+        let failed = loop {
             tokio::select! {
-                _ = state.shutdown.cancelled() => return Some((EndReason::ServerShutdown, CloseCode::GoingAway)),
-                _ = self.head.deleted.cancelled() => return Some((EndReason::HeadDeleted, CloseCode::HeadDeleted)),
-                changed = self.frames.changed() => if changed.is_err() {
-                    return Some((EndReason::ServerShutdown, CloseCode::TryLater));
+                heard = &mut listener => return match heard {
+                    Ok((stream, ending)) => (ending, Some(stream)),
+                    Err(_) => (ViewEnding::Left, None),
                 },
-                incoming = socket.recv() => match incoming {
-                    None | Some(Err(_)) | Some(Ok(Message::Close(_))) => return None,
-                    Some(Ok(_)) => continue,
+                changed = self.frames.changed() => if changed.is_err() {
+                    break ViewEnding::Ended(EndReason::ServerShutdown, CloseCode::TryLater);
                 },
             }
             // The steps own their frames: the channel's lock is released before any await.
             let steps = self.frames.borrow_and_update().steps_after(done);
-            for step in steps {
-                done = step.serial();
-                let message = match step {
-                    Step::Frame(encoded) => {
-                        if let Some(skipped) = last_frame
-                            .map(|l| encoded.serial.saturating_sub(l + 1))
-                            .filter(|&s| s > 0)
-                        {
-                            state.telemetry.skipped("viewer", skipped);
-                        }
-                        last_frame = Some(encoded.serial);
-                        state.telemetry.frames_out.inc();
-                        state.telemetry.bytes_out.inc_by(encoded.value.bytes.len() as u64);
-                        state
-                            .telemetry
-                            .latency("publish_to_send", encoded.value.published.elapsed().as_secs_f64());
-                        Message::Binary(encoded.value.bytes.clone())
-                    }
-                    Step::End { reason, .. } => {
-                        last_frame = None;
-                        text(&ServerMessage::end(reason))
-                    }
-                };
-                if socket.send(message).await.is_err() {
-                    return None;
-                }
+            if self
+                .send_steps(sink, steps, &mut done, &mut last_frame, state)
+                .await
+                .is_err()
+            {
+                break ViewEnding::Left;
             }
+        };
+        stop.cancel();
+        match listener.await {
+            Ok((stream, _)) => (failed, Some(stream)),
+            Err(_) => (failed, None),
         }
     }
+
+    async fn send_steps(
+        &self,
+        sink: &mut ViewerSink,
+        steps: impl IntoIterator<Item = Step<Encoded>>,
+        done: &mut u64,
+        last_frame: &mut Option<u64>,
+        state: &AppState,
+    ) -> Result<(), axum::Error> {
+        for step in steps {
+            *done = step.serial();
+            let message = match step {
+                Step::Frame(encoded) => {
+                    if let Some(skipped) = last_frame
+                        .map(|l| encoded.serial.saturating_sub(l + 1))
+                        .filter(|&s| s > 0)
+                    {
+                        state.telemetry.skipped("viewer", skipped);
+                    }
+                    *last_frame = Some(encoded.serial);
+                    state.telemetry.frames_out.inc();
+                    state.telemetry.bytes_out.inc_by(encoded.value.bytes.len() as u64);
+                    state
+                        .telemetry
+                        .latency("publish_to_send", encoded.value.published.elapsed().as_secs_f64());
+                    Message::Binary(encoded.value.bytes.clone())
+                }
+                Step::End { reason, .. } => {
+                    *last_frame = None;
+                    text(&ServerMessage::end(reason))
+                }
+            };
+            sink.send(message).await?;
+        }
+        Ok(())
+    }
+}
+
+/// Watches a viewer's socket, the server's shutdown and the head's deletion, in a task of
+/// its own: the socket is read only when it has data, not once per frame sent (each read
+/// attempt costs the WebSocket layer a buffer fill). Returns the reading half when the
+/// viewer leaves or misbehaves, the server or the head ends the view, or `stop` is
+/// cancelled (the ending is then [`ViewEnding::Left`] and ignored).
+async fn listen(
+    mut stream: ViewerStream,
+    stop: CancellationToken,
+    shutdown: CancellationToken,
+    deleted: CancellationToken,
+) -> (ViewerStream, ViewEnding) {
+    let ending = loop {
+        tokio::select! {
+            _ = stop.cancelled() => break ViewEnding::Left,
+            _ = shutdown.cancelled() => break ViewEnding::Ended(EndReason::ServerShutdown, CloseCode::GoingAway),
+            _ = deleted.cancelled() => break ViewEnding::Ended(EndReason::HeadDeleted, CloseCode::HeadDeleted),
+            incoming = stream.next() => match incoming {
+                None | Some(Ok(Message::Close(_))) => break ViewEnding::Left,
+                Some(Err(e)) => break match close_for(e, VIEWER_MESSAGE_LIMIT) {
+                    Some((code, why)) => ViewEnding::BadMessage(code, why),
+                    None => ViewEnding::Left,
+                },
+                Some(Ok(_)) => continue,
+            },
+        }
+    };
+    (stream, ending)
 }
 
 impl AppState {

@@ -24,6 +24,7 @@ use tokio::time::Instant;
 
 use super::{CliResult, FilePath};
 use crate::mask::Mask;
+use crate::server::process::cpu_seconds;
 use crate::stream::{syllables, JsonlWriter};
 use latency::Latencies;
 use producer::{produce, ProducerPlan};
@@ -97,6 +98,9 @@ pub struct LoadReport {
     pub regressions: u64,
     /// Gaps of more than `STALL_PERIODS` frame periods between two frames of one viewer.
     pub stalls: u64,
+    /// Those of `stalls` where the producer's sends of the two frames were as far apart:
+    /// the generator fell behind, not the server.
+    pub producer_stalls: u64,
     /// Viewers that received no frame at all.
     pub viewers_without_frames: usize,
     /// Producer-to-viewer latency, milliseconds.
@@ -107,6 +111,8 @@ pub struct LoadReport {
     /// The server's CPU use over the run (percent of one core) and memory, when its
     /// `/metrics` could be read.
     pub server: Option<ServerUse>,
+    /// This generator's own CPU use over the run, percent of one core.
+    pub generator_cpu_percent: f64,
     /// Where the numbers come from.
     pub note: &'static str,
 }
@@ -236,6 +242,7 @@ async fn load(args: &Args, base: &str) -> Result<LoadReport, Box<dyn std::error:
     }
     eprintln!(", {} connected", connected.len());
     let start = Instant::now() + Duration::from_millis(200);
+    let generator_cpu_before = cpu_seconds();
     let deadline = start + run_length + Duration::from_secs(3);
     let viewers: Vec<_> = connected
         .into_iter()
@@ -320,6 +327,7 @@ async fn load(args: &Args, base: &str) -> Result<LoadReport, Box<dyn std::error:
         frames_skipped: outcomes.iter().map(|o| o.skipped).sum(),
         regressions: outcomes.iter().map(|o| o.regressions).sum(),
         stalls: outcomes.iter().map(|o| o.stalls).sum(),
+        producer_stalls: outcomes.iter().map(|o| o.producer_stalls).sum(),
         viewers_without_frames: outcomes.iter().filter(|o| o.frames == 0).count() + args.viewers
             - outcomes.len(),
         latency_ms: LatencySummary {
@@ -332,6 +340,7 @@ async fn load(args: &Args, base: &str) -> Result<LoadReport, Box<dyn std::error:
         bytes_per_frame: bytes as f64 / frames_received.max(1) as f64,
         failures: tally(failures),
         server: ServerSample::usage(before, after, elapsed),
+        generator_cpu_percent: 100.0 * (cpu_seconds() - generator_cpu_before) / elapsed.max(1e-9),
         note: "generator and server on one machine share its cores; latency is from the producer's send to the viewer's receipt, on the generator's clock",
     })
 }
@@ -440,13 +449,14 @@ fn print(r: &LoadReport) {
         r.head
     );
     println!(
-        "  frames: sent {}, received {} of {} expected ({:.1} %), skipped {}, stalls {}, older than shown {}, viewers with none {}",
+        "  frames: sent {}, received {} of {} expected ({:.1} %), skipped {}, stalls {} ({} with the producer paused), older than shown {}, viewers with none {}",
         r.frames_sent,
         r.frames_received,
         r.frames_expected,
         100.0 * r.frames_received as f64 / r.frames_expected.max(1) as f64,
         r.frames_skipped,
         r.stalls,
+        r.producer_stalls,
         r.regressions,
         r.viewers_without_frames
     );
@@ -461,6 +471,7 @@ fn print(r: &LoadReport) {
         ),
         None => println!("  server: /metrics not readable"),
     }
+    println!("  generator: {:.0} % of one core", r.generator_cpu_percent);
     for (failure, count) in &r.failures {
         println!("  {count} x {failure}");
     }

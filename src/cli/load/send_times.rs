@@ -35,15 +35,28 @@ impl SendTimes {
 
     /// Milliseconds since frame `seq` was sent, if it is still remembered.
     pub fn age_ms(&self, seq: u64) -> Option<f64> {
-        let packed = self.slots[seq as usize % SLOTS].load(Ordering::Acquire);
-        if packed >> 32 != (seq + 1) & 0xffff_ffff {
-            return None;
-        }
-        let sent = packed & 0xffff_ffff;
+        let sent = self.sent_us(seq)?;
         let now = self.now_us() & 0xffff_ffff;
-        // Both are microseconds modulo 2^32 (71 minutes): the difference wraps correctly.
-        Some(now.wrapping_sub(sent) as u32 as f64 / 1e3)
+        Some(micros_between(sent, now) as f64 / 1e3)
     }
+
+    /// Microseconds between the sends of frames `earlier` and `later`, if both are still
+    /// remembered.
+    pub fn send_gap_us(&self, earlier: u64, later: u64) -> Option<u64> {
+        Some(micros_between(self.sent_us(earlier)?, self.sent_us(later)?))
+    }
+
+    /// When frame `seq` was sent: microseconds on this run's clock, modulo 2^32.
+    fn sent_us(&self, seq: u64) -> Option<u64> {
+        let packed = self.slots[seq as usize % SLOTS].load(Ordering::Acquire);
+        (packed >> 32 == (seq + 1) & 0xffff_ffff).then_some(packed & 0xffff_ffff)
+    }
+}
+
+/// `later - earlier` for microseconds modulo 2^32 (71 minutes): the difference wraps
+/// correctly.
+fn micros_between(earlier: u64, later: u64) -> u64 {
+    u64::from(later.wrapping_sub(earlier) as u32)
 }
 
 #[cfg(test)]
@@ -58,6 +71,10 @@ mod tests {
         let age = times.age_ms(5).unwrap();
         assert!((20.0..1000.0).contains(&age), "{age}");
         assert_eq!(times.age_ms(6), None);
+        times.sent(6);
+        let gap = times.send_gap_us(5, 6).unwrap();
+        assert!((20_000..1_000_000).contains(&gap), "{gap}");
+        assert_eq!(times.send_gap_us(5, 7), None);
         times.sent(5 + SLOTS as u64);
         assert_eq!(times.age_ms(5), None);
     }

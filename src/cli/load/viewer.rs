@@ -8,6 +8,7 @@ use std::time::Duration;
 
 use futures_util::StreamExt;
 use tokio::time::Instant;
+use tokio_tungstenite::tungstenite::protocol::WebSocketConfig;
 use tokio_tungstenite::tungstenite::Message;
 
 use super::latency::Latencies;
@@ -27,6 +28,9 @@ pub struct ViewerOutcome {
     pub regressions: u64,
     /// Gaps of more than `stall_after` between two frames.
     pub stalls: u64,
+    /// Those of `stalls` where the producer's own sends were as far apart: the generator
+    /// paused, not the server.
+    pub producer_stalls: u64,
     pub latencies: Latencies,
     /// The refusal or failure that ended it early, if any.
     pub failure: Option<String>,
@@ -44,7 +48,7 @@ pub struct ViewerPlan {
 /// Connects to viewer `url` and waits for the snapshot; the socket and the algorithm it
 /// runs, or why it failed.
 pub async fn connect(url: &str) -> Result<(Socket, String), String> {
-    let (mut socket, _) = tokio_tungstenite::connect_async(url)
+    let (mut socket, _) = tokio_tungstenite::connect_async_with_config(url, Some(socket_config()), false)
         .await
         .map_err(|e| format!("cannot connect: {e}"))?;
     match tokio::time::timeout(Duration::from_secs(10), socket.next()).await {
@@ -55,6 +59,13 @@ pub async fn connect(url: &str) -> Result<(Socket, String), String> {
         },
         other => Err(format!("expected a snapshot, got {other:?}")),
     }
+}
+
+/// A read buffer the size of a few frames: the WebSocket layer zeroes the whole buffer on
+/// every read, and its 128 KiB default made the generator's thousand viewers cost more CPU
+/// than the server they measure.
+fn socket_config() -> WebSocketConfig {
+    WebSocketConfig::default().read_buffer_size(16 << 10)
 }
 
 pub type Socket =
@@ -95,7 +106,15 @@ pub async fn watch(plan: ViewerPlan, mut socket: Socket, algorithm: String) -> V
                     Some((previous, _)) if seq <= previous => outcome.regressions += 1,
                     Some((previous, at)) => {
                         outcome.skipped += seq - previous - 1;
-                        outcome.stalls += u64::from(now - at > plan.stall_after);
+                        if now - at > plan.stall_after {
+                            outcome.stalls += 1;
+                            let stall_us = plan.stall_after.as_micros() as u64;
+                            let producer_paused = plan
+                                .times
+                                .send_gap_us(previous, seq)
+                                .is_some_and(|gap| gap > stall_us);
+                            outcome.producer_stalls += u64::from(producer_paused);
+                        }
                     }
                     None => {}
                 }
