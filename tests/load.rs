@@ -6,7 +6,11 @@ mod common;
 
 use std::process::Command;
 
-use common::service::Server;
+use common::service::{connect, jaw_line, memory_config, next_json, next_message, Server};
+use facewire_proto::frame::decode;
+use facewire_proto::messages::ServerMessage;
+use futures_util::SinkExt;
+use tokio_tungstenite::tungstenite::Message;
 
 fn load(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_facewire"))
@@ -74,6 +78,101 @@ async fn a_short_load_run_reaches_every_viewer_in_order_without_stalls() {
         .await
         .unwrap();
     assert_eq!(heads.as_array().map(Vec::len), Some(0), "{heads}");
+
+    // The naive JSON baseline through the same tool: far more bytes for the same frames.
+    let fwf1_bytes = report["bytes_per_frame"].as_f64().unwrap();
+    let json_args = [
+        "--url",
+        &server.http(""),
+        "--streams",
+        "1",
+        "--viewers",
+        "2",
+        "--seconds",
+        "1",
+        "--format",
+        "json",
+        "--json",
+        json.to_str().unwrap(),
+    ]
+    .map(str::to_string);
+    let out =
+        tokio::task::spawn_blocking(move || load(&json_args.iter().map(String::as_str).collect::<Vec<_>>()))
+            .await
+            .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert_eq!(report["format"], "json", "{report}");
+    assert_eq!(report["viewers_without_frames"], 0, "{report}");
+    assert_eq!(report["regressions"], 0, "{report}");
+    // 4,352 vertices of three numbers: at least "0.0," each.
+    let json_bytes = report["bytes_per_frame"].as_f64().unwrap();
+    assert!(json_bytes > 4352.0 * 3.0 * 4.0, "{report}");
+    assert!(
+        json_bytes > 10.0 * fwf1_bytes,
+        "{json_bytes} against {fwf1_bytes}"
+    );
+    server.stop().await;
+}
+
+/// The JSON baseline and FWF1 carry the same head: every JSON position is the rest
+/// position plus the binary frame's quantized delta, to within half a step.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn json_baseline_frames_hold_the_positions_fwf1_quantizes() {
+    let server = Server::start(memory_config()).await;
+    server.register("mh", "makehuman_head", "").await;
+    let view = |format: &str| server.ws(&format!("/v1/heads/mh/streams/s/view?format={format}"));
+    let (mut binary, mut text) = (connect(&view("fwf1")).await, connect(&view("json")).await);
+    for socket in [&mut binary, &mut text] {
+        assert!(matches!(next_json(socket).await, ServerMessage::Snapshot(_)));
+    }
+    let mut producer = connect(&server.ws("/v1/heads/mh/streams/s/produce")).await;
+    producer
+        .send(Message::Text(jaw_line(3, 0.1).into()))
+        .await
+        .unwrap();
+    let frame = match next_message(&mut binary).await {
+        Some(Message::Binary(bytes)) => decode(&bytes).unwrap(),
+        other => panic!("expected a binary frame, got {other:?}"),
+    };
+    let json: serde_json::Value = match next_message(&mut text).await {
+        Some(Message::Text(text)) => serde_json::from_str(text.as_str()).unwrap(),
+        other => panic!("expected a JSON frame, got {other:?}"),
+    };
+    assert_eq!(
+        (json["type"].as_str(), json["seq"].as_u64()),
+        (Some("frame"), Some(3))
+    );
+    let rest = common::obj_positions(&common::data("heads/makehuman_head.obj"));
+    let positions = json["positions"].as_array().unwrap();
+    assert_eq!(positions.len(), rest.len());
+    let mut expected = rest.clone();
+    for &(vertex, counts) in &frame.moved {
+        for k in 0..3 {
+            expected[vertex as usize][k] += counts[k] as f32 * frame.step;
+        }
+    }
+    assert!(
+        frame.moved.len() > 100,
+        "the jaw moves the chin: {}",
+        frame.moved.len()
+    );
+    for (v, (position, expected)) in positions.iter().zip(&expected).enumerate() {
+        for k in 0..3 {
+            let got = position[k].as_f64().unwrap() as f32;
+            assert!(
+                (got - expected[k]).abs() <= frame.step * 0.5 + 1e-5,
+                "vertex {v} axis {k}: JSON {got}, FWF1 {}",
+                expected[k]
+            );
+        }
+    }
+    let bad = server.ws("/v1/heads/mh/streams/s/view?format=xml");
+    let mut refused = connect(&bad).await;
+    match next_json(&mut refused).await {
+        ServerMessage::Error { message, .. } => assert!(message.contains("format=xml"), "{message}"),
+        other => panic!("expected an error, got {other:?}"),
+    }
     server.stop().await;
 }
 

@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
+use super::json_frame::write_json_frame;
 use super::{head_motion, jaw_motion, AnimatedHead, RigidMotion};
 use crate::deform::{Binding, DeformScratch};
 use crate::mask::LIP_VERTICES;
@@ -85,6 +86,8 @@ pub struct FrameJob {
     lip_folds: FoldMeter,
     heat: Option<(HeatMeter, Vec<f32>)>,
     encoder: FrameEncoder,
+    /// The last [`FrameJob::encode_json`] frame.
+    json: Vec<u8>,
 }
 
 impl FrameJob {
@@ -131,6 +134,7 @@ impl FrameJob {
             },
             heat,
             encoder: FrameEncoder::for_head(n + tongue_n, LIP_VERTICES.len()),
+            json: Vec::new(),
             head,
             binding,
             basis,
@@ -197,17 +201,30 @@ impl FrameJob {
         self.poser.posed()
     }
 
+    /// The head as [`FrameJob::deform`] left it as the naive JSON baseline: every position
+    /// as a number, nothing else (`format=json` viewers, `facewire load --format json`).
+    pub fn encode_json(&mut self, frame: &Frame) -> Result<&[u8], FrameJobError> {
+        self.check_finite(frame)?;
+        write_json_frame(frame.seq, frame.time_s, &self.deformed, &mut self.json);
+        Ok(&self.json)
+    }
+
+    fn check_finite(&self, frame: &Frame) -> Result<(), FrameJobError> {
+        match self.deformed.iter().position(|p| !p.is_finite()) {
+            Some(vertex) => Err(FrameJobError::NonFinite {
+                seq: frame.seq,
+                vertex,
+            }),
+            None => Ok(()),
+        }
+    }
+
     /// Encodes the head as [`FrameJob::deform`] left it, for `frame`: quantized deltas
     /// against the rest mesh, the head's and the jaw's motions, the tongue's deltas, lip
     /// roughness and folds, the label, per-vertex heat values if asked for.
     pub fn encode(&mut self, frame: &Frame, times: FrameTimes) -> Result<&[u8], FrameJobError> {
+        self.check_finite(frame)?;
         let rest = &self.head.registration.head.positions;
-        if let Some(vertex) = self.deformed.iter().position(|p| !p.is_finite()) {
-            return Err(FrameJobError::NonFinite {
-                seq: frame.seq,
-                vertex,
-            });
-        }
         for ((d, now), rest) in self.deltas.iter_mut().zip(&self.deformed).zip(rest) {
             *d = (*now - *rest).to_array();
         }

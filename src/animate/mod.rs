@@ -8,6 +8,7 @@ mod head;
 mod head_motion;
 mod jaw;
 mod job;
+mod json_frame;
 mod part_role;
 mod rigid;
 mod tongue;

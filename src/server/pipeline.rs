@@ -7,6 +7,7 @@
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
+use axum::extract::ws::{Message, Utf8Bytes};
 use bytes::Bytes;
 use tokio::sync::watch;
 
@@ -15,12 +16,22 @@ use super::telemetry::Telemetry;
 use super::timeline::{Step, Timeline};
 use crate::animate::{FrameJob, FrameTimes, Heat};
 
-/// What a pipeline computes: an algorithm (canonical spec) and the per-vertex values its
-/// frames carry.
+/// What a pipeline computes: an algorithm (canonical spec), the per-vertex values its
+/// frames carry and how they go on the wire.
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
 pub struct PipelineKey {
     pub spec: String,
     pub heat: Heat,
+    pub format: FrameFormat,
+}
+
+/// How a pipeline's frames go on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum FrameFormat {
+    /// FWF1 binary frames (proto/PROTOCOL.md): what the page and the clients use.
+    Fwf1,
+    /// Every position as JSON text, the naive baseline FWF1 is measured against.
+    Json,
 }
 
 /// An encoded viewer frame, shared by every viewer of a pipeline.
@@ -28,7 +39,10 @@ pub struct PipelineKey {
 pub struct Encoded {
     /// The producer's sequence number.
     pub seq: u64,
-    pub bytes: Bytes,
+    /// The WebSocket message: cloning it shares the bytes.
+    pub message: Message,
+    /// Its payload's length in bytes.
+    pub bytes: usize,
     /// When it was published, for the publish-to-send latency.
     pub published: Instant,
 }
@@ -45,6 +59,7 @@ impl Pipeline {
     /// Returns the first viewer's receiver with it, so the pipeline never starts unwatched.
     pub fn start(
         job: FrameJob,
+        format: FrameFormat,
         params: watch::Receiver<ParamTimeline>,
         telemetry: Arc<Telemetry>,
     ) -> (Arc<Pipeline>, watch::Receiver<Timeline<Encoded>>) {
@@ -53,7 +68,7 @@ impl Pipeline {
             output,
             retired: Mutex::new(false),
         });
-        tokio::spawn(run(pipeline.clone(), Box::new(job), params, telemetry));
+        tokio::spawn(run(pipeline.clone(), Box::new(job), format, params, telemetry));
         (pipeline, first)
     }
 
@@ -80,6 +95,7 @@ impl Pipeline {
 async fn run(
     pipeline: Arc<Pipeline>,
     mut job: Box<FrameJob>,
+    format: FrameFormat,
     mut params: watch::Receiver<ParamTimeline>,
     telemetry: Arc<Telemetry>,
 ) {
@@ -110,7 +126,7 @@ async fn run(
                     let job_telemetry = telemetry.clone();
                     let value = received.value.clone();
                     let outcome = tokio::task::spawn_blocking(move || {
-                        let encoded = process(&mut job, &value, &job_telemetry);
+                        let encoded = process(&mut job, format, &value, &job_telemetry);
                         (job, encoded)
                     })
                     .await;
@@ -144,9 +160,18 @@ async fn run(
     tokio::task::spawn_blocking(super::release_memory);
 }
 
+fn message_len(message: &Message) -> usize {
+    match message {
+        Message::Binary(bytes) => bytes.len(),
+        Message::Text(text) => text.len(),
+        _ => 0,
+    }
+}
+
 /// One frame through the job; `None` (logged and counted) when it cannot be shown.
 fn process(
     job: &mut FrameJob,
+    format: FrameFormat,
     received: &super::stream::ReceivedFrame,
     telemetry: &Telemetry,
 ) -> Option<Encoded> {
@@ -160,8 +185,13 @@ fn process(
         received_us: received.received_us,
         send_us: super::now_us(),
     };
-    let bytes = match job.encode(&received.frame, times) {
-        Ok(bytes) => Bytes::copy_from_slice(bytes),
+    let encoded = match format {
+        FrameFormat::Fwf1 => job.encode(&received.frame, times),
+        FrameFormat::Json => job.encode_json(&received.frame),
+    };
+    let message = match encoded.map(Bytes::copy_from_slice) {
+        Ok(bytes) if format == FrameFormat::Fwf1 => Message::Binary(bytes),
+        Ok(bytes) => Message::Text(Utf8Bytes::try_from(bytes).expect("serde_json writes UTF-8")),
         Err(e) => {
             tracing::warn!(error = %e, "frame not shown");
             telemetry.reject("not_shown");
@@ -178,7 +208,8 @@ fn process(
     );
     Some(Encoded {
         seq: received.frame.seq,
-        bytes,
+        bytes: message_len(&message),
+        message,
         published,
     })
 }

@@ -19,7 +19,7 @@ use tokio_util::sync::CancellationToken;
 
 use super::error::ApiError;
 use super::head::HeadEntry;
-use super::pipeline::{Encoded, Pipeline, PipelineKey};
+use super::pipeline::{Encoded, FrameFormat, Pipeline, PipelineKey};
 use super::socket::{close, close_for, refuse, text};
 use super::timeline::{Step, Timeline};
 use super::AppState;
@@ -37,9 +37,22 @@ pub struct ViewQuery {
     pub face: Option<String>,
     /// `roughness` or `folds`: what the frames' per-vertex values measure.
     pub heat: Option<String>,
+    /// `fwf1` (the default) or `json`: every position as JSON text, the naive baseline.
+    pub format: Option<String>,
 }
 
 impl ViewQuery {
+    fn format(&self) -> Result<FrameFormat, ApiError> {
+        match self.format.as_deref() {
+            None | Some("" | "fwf1") => Ok(FrameFormat::Fwf1),
+            Some("json") => Ok(FrameFormat::Json),
+            Some(other) => Err(ApiError::BadRequest(format!(
+                "format={}: expected fwf1 or json",
+                crate::quote::clip(other)
+            ))),
+        }
+    }
+
     /// The per-vertex values asked for: `heat` by name, else `face`.
     fn heat(&self) -> Result<Heat, ApiError> {
         match (self.heat.as_deref(), self.face.as_deref()) {
@@ -130,6 +143,7 @@ async fn open_view(
     let head = state.registry.head(id).map_err(refused)?;
     let spec = state.viewer_algorithm(query.algo.as_deref()).map_err(refused)?;
     let heat = query.heat().map_err(refused)?;
+    let format = query.format().map_err(refused)?;
     let ready = tokio::select! {
         ready = head.wait_ready(REGISTRATION_WAIT) => ready.map_err(refused)?,
         _ = head.deleted.cancelled() => return Err(refused(ApiError::UnknownHead(id.to_string()))),
@@ -145,12 +159,13 @@ async fn open_view(
     let key = PipelineKey {
         spec: spec.to_string(),
         heat,
+        format,
     };
     let frames = stream
         .pipeline(key, |params| {
             let job = FrameJob::new(ready.animated.clone(), binding, state.arkit.clone(), heat)
                 .map_err(ApiError::internal)?;
-            Ok(Pipeline::start(job, params, state.telemetry.clone()))
+            Ok(Pipeline::start(job, format, params, state.telemetry.clone()))
         })
         .map_err(refused)?;
     let reg = &ready.animated.registration;
@@ -280,11 +295,11 @@ impl View {
                     }
                     *last_frame = Some(encoded.serial);
                     state.telemetry.frames_out.inc();
-                    state.telemetry.bytes_out.inc_by(encoded.value.bytes.len() as u64);
+                    state.telemetry.bytes_out.inc_by(encoded.value.bytes as u64);
                     state
                         .telemetry
                         .latency("publish_to_send", encoded.value.published.elapsed().as_secs_f64());
-                    Message::Binary(encoded.value.bytes.clone())
+                    encoded.value.message.clone()
                 }
                 Step::End { reason, .. } => {
                     *last_frame = None;

@@ -61,6 +61,10 @@ pub struct Args {
     /// Algorithm spec the viewers ask for [default: the server's].
     #[arg(long)]
     algo: Option<String>,
+    /// Viewer frames: `fwf1` (quantized binary deltas) or `json` (every position as JSON
+    /// text, the naive baseline).
+    #[arg(long, value_enum, default_value_t = WireFormat::Fwf1)]
+    format: WireFormat,
     /// A registered head to use; without it the MakeHuman head is registered for the run
     /// and deleted after.
     #[arg(long)]
@@ -77,12 +81,29 @@ pub struct Args {
     allow_remote: bool,
 }
 
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum WireFormat {
+    Fwf1,
+    Json,
+}
+
+impl WireFormat {
+    pub fn name(self) -> &'static str {
+        match self {
+            WireFormat::Fwf1 => "fwf1",
+            WireFormat::Json => "json",
+        }
+    }
+}
+
 /// What one run measured.
 #[derive(Debug, Serialize)]
 pub struct LoadReport {
     pub url: String,
     pub head: String,
     pub algorithm: Option<String>,
+    pub format: WireFormat,
     pub streams: usize,
     pub viewers: usize,
     pub seconds: f64,
@@ -212,10 +233,11 @@ async fn load(args: &Args, base: &str) -> Result<LoadReport, Box<dyn std::error:
     let ws_base = base.replacen("http://", "ws://", 1);
     let run_id = std::process::id();
     let stream_name = |s: usize| format!("load-{run_id}-{s}");
-    let algo = args
-        .algo
-        .as_deref()
-        .map_or(String::new(), |a| format!("?algo={a}"));
+    let format = args.format.name();
+    let algo = match args.algo.as_deref() {
+        Some(a) => format!("?format={format}&algo={a}"),
+        None => format!("?format={format}"),
+    };
 
     let before = server_metrics::sample(&http, base, &with_token).await;
     let clock = StdInstant::now();
@@ -317,6 +339,7 @@ async fn load(args: &Args, base: &str) -> Result<LoadReport, Box<dyn std::error:
         url: base.to_string(),
         head,
         algorithm: outcomes.iter().find_map(|o| o.algorithm.clone()),
+        format: args.format,
         streams: args.streams,
         viewers: args.viewers,
         seconds: args.seconds,
@@ -438,7 +461,7 @@ fn tally(messages: Vec<String>) -> Vec<(String, usize)> {
 
 fn print(r: &LoadReport) {
     println!(
-        "{} streams x {} viewers at {} fps for {} s ({}), head {}",
+        "{} streams x {} viewers at {} fps for {} s ({}, {} frames), head {}",
         r.streams,
         r.viewers,
         r.fps,
@@ -446,6 +469,7 @@ fn print(r: &LoadReport) {
         r.algorithm
             .as_deref()
             .unwrap_or("no algorithm: no viewer connected"),
+        r.format.name(),
         r.head
     );
     println!(

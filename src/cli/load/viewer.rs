@@ -36,6 +36,39 @@ pub struct ViewerOutcome {
     pub failure: Option<String>,
 }
 
+impl ViewerOutcome {
+    /// Counts frame `seq` of `length` bytes, received now; `last` is the newest frame so
+    /// far and when it came.
+    fn record(&mut self, seq: u64, length: usize, last: &mut Option<(u64, Instant)>, plan: &ViewerPlan) {
+        let now = Instant::now();
+        self.frames += 1;
+        self.bytes += length as u64;
+        plan.received.fetch_add(1, Ordering::Relaxed);
+        if let Some(age) = plan.times.age_ms(seq) {
+            self.latencies.record(age);
+        }
+        match *last {
+            Some((previous, _)) if seq <= previous => self.regressions += 1,
+            Some((previous, at)) => {
+                self.skipped += seq - previous - 1;
+                if now - at > plan.stall_after {
+                    self.stalls += 1;
+                    let stall_us = plan.stall_after.as_micros() as u64;
+                    let producer_paused = plan
+                        .times
+                        .send_gap_us(previous, seq)
+                        .is_some_and(|gap| gap > stall_us);
+                    self.producer_stalls += u64::from(producer_paused);
+                }
+            }
+            None => {}
+        }
+        if last.is_none_or(|(previous, _)| seq > previous) {
+            *last = Some((seq, now));
+        }
+    }
+}
+
 pub struct ViewerPlan {
     pub times: Arc<SendTimes>,
     /// Frames received by every viewer, for the progress line.
@@ -59,6 +92,14 @@ pub async fn connect(url: &str) -> Result<(Socket, String), String> {
         },
         other => Err(format!("expected a snapshot, got {other:?}")),
     }
+}
+
+/// The `seq` of a JSON baseline frame (`{"type":"frame","seq":N,...}`), read without
+/// parsing the positions.
+fn json_frame_seq(text: &str) -> Option<u64> {
+    let rest = text.strip_prefix(r#"{"type":"frame","seq":"#)?;
+    let digits = rest.find(|c: char| !c.is_ascii_digit())?;
+    rest[..digits].parse().ok()
 }
 
 /// A read buffer the size of a few frames: the WebSocket layer zeroes the whole buffer on
@@ -87,52 +128,30 @@ pub async fn watch(plan: ViewerPlan, mut socket: Socket, algorithm: String) -> V
             }
             Ok(Some(Ok(message))) => message,
         };
-        match message {
-            Message::Binary(bytes) => {
-                let now = Instant::now();
-                // Only the header: the generator measures the server, not its own decoding.
-                let Ok(header) = decode_header(&bytes) else {
+        // Only the sequence number: the generator measures the server, not its own decoding.
+        let (seq, length) = match message {
+            Message::Binary(bytes) => match decode_header(&bytes) {
+                Ok(header) => (header.seq, bytes.len()),
+                Err(_) => {
                     outcome.failure = Some("a frame header did not decode".into());
                     break;
-                };
-                let seq = header.seq;
-                outcome.frames += 1;
-                outcome.bytes += bytes.len() as u64;
-                plan.received.fetch_add(1, Ordering::Relaxed);
-                if let Some(age) = plan.times.age_ms(seq) {
-                    outcome.latencies.record(age);
                 }
-                match last {
-                    Some((previous, _)) if seq <= previous => outcome.regressions += 1,
-                    Some((previous, at)) => {
-                        outcome.skipped += seq - previous - 1;
-                        if now - at > plan.stall_after {
-                            outcome.stalls += 1;
-                            let stall_us = plan.stall_after.as_micros() as u64;
-                            let producer_paused = plan
-                                .times
-                                .send_gap_us(previous, seq)
-                                .is_some_and(|gap| gap > stall_us);
-                            outcome.producer_stalls += u64::from(producer_paused);
-                        }
+            },
+            Message::Text(text) => match json_frame_seq(text.as_str()) {
+                Some(seq) => (seq, text.len()),
+                None => match serde_json::from_str::<ServerMessage>(text.as_str()) {
+                    Ok(ServerMessage::End { .. }) => break,
+                    Ok(ServerMessage::Error { code, message, .. }) => {
+                        outcome.failure = Some(format!("{code}: {message}"));
+                        break;
                     }
-                    None => {}
-                }
-                if last.is_none_or(|(previous, _)| seq > previous) {
-                    last = Some((seq, now));
-                }
-            }
-            Message::Text(text) => match serde_json::from_str::<ServerMessage>(text.as_str()) {
-                Ok(ServerMessage::End { .. }) => break,
-                Ok(ServerMessage::Error { code, message, .. }) => {
-                    outcome.failure = Some(format!("{code}: {message}"));
-                    break;
-                }
-                _ => {}
+                    _ => continue,
+                },
             },
             Message::Close(_) => break,
-            _ => {}
-        }
+            _ => continue,
+        };
+        outcome.record(seq, length, &mut last, &plan);
     }
     let _ = socket.close(None).await;
     outcome
