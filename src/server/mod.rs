@@ -38,6 +38,7 @@ mod store;
 mod stream;
 mod telemetry;
 mod timeline;
+mod trim;
 mod view;
 mod web;
 
@@ -48,17 +49,6 @@ pub use ids::valid_id;
 pub use listen::serve;
 pub use state::{AppState, StateError};
 pub use telemetry::Telemetry;
-
-/// Gives freed heap back to the system after large buffers (a head, a binding, a
-/// pipeline's job) are dropped, so the process's resident memory returns to its baseline:
-/// glibc keeps freed memory in its arenas otherwise. Blocking (milliseconds).
-fn release_memory() {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: malloc_trim only releases free memory at the top of glibc's heaps.
-    unsafe {
-        libc::malloc_trim(0);
-    }
-}
 
 /// Microseconds since the Unix epoch: the clock every timestamp on the wire uses.
 pub fn now_us() -> u64 {

@@ -9,11 +9,12 @@ use std::time::Instant;
 
 use axum::extract::ws::{Message, Utf8Bytes};
 use bytes::Bytes;
-use tokio::sync::watch;
+use tokio::sync::{watch, Semaphore};
 
 use super::stream::ParamTimeline;
 use super::telemetry::Telemetry;
 use super::timeline::{Step, Timeline};
+use super::trim::Trimmer;
 use crate::animate::{FrameJob, FrameTimes, Heat};
 
 /// What a pipeline computes: an algorithm (canonical spec), the per-vertex values its
@@ -61,6 +62,8 @@ impl Pipeline {
         job: FrameJob,
         format: FrameFormat,
         params: watch::Receiver<ParamTimeline>,
+        deform_slots: Arc<Semaphore>,
+        trimmer: Arc<Trimmer>,
         telemetry: Arc<Telemetry>,
     ) -> (Arc<Pipeline>, watch::Receiver<Timeline<Encoded>>) {
         let (output, first) = watch::channel(Timeline::default());
@@ -68,7 +71,13 @@ impl Pipeline {
             output,
             retired: Mutex::new(false),
         });
-        tokio::spawn(run(pipeline.clone(), Box::new(job), format, params, telemetry));
+        let stages = Stages {
+            format,
+            deform_slots,
+            trimmer,
+            telemetry,
+        };
+        tokio::spawn(run(pipeline.clone(), Box::new(job), params, stages));
         (pipeline, first)
     }
 
@@ -92,13 +101,26 @@ impl Pipeline {
     }
 }
 
+/// What a pipeline's task works with besides its job and its input.
+struct Stages {
+    format: FrameFormat,
+    deform_slots: Arc<Semaphore>,
+    trimmer: Arc<Trimmer>,
+    telemetry: Arc<Telemetry>,
+}
+
 async fn run(
     pipeline: Arc<Pipeline>,
     mut job: Box<FrameJob>,
-    format: FrameFormat,
     mut params: watch::Receiver<ParamTimeline>,
-    telemetry: Arc<Telemetry>,
+    stages: Stages,
 ) {
+    let Stages {
+        format,
+        deform_slots,
+        trimmer,
+        telemetry,
+    } = stages;
     telemetry.pipelines.inc();
     // Start from the newest frame, as a viewer joining now does.
     let mut done = params.borrow().join_point();
@@ -125,6 +147,9 @@ async fn run(
                     done = received.serial;
                     let job_telemetry = telemetry.clone();
                     let value = received.value.clone();
+                    let Ok(_slot) = deform_slots.acquire().await else {
+                        break;
+                    };
                     let outcome = tokio::task::spawn_blocking(move || {
                         let encoded = process(&mut job, format, &value, &job_telemetry);
                         (job, encoded)
@@ -157,7 +182,7 @@ async fn run(
     *pipeline.retired.lock().expect("retired lock") = true;
     telemetry.pipelines.dec();
     drop(job);
-    tokio::task::spawn_blocking(super::release_memory);
+    trimmer.request();
 }
 
 fn message_len(message: &Message) -> usize {

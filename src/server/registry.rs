@@ -14,8 +14,8 @@ use super::error::ApiError;
 use super::head::{HeadEntry, HeadStatus, StreamLimits};
 use super::ids::valid_id;
 use super::registration::{register, RegistrationError, RegistrationInput};
-use super::release_memory;
 use super::store::{HeadMeta, HeadRecord, Store};
+use super::trim::release_memory;
 use facewire_proto::codes::EndReason;
 
 /// Registry limits, from the configuration.

@@ -15,6 +15,7 @@ use super::head::StreamLimits;
 use super::registry::{Registry, RegistryLimits};
 use super::store::{Store, StoreError};
 use super::telemetry::Telemetry;
+use super::trim::Trimmer;
 use crate::deform::AlgoSpec;
 use crate::mask::Mask;
 use crate::stream::ArkitBasis;
@@ -39,6 +40,12 @@ pub struct Shared {
     pub allowed_specs: Option<Vec<AlgoSpec>>,
     pub tokens: Tokens,
     pub viewer_slots: Arc<Semaphore>,
+    /// Frames being deformed at once, across every pipeline: one per core. Unbounded, a
+    /// burst of frames from many streams started a blocking thread each, and the threads
+    /// that send to viewers waited behind them for up to 100 ms.
+    pub deform_slots: Arc<Semaphore>,
+    /// Gives the memory of retired pipelines back, at most once a second.
+    pub trimmer: Arc<Trimmer>,
     pub mask: Arc<Mask>,
     pub arkit: Arc<ArkitBasis>,
     pub started: Instant,
@@ -91,6 +98,10 @@ impl AppState {
                 allowed_specs,
                 tokens: Tokens::new(&config.auth),
                 viewer_slots: Arc::new(Semaphore::new(limits.max_viewers)),
+                trimmer: Arc::default(),
+                deform_slots: Arc::new(Semaphore::new(
+                    std::thread::available_parallelism().map_or(1, usize::from),
+                )),
                 mask: Arc::new(Mask::candide3()),
                 arkit: Arc::new(ArkitBasis::shipped()),
                 started: Instant::now(),

@@ -165,7 +165,14 @@ async fn open_view(
         .pipeline(key, |params| {
             let job = FrameJob::new(ready.animated.clone(), binding, state.arkit.clone(), heat)
                 .map_err(ApiError::internal)?;
-            Ok(Pipeline::start(job, format, params, state.telemetry.clone()))
+            Ok(Pipeline::start(
+                job,
+                format,
+                params,
+                state.deform_slots.clone(),
+                state.trimmer.clone(),
+                state.telemetry.clone(),
+            ))
         })
         .map_err(refused)?;
     let reg = &ready.animated.registration;
