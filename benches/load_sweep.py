@@ -113,7 +113,7 @@ def chart(series, path):
     """An SVG line chart of p99 latency against viewers, one line per series, log scale."""
     import math
 
-    width, height, left, bottom, top, right = 640, 360, 60, 40, 20, 150
+    width, height, left, bottom, top, right = 680, 360, 60, 40, 20, 170
     xs = [r["viewers"] for _, reports in series for r in reports]
     x_max = max(xs) * 1.05
     y_min, y_max = 1.0, 500.0
@@ -160,9 +160,9 @@ def main():
         results = {}
         try:
             load(binary, url, 10, 40, 3, "", folder)
-            for algo, name in [("", "U (default)"), ("H", "H, point_distance:k=all")]:
-                results[f"viewers {name}"] = sweep(binary, url, f"Viewers at 50 streams, {name}", [(50, v) for v in (100, 200, 400, 600, 800, 1000, 1200, 1500, 2000)], seconds, algo, folder)
-                results[f"streams {name}"] = sweep(binary, url, f"Streams at 4 viewers each, {name}", [(s, 4 * s) for s in (10, 25, 50, 100, 150, 200, 300)], seconds, algo, folder)
+            for algo, name, short in [("", "U (default)", "U"), ("H", "H, point_distance:k=all", "H")]:
+                results[f"{short}, 50 streams"] = sweep(binary, url, f"Viewers at 50 streams, {name}", [(50, v) for v in (100, 200, 400, 600, 800, 1000, 1200, 1500, 2000)], seconds, algo, folder)
+                results[f"{short}, 4 viewers a stream"] = sweep(binary, url, f"Streams at 4 viewers each, {name}", [(s, 4 * s) for s in (10, 25, 50, 100, 150, 200, 300)], seconds, algo, folder)
             results["baseline"] = baseline(binary, url, [(10, 40), (50, 200)], seconds, folder)
         finally:
             server.terminate()
@@ -170,8 +170,7 @@ def main():
         if args.json:
             Path(args.json).write_text(json.dumps(results, indent=1))
         if args.chart:
-            series = [(k.replace("viewers ", "50 streams, ").replace("streams ", "4 a stream, "), v) for k, v in results.items() if k != "baseline"]
-            chart(series, args.chart)
+            chart([(k, v) for k, v in results.items() if k != "baseline"], args.chart)
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use axum::extract::ws::{Message, Utf8Bytes};
 use bytes::Bytes;
-use tokio::sync::{watch, Semaphore};
+use tokio::sync::watch;
 
 use super::stream::ParamTimeline;
 use super::telemetry::Telemetry;
@@ -62,7 +62,6 @@ impl Pipeline {
         job: FrameJob,
         format: FrameFormat,
         params: watch::Receiver<ParamTimeline>,
-        deform_slots: Arc<Semaphore>,
         trimmer: Arc<Trimmer>,
         telemetry: Arc<Telemetry>,
     ) -> (Arc<Pipeline>, watch::Receiver<Timeline<Encoded>>) {
@@ -73,7 +72,6 @@ impl Pipeline {
         });
         let stages = Stages {
             format,
-            deform_slots,
             trimmer,
             telemetry,
         };
@@ -104,7 +102,6 @@ impl Pipeline {
 /// What a pipeline's task works with besides its job and its input.
 struct Stages {
     format: FrameFormat,
-    deform_slots: Arc<Semaphore>,
     trimmer: Arc<Trimmer>,
     telemetry: Arc<Telemetry>,
 }
@@ -117,7 +114,6 @@ async fn run(
 ) {
     let Stages {
         format,
-        deform_slots,
         trimmer,
         telemetry,
     } = stages;
@@ -147,9 +143,6 @@ async fn run(
                     done = received.serial;
                     let job_telemetry = telemetry.clone();
                     let value = received.value.clone();
-                    let Ok(_slot) = deform_slots.acquire().await else {
-                        break;
-                    };
                     let outcome = tokio::task::spawn_blocking(move || {
                         let encoded = process(&mut job, format, &value, &job_telemetry);
                         (job, encoded)

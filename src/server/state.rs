@@ -40,10 +40,6 @@ pub struct Shared {
     pub allowed_specs: Option<Vec<AlgoSpec>>,
     pub tokens: Tokens,
     pub viewer_slots: Arc<Semaphore>,
-    /// Frames being deformed at once, across every pipeline: one per core. Unbounded, a
-    /// burst of frames from many streams started a blocking thread each, and the threads
-    /// that send to viewers waited behind them for up to 100 ms.
-    pub deform_slots: Arc<Semaphore>,
     /// Gives the memory of retired pipelines back, at most once a second.
     pub trimmer: Arc<Trimmer>,
     pub mask: Arc<Mask>,
@@ -99,9 +95,6 @@ impl AppState {
                 tokens: Tokens::new(&config.auth),
                 viewer_slots: Arc::new(Semaphore::new(limits.max_viewers)),
                 trimmer: Arc::default(),
-                deform_slots: Arc::new(Semaphore::new(
-                    std::thread::available_parallelism().map_or(1, usize::from),
-                )),
                 mask: Arc::new(Mask::candide3()),
                 arkit: Arc::new(ArkitBasis::shipped()),
                 started: Instant::now(),

@@ -169,7 +169,6 @@ async fn open_view(
                 job,
                 format,
                 params,
-                state.deform_slots.clone(),
                 state.trimmer.clone(),
                 state.telemetry.clone(),
             ))
