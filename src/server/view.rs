@@ -75,7 +75,7 @@ const VIEWER_MESSAGE_LIMIT: usize = 4096;
 
 /// The read buffer of a viewer's socket. The WebSocket layer zeroes a whole buffer on each
 /// read attempt, made for every frame sent; its 128 KiB default cost a fifth of the
-/// server's CPU at 600 viewers (docs/PERFORMANCE.md, "What limited the fan-out").
+/// server's CPU at 600 viewers (docs/PERFORMANCE.md, "What limited it, and what was fixed").
 const VIEWER_READ_BUFFER: usize = VIEWER_MESSAGE_LIMIT;
 
 /// How long a viewer waits for a head that is still registering.
