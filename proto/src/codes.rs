@@ -58,13 +58,15 @@ pub enum ErrorCode {
     Timeout,
     /// The server is shutting down.
     ShuttingDown,
+    /// The cluster bus (NATS) cannot be reached now: retry, or use another node.
+    BusUnavailable,
     /// A fault on the server; the answer carries a `request_id` the log also has.
     Internal,
 }
 
 impl ErrorCode {
     /// Every code, in the order of `PROTOCOL.md`'s table.
-    pub const ALL: [ErrorCode; 25] = [
+    pub const ALL: [ErrorCode; 26] = [
         ErrorCode::BadRequest,
         ErrorCode::BadId,
         ErrorCode::BadLandmarks,
@@ -89,6 +91,7 @@ impl ErrorCode {
         ErrorCode::Idle,
         ErrorCode::Timeout,
         ErrorCode::ShuttingDown,
+        ErrorCode::BusUnavailable,
         ErrorCode::Internal,
     ];
 
@@ -119,6 +122,7 @@ impl ErrorCode {
             ErrorCode::Idle => "idle",
             ErrorCode::Timeout => "timeout",
             ErrorCode::ShuttingDown => "shutting_down",
+            ErrorCode::BusUnavailable => "bus_unavailable",
             ErrorCode::Internal => "internal",
         }
     }

@@ -63,11 +63,15 @@ pub fn run(args: Args) -> CliResult {
         config.default_algorithm = algo;
     }
     init_logging(args.log_json);
-    let state = AppState::new(config)?;
     let rt = runtime()?;
-    let served = rt.block_on(serve(state, |addr| {
-        println!("facewire listening on http://{addr}/");
-    }));
+    let served: CliResult = rt.block_on(async {
+        let state = AppState::start(config).await?;
+        serve(state, |addr| {
+            println!("facewire listening on http://{addr}/");
+        })
+        .await?;
+        Ok(())
+    });
     rt.shutdown_timeout(ABANDON_AFTER);
-    Ok(served?)
+    served
 }

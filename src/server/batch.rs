@@ -60,9 +60,7 @@ pub async fn batch(
             limit_s: limits.max_batch_duration_s,
         });
     }
-    let permit = stream
-        .claim_producer()
-        .ok_or_else(|| ApiError::ProducerBusy(name.clone()))?;
+    let permit = state.claim_producer(&head.id, &stream).await?;
     let count = frames.len();
     let session = state.sessions.token();
     tokio::spawn(async move {

@@ -29,8 +29,20 @@ pub struct Config {
     /// When set, the only algorithms viewers may ask for (specs or preset letters); the
     /// default algorithm is always allowed.
     pub algorithms: Option<Vec<String>>,
+    /// `"local"` (one node, no server needed) or a NATS URL (`nats://host:4222`, with
+    /// JetStream): the nodes sharing it share heads and streams (`src/server/cluster/`).
+    pub bus: String,
+    /// This node's name on the bus; a random `node-...` when absent.
+    pub node_name: Option<String>,
     pub limits: Limits,
     pub auth: Auth,
+}
+
+/// The bus `Config::bus` names.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Bus {
+    Local,
+    Nats(String),
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -91,6 +103,8 @@ impl Default for Config {
             data_dir: Some(PathBuf::from("facewire-data")),
             default_algorithm: DEFAULT_ALGORITHM.into(),
             algorithms: None,
+            bus: "local".into(),
+            node_name: None,
             limits: Limits::default(),
             auth: Auth::default(),
         }
@@ -138,6 +152,10 @@ pub enum ConfigError {
         value: String,
         message: String,
     },
+    #[error("bus = {0:?}: expected \"local\" or a NATS URL (nats://host:port or tls://host:port)")]
+    Bus(String),
+    #[error("node_name = {0:?}: use 1-64 lowercase letters, digits, '-' or '_'")]
+    NodeName(String),
     #[error("limits.{field} = {value}: {expected}")]
     Limit {
         field: &'static str,
@@ -157,7 +175,8 @@ impl Config {
     }
 
     /// Applies `FACEWIRE_ADDR`, `FACEWIRE_DATA_DIR`, `FACEWIRE_DEFAULT_ALGORITHM`,
-    /// `FACEWIRE_PRODUCER_TOKEN`, `FACEWIRE_VIEWER_TOKEN`, `FACEWIRE_ADMIN_TOKEN` from `env`.
+    /// `FACEWIRE_BUS`, `FACEWIRE_NODE_NAME`, `FACEWIRE_PRODUCER_TOKEN`,
+    /// `FACEWIRE_VIEWER_TOKEN`, `FACEWIRE_ADMIN_TOKEN` from `env`.
     pub fn apply_env(&mut self, env: impl Fn(&str) -> Option<String>) -> Result<(), ConfigError> {
         if let Some(value) = env("FACEWIRE_ADDR") {
             self.addr = value
@@ -174,6 +193,12 @@ impl Config {
         if let Some(value) = env("FACEWIRE_DEFAULT_ALGORITHM") {
             self.default_algorithm = value;
         }
+        if let Some(value) = env("FACEWIRE_BUS") {
+            self.bus = value;
+        }
+        if let Some(value) = env("FACEWIRE_NODE_NAME") {
+            self.node_name = Some(value).filter(|v| !v.is_empty());
+        }
         for (name, slot) in [
             ("FACEWIRE_PRODUCER_TOKEN", &mut self.auth.producer_token),
             ("FACEWIRE_VIEWER_TOKEN", &mut self.auth.viewer_token),
@@ -189,7 +214,28 @@ impl Config {
     /// Checks what parsing alone cannot.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.allowed_algorithms()?;
+        self.bus()?;
+        if let Some(name) = &self.node_name {
+            if !super::ids::valid_id(name) {
+                return Err(ConfigError::NodeName(name.clone()));
+            }
+        }
         self.limits.validate()
+    }
+
+    /// The bus, parsed.
+    pub fn bus(&self) -> Result<Bus, ConfigError> {
+        let bus = self.bus.trim();
+        if bus == "local" {
+            return Ok(Bus::Local);
+        }
+        let url_ok = ["nats://", "tls://"]
+            .iter()
+            .any(|scheme| bus.strip_prefix(scheme).is_some_and(|rest| !rest.is_empty()));
+        match url_ok {
+            true => Ok(Bus::Nats(bus.to_string())),
+            false => Err(ConfigError::Bus(self.bus.clone())),
+        }
     }
 
     /// The default algorithm and the allow-list, parsed: `(default, None)` when every
@@ -306,6 +352,15 @@ mod tests {
         config.algorithms = Some(vec!["E".into()]);
         let (default, allowed) = config.allowed_algorithms().unwrap();
         assert_eq!(allowed.unwrap(), vec![default, "E".parse().unwrap()]);
+        config.bus = "redis://x".into();
+        let err = config.validate().unwrap_err().to_string();
+        assert!(err.starts_with("bus = \"redis://x\""), "{err}");
+        config.bus = "nats://127.0.0.1:4222".into();
+        assert_eq!(config.bus().unwrap(), Bus::Nats("nats://127.0.0.1:4222".into()));
+        config.node_name = Some("Node 1".into());
+        assert!(config.validate().is_err());
+        config.node_name = Some("node-1".into());
+        config.validate().unwrap();
         config.limits.max_batch_duration_s = f64::NAN;
         let err = config.validate().unwrap_err().to_string();
         assert!(err.starts_with("limits.max_batch_duration_s = NaN"), "{err}");

@@ -59,6 +59,8 @@ pub enum ApiError {
     Timeout(f64),
     #[error("the server is shutting down")]
     ShuttingDown,
+    #[error("the cluster bus is unreachable now ({0}); try again, or another node")]
+    BusUnavailable(String),
     #[error("internal error: {0}")]
     Internal(#[source] Box<dyn std::error::Error + Send + Sync>),
 }
@@ -88,7 +90,9 @@ impl ApiError {
             }
             ApiError::LimitReached(_) => StatusCode::TOO_MANY_REQUESTS,
             ApiError::Timeout(_) => StatusCode::REQUEST_TIMEOUT,
-            ApiError::Registering { .. } | ApiError::ShuttingDown => StatusCode::SERVICE_UNAVAILABLE,
+            ApiError::Registering { .. } | ApiError::ShuttingDown | ApiError::BusUnavailable(_) => {
+                StatusCode::SERVICE_UNAVAILABLE
+            }
             ApiError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
         }
     }
@@ -114,6 +118,7 @@ impl ApiError {
             ApiError::LimitReached(_) => ErrorCode::LimitReached,
             ApiError::Timeout(_) => ErrorCode::Timeout,
             ApiError::ShuttingDown => ErrorCode::ShuttingDown,
+            ApiError::BusUnavailable(_) => ErrorCode::BusUnavailable,
             ApiError::Internal(_) => ErrorCode::Internal,
         }
     }

@@ -105,6 +105,11 @@ impl HeadEntry {
         self.meta.producer_token()
     }
 
+    /// What tells this registration apart from another of the same id in the cluster.
+    pub fn registration_tag(&self) -> Option<&str> {
+        self.meta.registration_tag.as_deref()
+    }
+
     /// The ready head, or why there is none now.
     pub fn ready(&self) -> Result<Arc<ReadyHead>, ApiError> {
         match self.status() {

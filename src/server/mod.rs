@@ -6,8 +6,9 @@
 //! and who owns what.
 //!
 //! - Connections and shutdown: [`listen`]; routes: [`app`]; who may do what: [`auth`].
-//! - Heads: [`registry`], [`head`], [`registration`], [`bindings`], [`store`], [`heads`]
-//!   (their HTTP resources).
+//! - Heads: [`registry`], [`head`], [`registration`], [`bindings`], [`store`],
+//!   [`head_store`], [`heads`] (their HTTP resources).
+//! - Several nodes: [`cluster`] (NATS: frames between nodes, shared heads, leases).
 //! - Streams: [`stream`] (producer slot, pipelines), [`timeline`] (latest-frame-wins with
 //!   ends), [`pipeline`] (the per-frame job per algorithm).
 //! - Sockets: [`producer`], [`ingest`] (messages to frames), [`rate`], [`batch`],
@@ -17,10 +18,12 @@ mod app;
 mod auth;
 mod batch;
 mod bindings;
+mod cluster;
 pub mod config;
 pub mod demo;
 mod error;
 mod head;
+mod head_store;
 mod heads;
 mod ids;
 mod ingest;

@@ -23,6 +23,10 @@ pub async fn healthz(State(state): State<AppState>) -> impl IntoResponse {
         "streams": heads.iter().map(|h| h.stream_count()).sum::<usize>(),
         "viewers": state.config.limits.max_viewers - state.viewer_slots.available_permits(),
         "stored_problems": state.registry.problems(),
+        "bus": match &state.cluster {
+            Some(cluster) => json!({"kind": "nats", "node": cluster.node, "connected": cluster.connected()}),
+            None => json!({"kind": "local"}),
+        },
         "uptime_s": state.started.elapsed().as_secs_f64(),
     }))
 }

@@ -56,16 +56,17 @@ enum Ending {
 }
 
 async fn producer_session(mut socket: WebSocket, state: AppState, head: Arc<HeadEntry>, stream: Arc<Stream>) {
-    let Some(permit) = stream.claim_producer() else {
-        state.telemetry.reject(ErrorCode::ProducerBusy.as_str());
-        let message = format!("stream {:?} already has a producer; one at a time", stream.name);
-        return refuse(
-            &mut socket,
-            ErrorCode::ProducerBusy,
-            CloseCode::ProducerBusy,
-            message,
-        )
-        .await;
+    let permit = match state.claim_producer(&head.id, &stream).await {
+        Ok(permit) => permit,
+        Err(refused) => {
+            let code = refused.code();
+            state.telemetry.reject(code.as_str());
+            let close_code = match refused {
+                ApiError::ProducerBusy(_) => CloseCode::ProducerBusy,
+                _ => CloseCode::TryLater,
+            };
+            return refuse(&mut socket, code, close_code, refused.to_string()).await;
+        }
     };
     state.telemetry.producers.inc();
     tracing::info!(head = %head.id, stream = %stream.name, "producer connected");

@@ -12,9 +12,10 @@ use tokio_util::sync::CancellationToken;
 
 use super::error::ApiError;
 use super::head::{HeadEntry, HeadStatus, StreamLimits};
+use super::head_store::HeadStore;
 use super::ids::valid_id;
 use super::registration::{register, RegistrationError, RegistrationInput};
-use super::store::{HeadMeta, HeadRecord, Store};
+use super::store::{HeadMeta, HeadRecord};
 use super::trim::release_memory;
 use facewire_proto::codes::EndReason;
 
@@ -35,7 +36,7 @@ pub struct Registry {
 
 struct Inner {
     heads: Mutex<HashMap<String, Arc<HeadEntry>>>,
-    store: Option<Store>,
+    store: HeadStore,
     limits: RegistryLimits,
     registrations: Arc<Semaphore>,
     shutdown: CancellationToken,
@@ -44,7 +45,7 @@ struct Inner {
 }
 
 impl Registry {
-    pub fn new(store: Option<Store>, limits: RegistryLimits, shutdown: CancellationToken) -> Registry {
+    pub fn new(store: HeadStore, limits: RegistryLimits, shutdown: CancellationToken) -> Registry {
         Registry {
             inner: Arc::new(Inner {
                 heads: Mutex::new(HashMap::new()),
@@ -101,7 +102,7 @@ impl Registry {
     /// finishes. `persist` stores it first (false when it was just loaded from there).
     pub async fn register(
         &self,
-        record: HeadRecord,
+        mut record: HeadRecord,
         persist: bool,
         slot: OwnedSemaphorePermit,
     ) -> Result<Arc<HeadEntry>, ApiError> {
@@ -110,6 +111,11 @@ impl Registry {
                 what: "head id",
                 id: record.id,
             });
+        }
+        if persist {
+            if let HeadStore::Cluster(_) = self.inner.store {
+                record.meta.registration_tag = Some(super::cluster::random_node_name());
+            }
         }
         let entry = {
             let mut heads = self.inner.heads.lock().expect("heads lock");
@@ -125,21 +131,12 @@ impl Registry {
             heads.insert(entry.id.clone(), entry.clone());
             entry
         };
-        let record = match (persist, self.inner.store.clone()) {
-            (true, Some(store)) => {
-                // The record goes to the blocking pool and comes back, never copied.
-                let saved = tokio::task::spawn_blocking(move || {
-                    let saved = store.save(&record);
-                    (record, saved)
-                })
-                .await;
-                match saved {
-                    Ok((record, Ok(()))) => record,
-                    Ok((_, Err(e))) => return Err(self.forget(&entry.id, ApiError::internal(e))),
-                    Err(e) => return Err(self.forget(&entry.id, ApiError::internal(e))),
-                }
-            }
-            _ => record,
+        let record = match persist {
+            true => match self.inner.store.save(record).await {
+                Ok(record) => record,
+                Err(e) => return Err(self.forget(&entry.id, e)),
+            },
+            false => record,
         };
         let input = RegistrationInput {
             obj: record.obj,
@@ -187,39 +184,44 @@ impl Registry {
     }
 
     /// Removes a head: its streams end, its sockets close, its registration stops and its
-    /// folder (complete, partial or broken) is removed.
+    /// stored copy (complete, partial or broken; in the cluster, on every node) is removed.
     pub async fn delete(&self, id: &str) -> Result<(), ApiError> {
-        let entry = self.inner.heads.lock().expect("heads lock").remove(id);
+        if !valid_id(id) {
+            return Err(ApiError::UnknownHead(id.to_string()));
+        }
         let stored_problem = {
             let mut problems = self.inner.problems.lock().expect("problems lock");
             let before = problems.len();
             problems.retain(|p| !p.starts_with(&format!("{id}: ")));
             problems.len() != before
         };
-        if entry.is_none() && !stored_problem {
+        let known_here = self.get(id).is_some();
+        let kept = self.inner.store.delete(id).await?;
+        let dropped = self.drop_local(id);
+        if !known_here && !dropped && !stored_problem && !kept {
             return Err(ApiError::UnknownHead(id.to_string()));
         }
-        if let Some(entry) = &entry {
-            entry.end_streams(EndReason::HeadDeleted);
-            entry.deleted.cancel();
-        }
-        if let Some(store) = self.inner.store.clone() {
-            let id = id.to_string();
-            tokio::task::spawn_blocking(move || store.delete(&id))
-                .await
-                .map_err(ApiError::internal)?
-                .map_err(ApiError::internal)?;
-        }
+        Ok(())
+    }
+
+    /// Drops head `id` from this node only (its stored copy stays): its streams end, its
+    /// sockets close, its registration stops. False when this node did not have it.
+    pub fn drop_local(&self, id: &str) -> bool {
+        let Some(entry) = self.inner.heads.lock().expect("heads lock").remove(id) else {
+            return false;
+        };
+        entry.end_streams(EndReason::HeadDeleted);
+        entry.deleted.cancel();
         drop(entry);
         tokio::task::spawn_blocking(release_memory);
-        Ok(())
+        true
     }
 
     /// Registers every head stored in the data directory; heads that cannot be loaded
     /// are listed as failed (and can be deleted), folders with no valid id are reported
     /// in `/healthz`. Returns how many heads are registering.
     pub async fn load_stored(&self) -> Result<usize, ApiError> {
-        let Some(store) = self.inner.store.clone() else {
+        let Some(store) = self.inner.store.dir().cloned() else {
             return Ok(0);
         };
         let found = tokio::task::spawn_blocking(move || store.load_all())

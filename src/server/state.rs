@@ -10,10 +10,14 @@ use tokio_util::sync::CancellationToken;
 use tokio_util::task::TaskTracker;
 
 use super::auth::Tokens;
-use super::config::{Config, ConfigError};
+use super::cluster::{Cluster, ClusterError, LeaseError};
+use super::config::{Bus, Config, ConfigError};
+use super::error::ApiError;
 use super::head::StreamLimits;
+use super::head_store::HeadStore;
 use super::registry::{Registry, RegistryLimits};
 use super::store::{Store, StoreError};
+use super::stream::{ProducerPermit, Stream};
 use super::telemetry::Telemetry;
 use super::trim::Trimmer;
 use crate::deform::AlgoSpec;
@@ -45,6 +49,8 @@ pub struct Shared {
     pub mask: Arc<Mask>,
     pub arkit: Arc<ArkitBasis>,
     pub started: Instant,
+    /// The cluster this node is part of (`bus` is a NATS URL); `None` alone.
+    pub cluster: Option<Arc<Cluster>>,
 }
 
 impl std::ops::Deref for AppState {
@@ -61,14 +67,84 @@ pub enum StateError {
     Config(#[from] ConfigError),
     #[error("data directory: {0}")]
     Store(#[from] StoreError),
+    #[error(transparent)]
+    Cluster(#[from] ClusterError),
+    #[error("bus {0:?}: a cluster node is started with `AppState::start`")]
+    NeedsStart(String),
 }
 
 impl AppState {
-    /// State for `config`; opens the data directory (if any) but registers nothing yet.
+    /// State for a single node (`bus = "local"`); opens the data directory (if any) but
+    /// registers nothing yet.
     pub fn new(config: Config) -> Result<AppState, StateError> {
         config.validate()?;
-        let (default_spec, allowed_specs) = config.allowed_algorithms()?;
-        let store = config.data_dir.as_deref().map(Store::open).transpose()?;
+        if let Bus::Nats(url) = config.bus()? {
+            return Err(StateError::NeedsStart(url));
+        }
+        let store = match config.data_dir.as_deref() {
+            Some(dir) => HeadStore::Dir(Store::open(dir)?),
+            None => HeadStore::Memory,
+        };
+        Ok(AppState::build(config, store, None, Arc::default()))
+    }
+
+    /// State for `config`, alone or as a cluster node: connects to the bus, opens its
+    /// buckets and starts following the cluster's heads and streams.
+    pub async fn start(config: Config) -> Result<AppState, StateError> {
+        config.validate()?;
+        let Bus::Nats(url) = config.bus()? else {
+            return AppState::new(config);
+        };
+        let node = config
+            .node_name
+            .clone()
+            .unwrap_or_else(super::cluster::random_node_name);
+        let telemetry = Arc::new(Telemetry::default());
+        let mask = Arc::new(Mask::candide3());
+        let cluster = Arc::new(Cluster::connect(&url, &node, mask, telemetry.clone()).await?);
+        let store = HeadStore::Cluster(cluster.heads.clone());
+        let state = AppState::build(config, store, Some(cluster.clone()), telemetry);
+        cluster
+            .start(
+                state.registry.clone(),
+                state.mask.clone(),
+                state.telemetry.clone(),
+                state.shutdown.clone(),
+            )
+            .await?;
+        tracing::info!(%url, node = %node, "cluster node started");
+        Ok(state)
+    }
+
+    /// Takes `stream`'s producer slot here and, in a cluster, on every node (the relay to
+    /// the other nodes comes with it): `ProducerBusy` when a producer holds it anywhere,
+    /// `BusUnavailable` when the cluster cannot say.
+    pub async fn claim_producer(&self, head: &str, stream: &Arc<Stream>) -> Result<ProducerPermit, ApiError> {
+        let mut permit = stream
+            .claim_producer()
+            .ok_or_else(|| ApiError::ProducerBusy(stream.name.clone()))?;
+        if let Some(cluster) = &self.cluster {
+            match cluster.claim(head, &stream.name, permit.cancel_token()).await {
+                Ok(relay) => permit.relay_to(relay),
+                Err(e) => {
+                    permit.abandon();
+                    return Err(match e {
+                        LeaseError::Busy { .. } => ApiError::ProducerBusy(stream.name.clone()),
+                        LeaseError::Unavailable(message) => ApiError::BusUnavailable(message),
+                    });
+                }
+            }
+        }
+        Ok(permit)
+    }
+
+    fn build(
+        config: Config,
+        store: HeadStore,
+        cluster: Option<Arc<Cluster>>,
+        telemetry: Arc<Telemetry>,
+    ) -> AppState {
+        let (default_spec, allowed_specs) = config.allowed_algorithms().expect("validated by the caller");
         let limits = &config.limits;
         let shutdown = CancellationToken::new();
         let registry = Registry::new(
@@ -84,10 +160,10 @@ impl AppState {
             },
             shutdown.clone(),
         );
-        Ok(AppState {
+        AppState {
             inner: Arc::new(Shared {
                 registry,
-                telemetry: Arc::new(Telemetry::default()),
+                telemetry,
                 shutdown,
                 sessions: TaskTracker::new(),
                 default_spec,
@@ -98,8 +174,9 @@ impl AppState {
                 mask: Arc::new(Mask::candide3()),
                 arkit: Arc::new(ArkitBasis::shipped()),
                 started: Instant::now(),
+                cluster,
                 config,
             }),
-        })
+        }
     }
 }

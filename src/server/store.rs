@@ -58,6 +58,10 @@ pub struct HeadMeta {
     /// Written from `HeadRecord::parts` on save, read back into it on load.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     parts: Vec<StoredPart>,
+    /// With the cluster bus: tells registrations of the same id apart (a head deleted
+    /// and registered again is a new head on every node).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub registration_tag: Option<String>,
 }
 
 impl HeadMeta {
@@ -68,7 +72,27 @@ impl HeadMeta {
                 .map(|t| TokenDigest::of(t).to_hex()),
             producer_token: None,
             parts: Vec::new(),
+            registration_tag: None,
         }
+    }
+
+    /// This metadata listing `parts` (names and roles; their meshes are stored apart).
+    pub fn listing(&self, parts: &[PartRecord]) -> HeadMeta {
+        HeadMeta {
+            parts: parts
+                .iter()
+                .map(|p| StoredPart {
+                    name: p.name.clone(),
+                    role: p.role,
+                })
+                .collect(),
+            ..self.clone()
+        }
+    }
+
+    /// The parts listed, as (name, role).
+    pub fn listed_parts(&self) -> impl Iterator<Item = (&str, Option<PartRole>)> {
+        self.parts.iter().map(|p| (p.name.as_str(), p.role))
     }
 
     pub fn producer_token(&self) -> Option<TokenDigest> {
@@ -141,18 +165,7 @@ impl Store {
                 write_atomic(&path, &part.obj).map_err(io(&path))?;
             }
         }
-        let meta = HeadMeta {
-            parts: record
-                .parts
-                .iter()
-                .map(|p| StoredPart {
-                    name: p.name.clone(),
-                    role: p.role,
-                })
-                .collect(),
-            ..record.meta.clone()
-        };
-        self.save_meta(&record.id, &meta)
+        self.save_meta(&record.id, &record.meta.listing(&record.parts))
     }
 
     fn save_meta(&self, id: &str, meta: &HeadMeta) -> Result<(), StoreError> {

@@ -26,6 +26,14 @@ pub struct ReceivedFrame {
 
 pub type ParamTimeline = Timeline<ReceivedFrame>;
 
+/// Where a producer's frames and end go besides this node's viewers: the cluster bus
+/// (`super::cluster`), attached to a permit once the stream's cluster-wide lease is held.
+/// Both calls return at once; they never wait on the network.
+pub trait Relay: Send + Sync {
+    fn frame(&self, frame: &Arc<ReceivedFrame>);
+    fn end(&self, reason: EndReason);
+}
+
 pub struct Stream {
     pub name: String,
     params: watch::Sender<ParamTimeline>,
@@ -62,6 +70,7 @@ impl Stream {
             stream: self.clone(),
             cancel,
             ended: false,
+            relay: None,
         })
     }
 
@@ -84,6 +93,14 @@ impl Stream {
     /// ignored).
     pub fn end(&self, reason: EndReason) {
         self.params.send_if_modified(|t| t.end(reason).is_some());
+        self.touch();
+    }
+
+    /// Publishes a frame whose producer is on another node (it came over the bus).
+    pub fn publish_relayed(&self, frame: Arc<ReceivedFrame>) {
+        self.params.send_modify(|t| {
+            t.publish(frame);
+        });
         self.touch();
     }
 
@@ -141,22 +158,47 @@ pub struct ProducerPermit {
     stream: Arc<Stream>,
     cancel: CancellationToken,
     ended: bool,
+    relay: Option<Box<dyn Relay>>,
 }
 
 impl ProducerPermit {
-    /// Publishes a frame: viewers' pipelines deform the newest one.
+    /// Publishes a frame: viewers' pipelines deform the newest one, here and, with a
+    /// relay, on every other node.
     pub fn publish(&self, frame: Frame, received_us: u64) {
         let frame = Arc::new(ReceivedFrame { frame, received_us });
-        self.stream.params.send_modify(|t| {
-            t.publish(frame);
-        });
-        self.stream.touch();
+        if let Some(relay) = &self.relay {
+            relay.frame(&frame);
+        }
+        self.stream.publish_relayed(frame);
     }
 
     /// Ends the stream with `reason` and gives the slot back.
     pub fn end(mut self, reason: EndReason) {
-        self.stream.end(reason);
+        self.end_everywhere(reason);
         self.ended = true;
+    }
+
+    fn end_everywhere(&self, reason: EndReason) {
+        if let Some(relay) = &self.relay {
+            relay.end(reason);
+        }
+        self.stream.end(reason);
+    }
+
+    /// Sends this producer's frames and end to `relay` too.
+    pub fn relay_to(&mut self, relay: Box<dyn Relay>) {
+        self.relay = Some(relay);
+    }
+
+    /// Gives the slot back without ending the stream (the producer was refused before
+    /// it sent anything: the stream may be running from another node).
+    pub fn abandon(mut self) {
+        self.ended = true;
+    }
+
+    /// The token that cancels this producer (as `DELETE .../producer` does).
+    pub fn cancel_token(&self) -> CancellationToken {
+        self.cancel.clone()
     }
 
     /// Resolves when the producer is cancelled (`DELETE .../producer`).
@@ -172,7 +214,7 @@ impl ProducerPermit {
 impl Drop for ProducerPermit {
     fn drop(&mut self) {
         if !self.ended {
-            self.stream.end(EndReason::ProducerDisconnected);
+            self.end_everywhere(EndReason::ProducerDisconnected);
         }
         *self.stream.producer.lock().expect("producer lock") = None;
         self.stream.touch();

@@ -46,14 +46,21 @@ pub struct Telemetry {
     pub frames_skipped: Family<StageLabel, Counter>,
     pub deform_seconds: Histogram,
     pub encode_seconds: Histogram,
-    /// Latency per hop: `receive_to_publish` (parameters in to encoded frame out) and
-    /// `publish_to_send` (encoded to written to a viewer socket).
+    /// Latency per hop: `receive_to_publish` (parameters in to encoded frame out),
+    /// `publish_to_send` (encoded to written to a viewer socket) and `bus` (received by
+    /// the producer's node to received here, for frames from other nodes).
     pub latency_seconds: Family<HopLabel, Histogram>,
     pub viewers: Gauge,
     pub producers: Gauge,
     /// Deform pipelines running (one per stream and algorithm with viewers).
     pub pipelines: Gauge,
     pub heads: Gauge,
+    /// Cluster bus messages (frames and ends) published by this node's producers.
+    pub bus_messages_out: Counter,
+    /// Cluster bus messages received from other nodes.
+    pub bus_messages_in: Counter,
+    /// Bus messages dropped, by cause (`queue_full`, `unknown_head`, `bad_frame`, ...).
+    pub bus_dropped: Family<CodeLabel, Counter>,
     /// CPU seconds of the whole process, read when the metrics are rendered.
     process_cpu_seconds: Gauge<f64, AtomicU64>,
     /// Resident memory of the whole process, bytes, read when the metrics are rendered.
@@ -81,6 +88,9 @@ impl Default for Telemetry {
             producers: Gauge::default(),
             pipelines: Gauge::default(),
             heads: Gauge::default(),
+            bus_messages_out: Counter::default(),
+            bus_messages_in: Counter::default(),
+            bus_dropped: Family::default(),
             process_cpu_seconds: Gauge::default(),
             process_resident_bytes: Gauge::default(),
             registry: Registry::default(),
@@ -118,6 +128,21 @@ impl Default for Telemetry {
         registry.register("pipelines", "Deform pipelines running", t.pipelines.clone());
         registry.register("heads", "Registered heads", t.heads.clone());
         registry.register(
+            "bus_messages_out",
+            "Cluster bus messages published",
+            t.bus_messages_out.clone(),
+        );
+        registry.register(
+            "bus_messages_in",
+            "Cluster bus messages received",
+            t.bus_messages_in.clone(),
+        );
+        registry.register(
+            "bus_dropped",
+            "Cluster bus messages dropped, by cause",
+            t.bus_dropped.clone(),
+        );
+        registry.register(
             "process_cpu_seconds",
             "CPU time of the server process, user and system",
             t.process_cpu_seconds.clone(),
@@ -137,6 +162,12 @@ impl Telemetry {
             .get_or_create(&CodeLabel {
                 code: code.to_string(),
             })
+            .inc();
+    }
+
+    pub fn bus_dropped(&self, code: &'static str) {
+        self.bus_dropped
+            .get_or_create(&CodeLabel { code: code.into() })
             .inc();
     }
 

@@ -2,6 +2,7 @@
 //! a shipped head with its fit, posing the mask, deforming with a binding.
 #![allow(dead_code)] // each test file uses its own subset
 
+pub mod nats;
 pub mod service;
 pub mod streams;
 

@@ -1,0 +1,259 @@
+//! The head registry shared by every node. A head's metadata and fit are one JSON value
+//! under its id in the key-value bucket `facewire_heads`; its mesh and parts are objects
+//! `<id>/<tag>/head.obj` and `<id>/<tag>/parts/<name>.obj` in the object store
+//! `facewire_meshes`, where the tag tells registrations of the same id apart. Objects are
+//! written before the key and removed after it, so a node that sees a key finds its
+//! meshes. Every node follows the bucket from its start (the current value of every key
+//! first, then changes) and registers or drops heads to match; bindings stay local.
+
+use std::time::Duration;
+
+use async_nats::jetstream::{self, kv, object_store};
+use bytes::Bytes;
+use futures_util::StreamExt;
+use serde::{Deserialize, Serialize};
+use tokio::io::AsyncReadExt;
+use tokio_util::sync::CancellationToken;
+
+use crate::server::registry::Registry;
+use crate::server::store::{HeadMeta, HeadRecord, PartRecord};
+
+const HEADS_BUCKET: &str = "facewire_heads";
+const MESHES_BUCKET: &str = "facewire_meshes";
+/// How long a follower waits before watching again after the watch failed.
+const REWATCH: Duration = Duration::from_secs(1);
+
+/// The value under a head's id.
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SharedHead {
+    tag: String,
+    fit_toml: String,
+    /// Lists the parts; their meshes are objects.
+    meta: HeadMeta,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum SharedHeadError {
+    #[error("head {0:?} is already registered in the cluster")]
+    Exists(String),
+    #[error("cluster registry: {0}")]
+    Bus(String),
+}
+
+fn bus(e: impl std::fmt::Display) -> SharedHeadError {
+    SharedHeadError::Bus(e.to_string())
+}
+
+/// The shared registry's buckets; cloning is cheap.
+#[derive(Clone)]
+pub struct ClusterHeads {
+    kv: kv::Store,
+    objects: object_store::ObjectStore,
+}
+
+fn mesh_name(id: &str, tag: &str) -> String {
+    format!("{id}/{tag}/head.obj")
+}
+
+fn part_name(id: &str, tag: &str, part: &str) -> String {
+    format!("{id}/{tag}/parts/{part}.obj")
+}
+
+impl ClusterHeads {
+    /// Opens the buckets, making them if this is the cluster's first node. The error names
+    /// the bucket.
+    pub async fn open(js: &jetstream::Context) -> Result<ClusterHeads, (&'static str, String)> {
+        let kv = js
+            .create_key_value(kv::Config {
+                bucket: HEADS_BUCKET.into(),
+                description: "facewire: registered heads (metadata and fit)".into(),
+                history: 1,
+                storage: jetstream::stream::StorageType::File,
+                ..Default::default()
+            })
+            .await
+            .map_err(|e| (HEADS_BUCKET, e.to_string()))?;
+        let objects = js
+            .create_object_store(object_store::Config {
+                bucket: MESHES_BUCKET.into(),
+                description: Some("facewire: head and part meshes (OBJ)".into()),
+                storage: jetstream::stream::StorageType::File,
+                ..Default::default()
+            })
+            .await
+            .map_err(|e| (MESHES_BUCKET, e.to_string()))?;
+        Ok(ClusterHeads { kv, objects })
+    }
+
+    /// Stores a new head for every node; `record.meta.registration_tag` must be set.
+    /// Fails with `Exists` when any node has registered the id.
+    pub async fn save(&self, record: &HeadRecord) -> Result<(), SharedHeadError> {
+        let id = record.id.as_str();
+        let tag = record.meta.registration_tag.clone().unwrap_or_default();
+        if self.current(id).await?.is_some() {
+            return Err(SharedHeadError::Exists(id.to_string()));
+        }
+        let mut objects = vec![(mesh_name(id, &tag), &record.obj)];
+        for part in &record.parts {
+            objects.push((part_name(id, &tag, &part.name), &part.obj));
+        }
+        for (name, bytes) in &objects {
+            self.objects
+                .put(name.as_str(), &mut bytes.as_slice())
+                .await
+                .map_err(bus)?;
+        }
+        let value = SharedHead {
+            tag: tag.clone(),
+            fit_toml: record.fit_toml.clone(),
+            meta: record.meta.listing(&record.parts),
+        };
+        let value = Bytes::from(serde_json::to_vec(&value).expect("head metadata serializes"));
+        match self.kv.create(id, value).await {
+            Ok(_) => Ok(()),
+            Err(e) => {
+                self.remove_objects(objects.iter().map(|(name, _)| name.clone()))
+                    .await;
+                match e.kind() {
+                    kv::CreateErrorKind::AlreadyExists => Err(SharedHeadError::Exists(id.to_string())),
+                    _ => Err(bus(e)),
+                }
+            }
+        }
+    }
+
+    /// Removes a head for every node; false when the cluster has no such head.
+    pub async fn delete(&self, id: &str) -> Result<bool, SharedHeadError> {
+        let Some(shared) = self.current(id).await? else {
+            return Ok(false);
+        };
+        self.kv.delete(id).await.map_err(bus)?;
+        let mut names = vec![mesh_name(id, &shared.tag)];
+        for (part, _) in shared.meta.listed_parts() {
+            names.push(part_name(id, &shared.tag, part));
+        }
+        self.remove_objects(names.into_iter()).await;
+        Ok(true)
+    }
+
+    async fn current(&self, id: &str) -> Result<Option<SharedHead>, SharedHeadError> {
+        match self.kv.entry(id).await.map_err(bus)? {
+            Some(entry) if entry.operation == kv::Operation::Put => {
+                serde_json::from_slice(&entry.value).map(Some).map_err(bus)
+            }
+            _ => Ok(None),
+        }
+    }
+
+    async fn remove_objects(&self, names: impl Iterator<Item = String>) {
+        for name in names {
+            if let Err(e) = self.objects.delete(&name).await {
+                tracing::warn!(object = %name, error = %e, "mesh object not removed");
+            }
+        }
+    }
+
+    async fn read_object(&self, name: &str) -> Result<Vec<u8>, SharedHeadError> {
+        let mut object = self
+            .objects
+            .get(name)
+            .await
+            .map_err(|e| SharedHeadError::Bus(format!("{name}: {e}")))?;
+        let mut bytes = Vec::new();
+        object
+            .read_to_end(&mut bytes)
+            .await
+            .map_err(|e| SharedHeadError::Bus(format!("{name}: {e}")))?;
+        Ok(bytes)
+    }
+
+    async fn load(&self, id: &str, shared: SharedHead) -> Result<HeadRecord, SharedHeadError> {
+        let obj = self.read_object(&mesh_name(id, &shared.tag)).await?;
+        let mut parts = Vec::new();
+        for (name, role) in shared.meta.listed_parts() {
+            parts.push(PartRecord {
+                name: name.to_string(),
+                role,
+                obj: self.read_object(&part_name(id, &shared.tag, name)).await?,
+            });
+        }
+        Ok(HeadRecord {
+            id: id.to_string(),
+            obj,
+            fit_toml: shared.fit_toml,
+            parts,
+            meta: shared.meta,
+        })
+    }
+
+    /// Keeps `registry` in step with the bucket until `shutdown`: every head in it is
+    /// registered here, every head deleted from it is dropped here. Watches again (from
+    /// each key's current value, which is idempotent) when the watch fails, as it does
+    /// while NATS restarts.
+    pub async fn follow(self, registry: Registry, shutdown: CancellationToken) {
+        loop {
+            match self.kv.watch_with_history(">").await {
+                Ok(mut changes) => loop {
+                    let change = tokio::select! {
+                        _ = shutdown.cancelled() => return,
+                        change = changes.next() => change,
+                    };
+                    match change {
+                        Some(Ok(entry)) => self.apply(&registry, entry).await,
+                        Some(Err(e)) => {
+                            tracing::warn!(error = %e, "registry watch failed; watching again");
+                            break;
+                        }
+                        None => break,
+                    }
+                },
+                Err(e) => tracing::warn!(error = %e, "cannot watch the cluster registry; retrying"),
+            }
+            tokio::select! {
+                _ = shutdown.cancelled() => return,
+                _ = tokio::time::sleep(REWATCH) => {}
+            }
+        }
+    }
+
+    async fn apply(&self, registry: &Registry, entry: kv::Entry) {
+        let id = entry.key.as_str();
+        let local_tag = registry.get(id).map(|h| h.registration_tag().map(str::to_string));
+        if entry.operation != kv::Operation::Put {
+            if local_tag.is_some() {
+                tracing::info!(head = %id, "head deleted on another node");
+                registry.drop_local(id);
+            }
+            return;
+        }
+        let shared: SharedHead = match serde_json::from_slice(&entry.value) {
+            Ok(shared) => shared,
+            Err(e) => {
+                tracing::warn!(head = %id, error = %e, "cluster registry entry skipped");
+                return;
+            }
+        };
+        match local_tag {
+            Some(Some(tag)) if tag == shared.tag => return,
+            Some(_) => {
+                tracing::info!(head = %id, "head registered again on another node");
+                registry.drop_local(id);
+            }
+            None => {}
+        }
+        let record = match self.load(id, shared).await {
+            Ok(record) => record,
+            Err(e) => {
+                tracing::warn!(head = %id, error = %e, "cluster head not loaded");
+                return;
+            }
+        };
+        let Ok(slot) = registry.registration_slot(Duration::MAX).await else {
+            return;
+        };
+        if let Err(e) = registry.register(record, false, slot).await {
+            tracing::warn!(head = %id, error = %e, "cluster head not registered here");
+        }
+    }
+}

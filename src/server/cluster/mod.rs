@@ -1,0 +1,160 @@
+//! Several facewire nodes over NATS (`bus = "nats://..."`). Nodes exchange what is small —
+//! producers' parameter frames and stream ends, on core NATS subjects — and each deforms
+//! locally for its own viewers, so adding a node adds deform and fan-out capacity. What
+//! must agree across nodes lives in JetStream: the head registry (a key-value bucket for
+//! metadata and fits, the object store for meshes and parts) and the producer leases that
+//! keep one producer per stream. Bindings, pipelines and sockets stay node-local.
+//! Subjects, buckets and message formats: `proto/PROTOCOL.md` "Cluster bus".
+//!
+//! - [`relay`]: frames and ends between nodes; [`lease`]: one producer per stream and
+//!   node liveness; [`heads`]: the shared registry.
+
+mod heads;
+mod lease;
+mod relay;
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use async_nats::jetstream;
+
+use super::registry::Registry;
+use super::telemetry::Telemetry;
+use crate::mask::Mask;
+pub use heads::{ClusterHeads, SharedHeadError};
+pub use lease::LeaseError;
+
+/// Subject and bucket names start with this.
+const PREFIX: &str = "facewire";
+
+#[derive(Debug, thiserror::Error)]
+pub enum ClusterError {
+    #[error("bus {url:?}: cannot connect to NATS: {source}")]
+    Connect {
+        url: String,
+        source: async_nats::ConnectError,
+    },
+    #[error(
+        "bus {url:?}: JetStream bucket {bucket:?}: {message} (is the server started with JetStream, `-js`?)"
+    )]
+    Bucket {
+        url: String,
+        bucket: &'static str,
+        message: String,
+    },
+    #[error("bus: cannot subscribe to {subject:?}: {source}")]
+    Subscribe {
+        subject: String,
+        source: async_nats::SubscribeError,
+    },
+}
+
+/// This node's connection to the cluster; cloning the `Arc` is cheap.
+pub struct Cluster {
+    client: async_nats::Client,
+    /// This node's name: in leases, in liveness subjects, in logs.
+    pub node: String,
+    pub heads: ClusterHeads,
+    leases: lease::Leases,
+    outbox: relay::Outbox,
+}
+
+impl Cluster {
+    /// Connects to NATS at `url` as `node` and opens (or creates) the buckets. Fails when
+    /// the server cannot be reached now; once connected, the client reconnects by itself
+    /// for as long as the node runs.
+    pub async fn connect(
+        url: &str,
+        node: &str,
+        mask: Arc<Mask>,
+        telemetry: Arc<Telemetry>,
+    ) -> Result<Cluster, ClusterError> {
+        let client = async_nats::ConnectOptions::new()
+            .name(format!("facewire {node}"))
+            // A node never needs its own messages back: its viewers read its producers
+            // directly.
+            .no_echo()
+            .connection_timeout(Duration::from_secs(5))
+            .max_reconnects(None)
+            .event_callback(|event| async move {
+                match event {
+                    async_nats::Event::Connected => tracing::info!("bus connected"),
+                    async_nats::Event::Disconnected => tracing::warn!("bus disconnected; reconnecting"),
+                    other => tracing::info!(event = %other, "bus event"),
+                }
+            })
+            .connect(url)
+            .await
+            .map_err(|source| ClusterError::Connect {
+                url: url.to_string(),
+                source,
+            })?;
+        let js = jetstream::new(client.clone());
+        let bucket_error = |bucket: &'static str| {
+            move |e: &dyn std::fmt::Display| ClusterError::Bucket {
+                url: url.to_string(),
+                bucket,
+                message: e.to_string(),
+            }
+        };
+        let heads = ClusterHeads::open(&js)
+            .await
+            .map_err(|(bucket, e)| bucket_error(bucket)(&e))?;
+        let leases = lease::Leases::open(&js, client.clone(), node)
+            .await
+            .map_err(|e| bucket_error(lease::BUCKET)(&e))?;
+        let outbox = relay::Outbox::start(client.clone(), mask, telemetry);
+        Ok(Cluster {
+            client,
+            node: node.to_string(),
+            heads,
+            leases,
+            outbox,
+        })
+    }
+
+    /// Starts what the node does for the cluster until `registry`'s server shuts down:
+    /// answering liveness checks, relaying other nodes' frames to local streams, and
+    /// following the shared registry.
+    pub async fn start(
+        self: &Arc<Self>,
+        registry: Registry,
+        mask: Arc<Mask>,
+        telemetry: Arc<Telemetry>,
+        shutdown: tokio_util::sync::CancellationToken,
+    ) -> Result<(), ClusterError> {
+        let liveness = self.leases.answer_liveness(&self.client).await?;
+        tokio::spawn(liveness);
+        let inbound = relay::inbound(&self.client, registry.clone(), mask, telemetry).await?;
+        tokio::spawn(inbound);
+        let follow = self.heads.clone().follow(registry, shutdown);
+        tokio::spawn(follow);
+        Ok(())
+    }
+
+    /// Whether the NATS connection is up now.
+    pub fn connected(&self) -> bool {
+        self.client.connection_state() == async_nats::connection::State::Connected
+    }
+
+    /// Claims `head`'s stream `stream` for a producer on this node: a relay that sends
+    /// the producer's frames to every node and holds the lease until it drops.
+    pub async fn claim(
+        &self,
+        head: &str,
+        stream: &str,
+        cancel_producer: tokio_util::sync::CancellationToken,
+    ) -> Result<Box<dyn super::stream::Relay>, LeaseError> {
+        let lease = self.leases.claim(head, stream, cancel_producer).await?;
+        Ok(Box::new(self.outbox.relay(head, stream, lease)))
+    }
+}
+
+/// A node name nobody else has: `node-` and 10 hex digits from the process id and clock.
+pub fn random_node_name() -> String {
+    use sha2::{Digest, Sha256};
+    let seed = format!("{}-{}", std::process::id(), super::now_us());
+    let digest = Sha256::digest(seed.as_bytes());
+    let hex: String = digest[..5].iter().map(|b| format!("{b:02x}")).collect();
+    format!("node-{hex}")
+}
