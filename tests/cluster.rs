@@ -200,3 +200,168 @@ async fn three_nodes_share_a_head_and_a_stream_frame_for_frame() {
     wait_ready_anywhere(&n4, "late", Duration::from_secs(30)).await;
     assert!(info(&n4, HEAD).await.is_none(), "the deleted head stays deleted");
 }
+
+/// Sends frames from `first` at 30 fps until `stop`, then returns the next seq. Reconnects
+/// to the next of `urls` (round robin) when its node goes away, as a producer client
+/// should; each reconnect is reported with how long it took.
+async fn keep_producing(
+    urls: Vec<String>,
+    first: u64,
+    stop: tokio_util::sync::CancellationToken,
+) -> (u64, Vec<Duration>) {
+    let mut seq = first;
+    let mut reconnects = Vec::new();
+    let mut at = 0;
+    let mut socket = connect(&urls[at]).await;
+    let mut ticks = tokio::time::interval(Duration::from_millis(33));
+    while !stop.is_cancelled() {
+        ticks.tick().await;
+        let sent = socket.send(Message::Text(line(seq).into())).await;
+        let acked = match sent {
+            Ok(()) => matches!(
+                tokio::time::timeout(Duration::from_secs(2), futures_util::StreamExt::next(&mut socket)).await,
+                Ok(Some(Ok(Message::Text(_))))
+            ),
+            Err(_) => false,
+        };
+        if acked {
+            seq += 1;
+            continue;
+        }
+        let lost = Instant::now();
+        loop {
+            at = (at + 1) % urls.len();
+            if let Ok((mut next, _)) = tokio_tungstenite::connect_async(&urls[at]).await {
+                // A refusal (the lease still held) comes as an error and a close.
+                next.send(Message::Text(line(seq).into())).await.unwrap();
+                if let Ok(Some(Ok(Message::Text(text)))) =
+                    tokio::time::timeout(Duration::from_secs(2), futures_util::StreamExt::next(&mut next)).await
+                {
+                    if text.contains("\"ack\"") {
+                        seq += 1;
+                        socket = next;
+                        break;
+                    }
+                }
+            }
+            assert!(lost.elapsed() < Duration::from_secs(20), "no node took the producer back");
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+        reconnects.push(lost.elapsed());
+    }
+    (seq, reconnects)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_killed_node_drops_only_its_own_connections() {
+    let nats = NatsServer::start();
+    let n1 = node(&nats, "n1").await;
+    let n2 = node(&nats, "n2").await;
+    let n3 = node(&nats, "n3").await;
+    n1.register(HEAD, "makehuman_head", "").await;
+    wait_ready_anywhere(&n2, HEAD, Duration::from_secs(30)).await;
+    wait_ready_anywhere(&n3, HEAD, Duration::from_secs(30)).await;
+
+    let mut on_n2 = viewer(&n2).await;
+    let mut on_n3 = viewer(&n3).await;
+    let produce_path = format!("/v1/heads/{HEAD}/streams/{STREAM}/produce");
+    let stop = tokio_util::sync::CancellationToken::new();
+    // The producer starts on node 2 and moves to node 1 when node 2 dies.
+    let producing = tokio::spawn(keep_producing(
+        vec![n2.ws(&produce_path), n1.ws(&produce_path)],
+        0,
+        stop.clone(),
+    ));
+    let mut last_on_n2 = 0;
+    while last_on_n2 < 20 {
+        last_on_n2 = next_seq(&mut on_n2, Duration::from_secs(5)).await.expect("frames on node 2");
+    }
+
+    drop(n2); // SIGKILL: no goodbyes
+
+    // Node 3's viewer keeps watching: the producer resumes on node 1 and its frames come
+    // on, with no end in between.
+    let killed = Instant::now();
+    let mut last_on_n3 = 0;
+    while last_on_n3 < last_on_n2 + 30 {
+        last_on_n3 = next_seq(&mut on_n3, Duration::from_secs(10))
+            .await
+            .expect("frames on node 3 after node 2 died");
+    }
+    let resumed_after = killed.elapsed();
+
+    // Node 2's viewer reconnects to node 1 and starts from the newest frame at once.
+    match next_message(&mut on_n2).await {
+        None | Some(Message::Close(_)) => {}
+        Some(other) => panic!("node 2's viewer still open: {other:?}"),
+    }
+    let mut moved = viewer(&n1).await;
+    let first = next_seq(&mut moved, Duration::from_millis(500))
+        .await
+        .expect("the newest frame within 0.5 s");
+    assert!(first >= last_on_n3, "resumed at {first}, behind {last_on_n3}");
+
+    stop.cancel();
+    let (_, reconnects) = producing.await.unwrap();
+    assert_eq!(reconnects.len(), 1, "{reconnects:?}");
+    assert!(
+        reconnects[0] < Duration::from_secs(3),
+        "the producer took {:?} to resume on node 1",
+        reconnects[0]
+    );
+    println!(
+        "producer resumed on node 1 {:?} after its node died; node 3 saw 30 new frames {:?} after the kill",
+        reconnects[0], resumed_after
+    );
+    for survivor in [&n1, &n3] {
+        assert_eq!(info(survivor, HEAD).await.unwrap().status, "ready");
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_nats_restart_is_survived_without_restarting_facewire() {
+    let mut nats = NatsServer::start();
+    let n1 = node(&nats, "n1").await;
+    let n2 = node(&nats, "n2").await;
+    n1.register(HEAD, "makehuman_head", "").await;
+    wait_ready_anywhere(&n2, HEAD, Duration::from_secs(30)).await;
+
+    let mut on_n2 = viewer(&n2).await;
+    let stop = tokio_util::sync::CancellationToken::new();
+    let producing = tokio::spawn(keep_producing(
+        vec![n1.ws(&format!("/v1/heads/{HEAD}/streams/{STREAM}/produce"))],
+        0,
+        stop.clone(),
+    ));
+    let mut last = 0;
+    while last < 10 {
+        last = next_seq(&mut on_n2, Duration::from_secs(5)).await.expect("frames on node 2");
+    }
+
+    nats.kill();
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    nats.restart();
+    let restarted = Instant::now();
+    // Frames produced on node 1 reach node 2 again.
+    let before = last;
+    while last < before + 60 + 30 {
+        last = next_seq(&mut on_n2, Duration::from_secs(15))
+            .await
+            .expect("frames on node 2 after NATS came back");
+    }
+    let resumed = restarted.elapsed();
+    assert!(resumed < Duration::from_secs(10), "frames resumed {resumed:?} after the restart");
+
+    // The registry survived and is followed again: a head registered now reaches node 1.
+    assert_eq!(info(&n2, HEAD).await.unwrap().status, "ready");
+    n2.register("after", "makehuman_head", "").await;
+    wait_ready_anywhere(&n1, "after", Duration::from_secs(30)).await;
+    // And the lease is still held: a second producer on node 2 is refused.
+    let mut second = producer(&n2).await;
+    assert_eq!(close_code(&mut second).await, 4409);
+
+    stop.cancel();
+    let (_, reconnects) = producing.await.unwrap();
+    assert!(reconnects.is_empty(), "the producer on node 1 was never dropped: {reconnects:?}");
+    println!("frames flowed between nodes again {resumed:?} after NATS restarted");
+}

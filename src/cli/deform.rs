@@ -199,7 +199,7 @@ pub fn run(args: Args) -> CliResult {
             )?;
         }
         written += 1;
-        if written % 50 == 0 {
+        if written.is_multiple_of(50) {
             eprint!("\r{written} frames");
         }
     }

@@ -9,7 +9,7 @@ use super::store::{HeadRecord, Store};
 pub enum HeadStore {
     Memory,
     Dir(Store),
-    Cluster(ClusterHeads),
+    Cluster(Box<ClusterHeads>),
 }
 
 impl HeadStore {

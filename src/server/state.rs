@@ -102,7 +102,7 @@ impl AppState {
         let telemetry = Arc::new(Telemetry::default());
         let mask = Arc::new(Mask::candide3());
         let cluster = Arc::new(Cluster::connect(&url, &node, mask, telemetry.clone()).await?);
-        let store = HeadStore::Cluster(cluster.heads.clone());
+        let store = HeadStore::Cluster(Box::new(cluster.heads.clone()));
         let state = AppState::build(config, store, Some(cluster.clone()), telemetry);
         cluster
             .start(
