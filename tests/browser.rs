@@ -3,7 +3,8 @@
 //! Checks that the page goes live, that the head moves, that switching the algorithm
 //! reconnects with it, that a second view runs beside the first, that a stream which stops
 //! sending shows as stalled and a new stream appears in the picker, that the heat-map's
-//! scale is picked and kept in the URL, and that an unknown head shows the error state.
+//! scale is picked and kept in the URL, that an unknown head shows the error state, and
+//! that a page given two cluster nodes moves to the second when the first is killed.
 //! WebDriver is plain HTTP and JSON, spoken here with reqwest; the test's own producer
 //! speaks WebSocket with tokio-tungstenite.
 
@@ -238,7 +239,77 @@ async fn the_page_shows_the_head_talking_live() {
     }
 }
 
+/// Two cluster nodes over a real NATS server; the page, served by node 1 and told both
+/// nodes (`?nodes=`), watches a stream produced on node 2. Node 1 is killed: the page
+/// moves to node 2 by itself and the head keeps talking.
+async fn check_failover_across_nodes(browser: &Browser) {
+    use common::nats::NatsServer;
+    use common::service::Server;
+    let nats = NatsServer::start();
+    let config = |name: &str| format!("bus = \"{}\"\nnode_name = \"{name}\"\n", nats.url());
+    let n1 = Server::spawn(&config("n1")).await;
+    let n2 = Server::spawn(&config("n2")).await;
+    n1.register("mh", "makehuman_head", "").await;
+    n2.wait_ready_in_cluster("mh", Duration::from_secs(60)).await;
+    let long = Duration::from_secs(60);
+
+    let (mut producer, _) = tokio_tungstenite::connect_async(n2.ws("/v1/heads/mh/streams/talk/produce"))
+        .await
+        .unwrap();
+    let producing = tokio::spawn(async move {
+        let mut ticks = tokio::time::interval(Duration::from_millis(33));
+        for seq in 0.. {
+            ticks.tick().await;
+            let jaw = 0.15 + 0.15 * (seq as f64 * 0.3).sin();
+            let line = format!(
+                r#"{{"seq":{seq},"t":{},"au":{{"jaw_drop":{jaw}}}}}"#,
+                seq as f64 / 30.0
+            );
+            if producer.send(Message::Text(line.into())).await.is_err() {
+                return;
+            }
+            let _ = producer.next().await;
+        }
+    });
+
+    let (one, two) = (n1.http(""), n2.http(""));
+    browser
+        .open(&format!("{one}/?head=mh&stream=talk&nodes={one},{two}"))
+        .await;
+    browser
+        .wait_for(
+            "the view to go live on node 1",
+            &state_is("status-0", "live"),
+            long,
+        )
+        .await;
+    let status = browser.js(&text_of("status-0")).await;
+    assert!(
+        status.as_str().unwrap().contains(&n1.addr.to_string()),
+        "the status names node 1: {status}"
+    );
+
+    drop(n1); // SIGKILL
+    let on_n2 = format!(
+        "return document.getElementById('status-0').dataset.state === 'live' && \
+         document.getElementById('status-0').textContent.includes('{}')",
+        n2.addr
+    );
+    browser
+        .wait_for("the view live again, on node 2", &on_n2, Duration::from_secs(20))
+        .await;
+    let before = browser.screenshot("#canvas-0").await;
+    assert!(
+        browser
+            .picture_changes("#canvas-0", &before, Duration::from_secs(3))
+            .await,
+        "the head did not move after the page moved to node 2"
+    );
+    producing.abort();
+}
+
 async fn check_the_page(browser: &Browser) {
+    check_failover_across_nodes(browser).await;
     let (_demo, url) = start_demo();
     let long = Duration::from_secs(120);
 

@@ -38,26 +38,6 @@ async fn info(server: &Server, id: &str) -> Option<HeadInfo> {
     }
 }
 
-/// Waits until `server` has `id` ready (registered on another node, followed here).
-async fn wait_ready_anywhere(server: &Server, id: &str, within: Duration) {
-    let started = Instant::now();
-    loop {
-        if let Some(info) = info(server, id).await {
-            match info.status.as_str() {
-                "ready" => return,
-                "failed" => panic!("{id} failed on {}: {:?}", server.addr, info.error),
-                _ => {}
-            }
-        }
-        assert!(
-            started.elapsed() < within,
-            "{id} not ready on {} within {within:?}",
-            server.addr
-        );
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    }
-}
-
 async fn wait_gone(server: &Server, id: &str, within: Duration) {
     let started = Instant::now();
     while info(server, id).await.is_some() {
@@ -146,8 +126,8 @@ async fn three_nodes_share_a_head_and_a_stream_frame_for_frame() {
     let n3 = node(&nats, "n3").await;
 
     n1.register(HEAD, "makehuman_head", "").await;
-    wait_ready_anywhere(&n2, HEAD, Duration::from_secs(30)).await;
-    wait_ready_anywhere(&n3, HEAD, Duration::from_secs(30)).await;
+    n2.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
+    n3.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
 
     // Viewers on the producer's node (the single-node path) and on a node with no producer.
     let mut here = viewer(&n2).await;
@@ -197,7 +177,7 @@ async fn three_nodes_share_a_head_and_a_stream_frame_for_frame() {
     // A node that starts later catches up: the head registered before it is served.
     n1.register("late", "makehuman_head", "").await;
     let n4 = node(&nats, "n4").await;
-    wait_ready_anywhere(&n4, "late", Duration::from_secs(30)).await;
+    n4.wait_ready_in_cluster("late", Duration::from_secs(30)).await;
     assert!(info(&n4, HEAD).await.is_none(), "the deleted head stays deleted");
 }
 
@@ -219,7 +199,8 @@ async fn keep_producing(
         let sent = socket.send(Message::Text(line(seq).into())).await;
         let acked = match sent {
             Ok(()) => matches!(
-                tokio::time::timeout(Duration::from_secs(2), futures_util::StreamExt::next(&mut socket)).await,
+                tokio::time::timeout(Duration::from_secs(2), futures_util::StreamExt::next(&mut socket))
+                    .await,
                 Ok(Some(Ok(Message::Text(_))))
             ),
             Err(_) => false,
@@ -235,7 +216,8 @@ async fn keep_producing(
                 // A refusal (the lease still held) comes as an error and a close.
                 next.send(Message::Text(line(seq).into())).await.unwrap();
                 if let Ok(Some(Ok(Message::Text(text)))) =
-                    tokio::time::timeout(Duration::from_secs(2), futures_util::StreamExt::next(&mut next)).await
+                    tokio::time::timeout(Duration::from_secs(2), futures_util::StreamExt::next(&mut next))
+                        .await
                 {
                     if text.contains("\"ack\"") {
                         seq += 1;
@@ -244,7 +226,10 @@ async fn keep_producing(
                     }
                 }
             }
-            assert!(lost.elapsed() < Duration::from_secs(20), "no node took the producer back");
+            assert!(
+                lost.elapsed() < Duration::from_secs(20),
+                "no node took the producer back"
+            );
             tokio::time::sleep(Duration::from_millis(100)).await;
         }
         reconnects.push(lost.elapsed());
@@ -259,8 +244,8 @@ async fn a_killed_node_drops_only_its_own_connections() {
     let n2 = node(&nats, "n2").await;
     let n3 = node(&nats, "n3").await;
     n1.register(HEAD, "makehuman_head", "").await;
-    wait_ready_anywhere(&n2, HEAD, Duration::from_secs(30)).await;
-    wait_ready_anywhere(&n3, HEAD, Duration::from_secs(30)).await;
+    n2.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
+    n3.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
 
     let mut on_n2 = viewer(&n2).await;
     let mut on_n3 = viewer(&n3).await;
@@ -274,7 +259,9 @@ async fn a_killed_node_drops_only_its_own_connections() {
     ));
     let mut last_on_n2 = 0;
     while last_on_n2 < 20 {
-        last_on_n2 = next_seq(&mut on_n2, Duration::from_secs(5)).await.expect("frames on node 2");
+        last_on_n2 = next_seq(&mut on_n2, Duration::from_secs(5))
+            .await
+            .expect("frames on node 2");
     }
 
     drop(n2); // SIGKILL: no goodbyes
@@ -324,7 +311,7 @@ async fn a_nats_restart_is_survived_without_restarting_facewire() {
     let n1 = node(&nats, "n1").await;
     let n2 = node(&nats, "n2").await;
     n1.register(HEAD, "makehuman_head", "").await;
-    wait_ready_anywhere(&n2, HEAD, Duration::from_secs(30)).await;
+    n2.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
 
     let mut on_n2 = viewer(&n2).await;
     let stop = tokio_util::sync::CancellationToken::new();
@@ -335,7 +322,9 @@ async fn a_nats_restart_is_survived_without_restarting_facewire() {
     ));
     let mut last = 0;
     while last < 10 {
-        last = next_seq(&mut on_n2, Duration::from_secs(5)).await.expect("frames on node 2");
+        last = next_seq(&mut on_n2, Duration::from_secs(5))
+            .await
+            .expect("frames on node 2");
     }
 
     nats.kill();
@@ -350,18 +339,49 @@ async fn a_nats_restart_is_survived_without_restarting_facewire() {
             .expect("frames on node 2 after NATS came back");
     }
     let resumed = restarted.elapsed();
-    assert!(resumed < Duration::from_secs(10), "frames resumed {resumed:?} after the restart");
+    assert!(
+        resumed < Duration::from_secs(10),
+        "frames resumed {resumed:?} after the restart"
+    );
 
     // The registry survived and is followed again: a head registered now reaches node 1.
     assert_eq!(info(&n2, HEAD).await.unwrap().status, "ready");
     n2.register("after", "makehuman_head", "").await;
-    wait_ready_anywhere(&n1, "after", Duration::from_secs(30)).await;
+    n1.wait_ready_in_cluster("after", Duration::from_secs(30)).await;
     // And the lease is still held: a second producer on node 2 is refused.
     let mut second = producer(&n2).await;
     assert_eq!(close_code(&mut second).await, 4409);
 
     stop.cancel();
     let (_, reconnects) = producing.await.unwrap();
-    assert!(reconnects.is_empty(), "the producer on node 1 was never dropped: {reconnects:?}");
+    assert!(
+        reconnects.is_empty(),
+        "the producer on node 1 was never dropped: {reconnects:?}"
+    );
     println!("frames flowed between nodes again {resumed:?} after NATS restarted");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn buckets_an_operator_made_first_are_used_as_they_are() {
+    // An operator makes the heads bucket with settings of its own (on a NATS cluster: more
+    // replicas); a node must use it, not refuse to start.
+    let nats = NatsServer::start();
+    let client = async_nats::connect(nats.url()).await.unwrap();
+    let js = async_nats::jetstream::new(client);
+    js.create_key_value(async_nats::jetstream::kv::Config {
+        bucket: "facewire_heads".into(),
+        description: "made by the operator".into(),
+        history: 5,
+        ..Default::default()
+    })
+    .await
+    .unwrap();
+    let n1 = node(&nats, "n1").await;
+    n1.register(HEAD, "makehuman_head", "").await;
+    let heads = js.get_key_value("facewire_heads").await.unwrap();
+    assert_eq!(heads.status().await.unwrap().history(), 5);
+    assert!(
+        heads.get(HEAD).await.unwrap().is_some(),
+        "the head is in the operator's bucket"
+    );
 }

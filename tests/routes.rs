@@ -246,3 +246,40 @@ async fn heads_that_cannot_be_animated_fail_with_the_reason() {
         assert_eq!(body["error"], "registration_failed");
     }
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn reads_may_come_from_another_origin_and_writes_may_not() {
+    // A page served by one node of a cluster reads heads and meshes from the others.
+    let router = app(AppState::new(memory_config()).unwrap());
+    let request = Request::builder()
+        .method(Method::GET)
+        .uri("/v1/heads")
+        .header("origin", "http://127.0.0.1:9001")
+        .body(Body::empty())
+        .unwrap();
+    let response = router.clone().oneshot(request).await.unwrap();
+    assert_eq!(response.status(), StatusCode::OK);
+    assert_eq!(
+        response
+            .headers()
+            .get("access-control-allow-origin")
+            .map(|v| v.to_str().unwrap()),
+        Some("*")
+    );
+    // A preflight for a registration (POST with JSON) is not granted.
+    let preflight = Request::builder()
+        .method(Method::OPTIONS)
+        .uri("/v1/heads")
+        .header("origin", "http://127.0.0.1:9001")
+        .header("access-control-request-method", "POST")
+        .body(Body::empty())
+        .unwrap();
+    let response = router.oneshot(preflight).await.unwrap();
+    let allowed = response
+        .headers()
+        .get("access-control-allow-methods")
+        .map(|v| v.to_str().unwrap().to_string())
+        .unwrap_or_default();
+    assert!(!allowed.contains("POST"), "{allowed}");
+    assert!(allowed.contains("GET"), "{allowed}");
+}

@@ -2,7 +2,8 @@
 //! by `facewire_proto::frame::FrameEncoder` (with and without label, face roughness, head
 //! and jaw motion, tongue deltas, lip folds and deflate; negative and large deltas;
 //! malformed ones) and a `mesh.bin`, written with the values the Rust decoder reads from
-//! them to a JSON file that `node web/decode.test.mjs` checks.
+//! them to a JSON file that `node web/decode.test.mjs` checks; and the page's node list
+//! (`node web/nodes.test.mjs`).
 
 mod common;
 
@@ -504,4 +505,22 @@ fn decode_js_agrees_with_the_rust_encoder() {
         output.status
     );
     println!("{stdout}");
+}
+
+#[test]
+fn nodes_js_fails_over_round_robin() {
+    // The page's node list (`?nodes=`): parsing, URL building and round-robin failover.
+    let script = repo_path("web/nodes.test.mjs");
+    let output = match Command::new("node").arg(&script).output() {
+        Ok(output) => output,
+        Err(e) => panic!("cannot run `node` ({e}): the web tests need Node.js 20 or newer on PATH"),
+    };
+    assert!(
+        output.status.success(),
+        "node {} failed ({}):\n{}{}",
+        script.display(),
+        output.status,
+        String::from_utf8_lossy(&output.stdout),
+        String::from_utf8_lossy(&output.stderr)
+    );
 }

@@ -1,5 +1,6 @@
-// app.js: the page. Reads ?head=&stream=&algo=&algo2=&heat=&heat2=&heatmax=&heatmax2=&mouth=&token=
-// (heat=1 colours by roughness, heat=folds by folds),
+// app.js: the page. Reads ?head=&stream=&algo=&algo2=&heat=&heat2=&heatmax=&heatmax2=&mouth=&token=&nodes=
+// (heat=1 colours by roughness, heat=folds by folds; nodes: server base URLs to fail over
+// between, nodes.js),
 // fills the pickers from /v1/heads (read again every few seconds, so new heads and streams
 // appear) and /v1/algorithms, runs one view or two side by side (one shared camera), and
 // the drawing loop: once per animation frame each view decodes only its newest frame, and
@@ -8,6 +9,7 @@
 import { attachPointerControls, handleCameraKey, OrbitCamera } from "./camera.js";
 import { LiveChart } from "./chart.js";
 import { parseMesh } from "./decode.js";
+import { Nodes } from "./nodes.js";
 import { DEFAULT_HEAT_MAX, Panel } from "./panel.js";
 
 /** A view whose last frame is older than this does not hold the other one back. */
@@ -29,6 +31,8 @@ const controls = {
 };
 
 const params = new URLSearchParams(location.search);
+/** Where every fetch and socket goes: the `nodes` list, else the page's own origin. */
+const nodes = Nodes.fromLocation(location);
 const page = {
   heads: [],
   algorithms: [],
@@ -43,17 +47,17 @@ const meshes = new Map();
 let framedMesh = null;
 
 async function fetchJson(path) {
-  const response = await fetch(path);
+  const response = await nodes.fetch(path);
   if (!response.ok) {
     throw new Error(`${path}: HTTP ${response.status}`);
   }
   return response.json();
 }
 
-/** Rest meshes by URL, fetched once and shared by both views. */
+/** Rest meshes by URL (the snapshot's path), fetched once and shared by both views. */
 function loadMesh(url) {
   if (!meshes.has(url)) {
-    const promise = fetch(url).then((response) => {
+    const promise = nodes.fetch(url).then((response) => {
       if (!response.ok) {
         throw new Error(`HTTP ${response.status}`);
       }
@@ -133,6 +137,9 @@ function writeUrl() {
   if (page.token) {
     query.set("token", page.token);
   }
+  if (params.has("nodes")) {
+    query.set("nodes", params.get("nodes"));
+  }
   history.replaceState(null, "", `?${query}`);
 }
 
@@ -175,6 +182,7 @@ function addPanel(algorithm, heat, heatMax) {
       }
     },
     onSettings: writeUrl,
+    nodes,
   });
   const canvas = panel.parts.canvas;
   attachPointerControls(canvas, camera);

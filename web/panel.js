@@ -3,7 +3,8 @@
 // per hop, bytes per frame, lip roughness and folds). A live stream that stops sending
 // shows as stalled. Frames are kept raw as they arrive (only their fixed header is read,
 // for the numbers and the chart); the page decodes just the one it draws, so a slow
-// machine skips frames instead of falling behind.
+// machine skips frames instead of falling behind. Given a list of nodes (nodes.js), each
+// reconnect after a lost connection goes to the next node, and the status line names it.
 
 import { applyFrame, decodeFrame, motionMatrix, readFrameHeader } from "./decode.js";
 import { HeadRenderer } from "./render.js";
@@ -53,10 +54,13 @@ export class Panel {
   /**
    * `index`: 0 or 1; `algorithms`: the /v1/algorithms list; `loadMesh(url)`: a promise of
    * a parsed mesh; `onMesh(url, mesh)`: a mesh is shown; `onSettings()`: the user changed
-   * this view's algorithm or heat-map.
+   * this view's algorithm or heat-map; `nodes`: the page's Nodes (nodes.js), shared by
+   * both views and the fetches.
    */
-  constructor({ index, container, algorithms, chart, loadMesh, onMesh, onSettings }) {
+  constructor({ index, container, algorithms, chart, loadMesh, onMesh, onSettings, nodes }) {
     this.index = index;
+    this.nodes = nodes;
+    this.node = nodes.index;
     this.chart = chart;
     this.loadMesh = loadMesh;
     this.onMesh = onMesh;
@@ -169,11 +173,28 @@ export class Panel {
     if (token) {
       query.set("token", token);
     }
-    const scheme = location.protocol === "https:" ? "wss" : "ws";
     const path = `/v1/heads/${encodeURIComponent(head)}/streams/${encodeURIComponent(stream)}/view`;
     this.generation += 1;
     this.pending = [];
-    this.socket.open(`${scheme}://${location.host}${path}?${query}`);
+    this.socket.open((lost) => this.socketUrl(`${path}?${query}`, lost));
+  }
+
+  /**
+   * The URL of the socket's next attempt: after a lost connection, on the node after the
+   * one lost (unless the other view or a fetch moved on already), else the current one.
+   */
+  socketUrl(path, lost) {
+    if (lost) {
+      this.nodes.advance(this.node);
+    }
+    this.node = this.nodes.index;
+    return this.nodes.wsUrl(path);
+  }
+
+  /** `text` for the status line, with the node in use when the page has a list of them. */
+  statusText(text) {
+    const node = this.nodes.label(this.node);
+    return node ? `${text} · node ${node}` : text;
   }
 
   destroy() {
@@ -343,12 +364,13 @@ export class Panel {
     if (state === "reconnecting") {
       text += ` in ${(detail.retryMs / 1000).toFixed(1)} s`;
     }
-    status.textContent = text;
+    status.textContent = this.statusText(text);
     if (state === "error") {
       const missing = detail.code === CLOSE.unknown_head;
       this.showMessage(`${missing ? "Not found" : "Refused"}: ${detail.message}.${missing ? " Pick a registered head above." : ""}`);
     } else if (state === "reconnecting") {
-      this.showMessage(`Connection lost (${detail.message}); trying again.`);
+      const node = this.nodes.label(this.node);
+      this.showMessage(`Connection lost (${detail.message}); trying again${node ? ` on node ${node}` : ""}.`);
     } else if (state === "ended") {
       this.showMessage(`The stream ended: ${detail.message}. Waiting for it to start again.`);
     } else if (state === "waiting" && !this.settings.knownStreams.includes(this.settings.stream)) {
@@ -371,10 +393,10 @@ export class Panel {
     const idle = now - this.lastArrival;
     if (idle >= STALL_MS) {
       status.dataset.state = "stalled";
-      status.textContent = `Stalled: no frame for ${Math.floor(idle / 1000)} s`;
+      status.textContent = this.statusText(`Stalled: no frame for ${Math.floor(idle / 1000)} s`);
     } else if (status.dataset.state === "stalled") {
       status.dataset.state = "live";
-      status.textContent = STATE_TEXT.live;
+      status.textContent = this.statusText(STATE_TEXT.live);
     }
   }
 

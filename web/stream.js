@@ -4,7 +4,9 @@
 // a reconnect resumes where the stream is now, with no replay); and error, for refusals
 // that retrying cannot fix (codes.js: unknown head, bad algorithm, failed registration),
 // which keep the server's `error` message. A deleted head (close 4410) is reconnected to,
-// so a head registered again under the same id shows up.
+// so a head registered again under the same id shows up. The URL comes from a function
+// asked again after every lost connection, so the page can move to another node
+// (nodes.js); the backoff starts over once a node sends its snapshot.
 
 import { END_REASONS, FINAL_CLOSE_CODES } from "./codes.js";
 
@@ -23,9 +25,15 @@ export class ViewerSocket {
     this.state = "closed";
   }
 
-  open(url) {
+  /**
+   * Connects to `target`: a URL, or a function `target(lost)` that gives one, called with
+   * false for the first attempt and with true after each lost connection (not after a
+   * final refusal), before the wait, to pick the URL of the next attempt.
+   */
+  open(target) {
     this.close();
-    this.url = url;
+    this.target = typeof target === "function" ? target : () => target;
+    this.url = this.target(false);
     this.attempt = 0;
     this.connect();
   }
@@ -58,7 +66,6 @@ export class ViewerSocket {
       if (typeof event.data !== "string") {
         const arrivalUs = Date.now() * 1000;
         if (this.state !== "live") {
-          this.attempt = 0;
           this.setState("live");
         }
         this.handlers.onFrame(event.data, arrivalUs);
@@ -71,6 +78,7 @@ export class ViewerSocket {
         return this.setState("error", { message: `unreadable message from the server: ${event.data.slice(0, 80)}` });
       }
       if (message.type === "snapshot") {
+        this.attempt = 0;
         this.handlers.onSnapshot(message);
         this.setState("waiting");
       } else if (message.type === "end") {
@@ -91,6 +99,7 @@ export class ViewerSocket {
       }
       const retryMs = Math.min(MAX_RETRY_MS, FIRST_RETRY_MS * 2 ** this.attempt) * (0.8 + 0.4 * Math.random());
       this.attempt += 1;
+      this.url = this.target(true);
       this.setState("reconnecting", { message, code: event.code, retryMs });
       this.timer = setTimeout(() => this.connect(), retryMs);
     };

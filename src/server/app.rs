@@ -2,6 +2,10 @@
 //! socket. Each route's access level is a route layer ([`super::auth`]); around them all
 //! a layer gives each request an id (in its log span and in `internal` answers) and a
 //! deadline, and unknown paths and methods get JSON errors like every other refusal.
+//! Reads (`GET`, `HEAD`) may come from any origin: a page served by one node of a cluster
+//! fetches heads and meshes from the others (`web/nodes.js`). Tokens travel in the query
+//! or the `Authorization` header, never in cookies, so this exposes nothing a cross-site
+//! page could not already ask for with the token.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
@@ -69,6 +73,12 @@ pub fn app(state: AppState) -> Router {
         .fallback(not_found)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(middleware::from_fn_with_state(state.clone(), request_context))
+        .layer(
+            tower_http::cors::CorsLayer::new()
+                .allow_origin(tower_http::cors::Any)
+                .allow_methods([Method::GET, Method::HEAD])
+                .allow_headers([axum::http::header::AUTHORIZATION]),
+        )
         .layer(axum::extract::DefaultBodyLimit::max(
             state.config.limits.max_upload_bytes,
         ))

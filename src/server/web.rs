@@ -10,9 +10,10 @@ const HTML: &str = "text/html; charset=utf-8";
 const CSS: &str = "text/css; charset=utf-8";
 const JS: &str = "text/javascript; charset=utf-8";
 
-/// `(path, content type, body)` of every embedded file. `web/decode.test.mjs` and
-/// `web/package.json` are for the decoder test (`tests/web_decode.rs`), not served.
-const ASSETS: [(&str, &str, &str); 10] = [
+/// `(path, content type, body)` of every embedded file. `web/decode.test.mjs`,
+/// `web/nodes.test.mjs` and `web/package.json` are for the tests (`tests/web_decode.rs`),
+/// not served.
+const ASSETS: [(&str, &str, &str); 11] = [
     ("/", HTML, include_str!("../../web/index.html")),
     ("/style.css", CSS, include_str!("../../web/style.css")),
     ("/app.js", JS, include_str!("../../web/app.js")),
@@ -20,6 +21,7 @@ const ASSETS: [(&str, &str, &str); 10] = [
     ("/chart.js", JS, include_str!("../../web/chart.js")),
     ("/codes.js", JS, include_str!("../../web/codes.js")),
     ("/decode.js", JS, include_str!("../../web/decode.js")),
+    ("/nodes.js", JS, include_str!("../../web/nodes.js")),
     ("/panel.js", JS, include_str!("../../web/panel.js")),
     ("/render.js", JS, include_str!("../../web/render.js")),
     ("/stream.js", JS, include_str!("../../web/stream.js")),

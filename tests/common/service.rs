@@ -173,6 +173,29 @@ impl Server {
         panic!("head {id} did not become ready");
     }
 
+    /// Polls until this cluster node has head `id` ready (registered on another node and
+    /// followed here: unknown at first); panics if it fails or takes longer than `within`.
+    pub async fn wait_ready_in_cluster(&self, id: &str, within: Duration) {
+        let started = std::time::Instant::now();
+        loop {
+            let response = reqwest::get(self.http(&format!("/v1/heads/{id}"))).await.unwrap();
+            if response.status() == 200 {
+                let info: HeadInfo = response.json().await.unwrap();
+                match info.status.as_str() {
+                    "ready" => return,
+                    "failed" => panic!("{id} failed on {}: {:?}", self.addr, info.error),
+                    _ => {}
+                }
+            }
+            assert!(
+                started.elapsed() < within,
+                "{id} not ready on {} within {within:?}",
+                self.addr
+            );
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    }
+
     pub async fn info(&self, id: &str, query: &str) -> HeadInfo {
         reqwest::get(self.http(&format!("/v1/heads/{id}{query}")))
             .await

@@ -38,14 +38,21 @@ pub const MAX_STREAMS: usize = 10_000;
 pub const MAX_VIEWERS: usize = 100_000;
 /// Longest run, seconds.
 pub const MAX_SECONDS: f64 = 3_600.0;
+/// Most nodes a run spreads its viewers over.
+pub const MAX_NODES: usize = 64;
 /// A viewer stalls when no frame comes for this many frame periods.
 pub const STALL_PERIODS: f64 = 3.0;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The service, e.g. http://127.0.0.1:8480
+    /// The service, e.g. http://127.0.0.1:8480: the producers connect here (and the head
+    /// is registered here).
     #[arg(long)]
     url: String,
+    /// Nodes of a cluster the viewers connect to instead, each stream's viewers spread over
+    /// them in turn (repeat the flag) [default: --url].
+    #[arg(long = "view-url")]
+    view_urls: Vec<String>,
     /// Streams to produce (1 to 10,000).
     #[arg(long, default_value_t = 10)]
     streams: usize,
@@ -101,6 +108,8 @@ impl WireFormat {
 #[derive(Debug, Serialize)]
 pub struct LoadReport {
     pub url: String,
+    /// Where the viewers connected, when not `url`.
+    pub view_urls: Vec<String>,
     pub head: String,
     pub algorithm: Option<String>,
     pub format: WireFormat,
@@ -130,7 +139,7 @@ pub struct LoadReport {
     /// Refusals and failures, by message, with counts (at most 20 kinds).
     pub failures: Vec<(String, usize)>,
     /// The server's CPU use over the run (percent of one core) and memory, when its
-    /// `/metrics` could be read.
+    /// `/metrics` could be read; with `view_urls`, the sum over every node.
     pub server: Option<ServerUse>,
     /// This generator's own CPU use over the run, percent of one core.
     pub generator_cpu_percent: f64,
@@ -158,13 +167,21 @@ pub struct ServerUse {
 pub fn run(args: Args) -> CliResult {
     check(&args)?;
     let base = args.url.trim_end_matches('/').to_string();
+    let view_bases: Vec<String> = match args.view_urls.is_empty() {
+        true => vec![base.clone()],
+        false => args
+            .view_urls
+            .iter()
+            .map(|u| u.trim_end_matches('/').to_string())
+            .collect(),
+    };
     // One worker thread: on a machine the server shares, a second one mostly competes with
     // the server for the same cores (measured: docs/PERFORMANCE.md, "Load").
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(1)
         .enable_all()
         .build()?;
-    let report = runtime.block_on(load(&args, &base))?;
+    let report = runtime.block_on(load(&args, &base, &view_bases))?;
     print(&report);
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&report)?;
@@ -195,24 +212,42 @@ fn check(args: &Args) -> Result<(), String> {
             crate::stream::MAX_FPS
         ));
     }
-    let Some(authority) = args.url.strip_prefix("http://") else {
-        return Err(format!("--url {:?}: expected http://HOST:PORT", args.url));
+    if args.view_urls.len() > MAX_NODES {
+        return Err(format!(
+            "--view-url given {} times: at most {MAX_NODES}",
+            args.view_urls.len()
+        ));
+    }
+    check_url("--url", &args.url, args.allow_remote)?;
+    for url in &args.view_urls {
+        check_url("--view-url", url, args.allow_remote)?;
+    }
+    Ok(())
+}
+
+/// Refuses a URL that is not `http://HOST:PORT`, or not on loopback without `allow_remote`.
+fn check_url(flag: &str, url: &str, allow_remote: bool) -> Result<(), String> {
+    let Some(authority) = url.strip_prefix("http://") else {
+        return Err(format!("{flag} {url:?}: expected http://HOST:PORT"));
     };
     let host_port = authority.trim_end_matches('/');
     let addrs: Vec<_> = host_port
         .to_socket_addrs()
-        .map_err(|e| format!("--url {:?}: {e}", args.url))?
+        .map_err(|e| format!("{flag} {url:?}: {e}"))?
         .collect();
-    if !args.allow_remote && (addrs.is_empty() || addrs.iter().any(|a| !a.ip().is_loopback())) {
+    if !allow_remote && (addrs.is_empty() || addrs.iter().any(|a| !a.ip().is_loopback())) {
         return Err(format!(
-            "--url {:?}: not a loopback address; a load run opens thousands of sockets, so give --allow-remote to aim it at another machine",
-            args.url
+            "{flag} {url:?}: not a loopback address; a load run opens thousands of sockets, so give --allow-remote to aim it at another machine"
         ));
     }
     Ok(())
 }
 
-async fn load(args: &Args, base: &str) -> Result<LoadReport, Box<dyn std::error::Error + Send + Sync>> {
+async fn load(
+    args: &Args,
+    base: &str,
+    view_bases: &[String],
+) -> Result<LoadReport, Box<dyn std::error::Error + Send + Sync>> {
     let http = reqwest::Client::new();
     let token_query = args
         .token
@@ -229,8 +264,18 @@ async fn load(args: &Args, base: &str) -> Result<LoadReport, Box<dyn std::error:
         Some(head) => (head.clone(), false),
         None => (register(&http, base, &with_token).await?, true),
     };
+    // Every node registers a cluster's head itself: wait until the viewers' nodes have it.
+    for node in view_bases {
+        wait_ready(&http, node, &head, &with_token).await?;
+    }
+    let mut nodes = vec![base.to_string()];
+    nodes.extend(view_bases.iter().filter(|n| n.as_str() != base).cloned());
     let frames = Arc::new(syllable_frames(args.fps)?);
     let ws_base = base.replacen("http://", "ws://", 1);
+    let view_ws: Vec<String> = view_bases
+        .iter()
+        .map(|b| b.replacen("http://", "ws://", 1))
+        .collect();
     let run_id = std::process::id();
     let stream_name = |s: usize| format!("load-{run_id}-{s}");
     let format = args.format.name();
@@ -239,7 +284,7 @@ async fn load(args: &Args, base: &str) -> Result<LoadReport, Box<dyn std::error:
         None => format!("?format={format}"),
     };
 
-    let before = server_metrics::sample(&http, base, &with_token).await;
+    let before = server_metrics::sample_nodes(&http, &nodes, &with_token).await;
     let clock = StdInstant::now();
     let times: Vec<Arc<SendTimes>> = (0..args.streams)
         .map(|_| Arc::new(SendTimes::new(clock)))
@@ -253,8 +298,9 @@ async fn load(args: &Args, base: &str) -> Result<LoadReport, Box<dyn std::error:
     let mut connected = Vec::with_capacity(args.viewers);
     for v in 0..args.viewers {
         let s = v % args.streams;
+        let node = &view_ws[(v / args.streams) % view_ws.len()];
         let url = with_token(&format!(
-            "{ws_base}/v1/heads/{head}/streams/{}/view{algo}",
+            "{node}/v1/heads/{head}/streams/{}/view{algo}",
             stream_name(s)
         ));
         match viewer::connect(&url).await {
@@ -314,7 +360,7 @@ async fn load(args: &Args, base: &str) -> Result<LoadReport, Box<dyn std::error:
     }
     progress.abort();
     eprintln!();
-    let after = server_metrics::sample(&http, base, &with_token).await;
+    let after = server_metrics::sample_nodes(&http, &nodes, &with_token).await;
     let elapsed = start.elapsed().as_secs_f64();
     if registered {
         let _ = http
@@ -337,6 +383,7 @@ async fn load(args: &Args, base: &str) -> Result<LoadReport, Box<dyn std::error:
     let bytes: u64 = outcomes.iter().map(|o| o.bytes).sum();
     Ok(LoadReport {
         url: base.to_string(),
+        view_urls: args.view_urls.clone(),
         head,
         algorithm: outcomes.iter().find_map(|o| o.algorithm.clone()),
         format: args.format,
@@ -399,22 +446,33 @@ async fn register(
         )
         .into());
     }
+    wait_ready(http, base, &id, with_token).await?;
+    Ok(id)
+}
+
+/// Waits (30 s at most) until the node at `base` has head `id` ready; a node of a cluster
+/// may not know it yet (404) while it follows the registry.
+async fn wait_ready(
+    http: &reqwest::Client,
+    base: &str,
+    id: &str,
+    with_token: &impl Fn(&str) -> String,
+) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     for _ in 0..600 {
         let info: serde_json::Value = http
             .get(with_token(&format!("{base}/v1/heads/{id}")))
             .send()
-            .await?
+            .await
+            .map_err(|e| format!("cannot reach {base}: {e}"))?
             .json()
             .await?;
         match info["status"].as_str() {
-            Some("ready") => return Ok(id),
-            Some("failed") => {
-                return Err(format!("registering the MakeHuman head failed: {}", info["error"]).into())
-            }
+            Some("ready") => return Ok(()),
+            Some("failed") => return Err(format!("head {id} failed on {base}: {}", info["error"]).into()),
             _ => tokio::time::sleep(Duration::from_millis(50)).await,
         }
     }
-    Err("the MakeHuman head was not ready within 30 s".into())
+    Err(format!("head {id} was not ready on {base} within 30 s").into())
 }
 
 /// The syllable stream at `fps` as JSONL objects.
@@ -496,6 +554,9 @@ fn print(r: &LoadReport) {
         None => println!("  server: /metrics not readable"),
     }
     println!("  generator: {:.0} % of one core", r.generator_cpu_percent);
+    if !r.view_urls.is_empty() {
+        println!("  viewers on {}; producers on {}", r.view_urls.join(", "), r.url);
+    }
     for (failure, count) in &r.failures {
         println!("  {count} x {failure}");
     }

@@ -1,6 +1,6 @@
 //! The server's own account of what it spends, read from its `/metrics`
 //! (`facewire_process_cpu_seconds`, `facewire_process_resident_bytes`) before and after a
-//! run.
+//! run, summed over the nodes of a cluster.
 
 use serde::Serialize;
 
@@ -13,7 +13,7 @@ pub struct ServerSample {
 }
 
 /// Reads `/metrics`; `None` when it cannot be read or lacks the process metrics.
-pub async fn sample(
+async fn sample(
     http: &reqwest::Client,
     base: &str,
     with_token: &impl Fn(&str) -> String,
@@ -30,6 +30,25 @@ pub async fn sample(
         cpu_seconds: value(&text, "facewire_process_cpu_seconds")?,
         resident_bytes: value(&text, "facewire_process_resident_bytes")?,
     })
+}
+
+/// The sum over the nodes at `bases` (a cluster on one machine); `None` when any cannot
+/// be read.
+pub async fn sample_nodes(
+    http: &reqwest::Client,
+    bases: &[String],
+    with_token: &impl Fn(&str) -> String,
+) -> Option<ServerSample> {
+    let mut total = ServerSample {
+        cpu_seconds: 0.0,
+        resident_bytes: 0.0,
+    };
+    for base in bases {
+        let one = sample(http, base, with_token).await?;
+        total.cpu_seconds += one.cpu_seconds;
+        total.resident_bytes += one.resident_bytes;
+    }
+    Some(total)
 }
 
 /// The value of an unlabelled metric in Prometheus text.

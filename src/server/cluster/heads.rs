@@ -61,28 +61,35 @@ fn part_name(id: &str, tag: &str, part: &str) -> String {
 }
 
 impl ClusterHeads {
-    /// Opens the buckets, making them if this is the cluster's first node. The error names
-    /// the bucket.
+    /// Opens the buckets, making them (one replica) if this is the cluster's first node;
+    /// buckets an operator made first, with more replicas, are used as they are. The error
+    /// names the bucket.
     pub async fn open(js: &jetstream::Context) -> Result<ClusterHeads, (&'static str, String)> {
-        let kv = js
-            .create_key_value(kv::Config {
-                bucket: HEADS_BUCKET.into(),
-                description: "facewire: registered heads (metadata and fit)".into(),
-                history: 1,
-                storage: jetstream::stream::StorageType::File,
-                ..Default::default()
-            })
-            .await
-            .map_err(|e| (HEADS_BUCKET, e.to_string()))?;
-        let objects = js
-            .create_object_store(object_store::Config {
-                bucket: MESHES_BUCKET.into(),
-                description: Some("facewire: head and part meshes (OBJ)".into()),
-                storage: jetstream::stream::StorageType::File,
-                ..Default::default()
-            })
-            .await
-            .map_err(|e| (MESHES_BUCKET, e.to_string()))?;
+        let kv = match js.get_key_value(HEADS_BUCKET).await {
+            Ok(kv) => kv,
+            Err(_) => js
+                .create_key_value(kv::Config {
+                    bucket: HEADS_BUCKET.into(),
+                    description: "facewire: registered heads (metadata and fit)".into(),
+                    history: 1,
+                    storage: jetstream::stream::StorageType::File,
+                    ..Default::default()
+                })
+                .await
+                .map_err(|e| (HEADS_BUCKET, e.to_string()))?,
+        };
+        let objects = match js.get_object_store(MESHES_BUCKET).await {
+            Ok(objects) => objects,
+            Err(_) => js
+                .create_object_store(object_store::Config {
+                    bucket: MESHES_BUCKET.into(),
+                    description: Some("facewire: head and part meshes (OBJ)".into()),
+                    storage: jetstream::stream::StorageType::File,
+                    ..Default::default()
+                })
+                .await
+                .map_err(|e| (MESHES_BUCKET, e.to_string()))?,
+        };
         Ok(ClusterHeads { kv, objects })
     }
 

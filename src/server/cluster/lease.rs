@@ -53,16 +53,21 @@ impl Leases {
         client: async_nats::Client,
         node: &str,
     ) -> Result<Leases, jetstream::context::CreateKeyValueError> {
-        let kv = js
-            .create_key_value(kv::Config {
-                bucket: BUCKET.into(),
-                description: "facewire: which node holds each stream's producer".into(),
-                history: 1,
-                max_age: TTL,
-                storage: jetstream::stream::StorageType::File,
-                ..Default::default()
-            })
-            .await?;
+        // Made by the cluster's first node; one an operator made first is used as it is.
+        let kv = match js.get_key_value(BUCKET).await {
+            Ok(kv) => kv,
+            Err(_) => {
+                js.create_key_value(kv::Config {
+                    bucket: BUCKET.into(),
+                    description: "facewire: which node holds each stream's producer".into(),
+                    history: 1,
+                    max_age: TTL,
+                    storage: jetstream::stream::StorageType::File,
+                    ..Default::default()
+                })
+                .await?
+            }
+        };
         Ok(Leases {
             kv,
             client,
