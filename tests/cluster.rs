@@ -38,6 +38,19 @@ async fn info(server: &Server, id: &str) -> Option<HeadInfo> {
     }
 }
 
+/// An unlabelled metric's value from `server`'s `/metrics`.
+async fn metric(server: &Server, name: &str) -> f64 {
+    let text = reqwest::get(server.http("/metrics"))
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap();
+    text.lines()
+        .find_map(|line| line.strip_prefix(name)?.strip_prefix(' ')?.trim().parse().ok())
+        .unwrap_or_else(|| panic!("no {name} in /metrics of {}", server.addr))
+}
+
 async fn wait_gone(server: &Server, id: &str, within: Duration) {
     let started = Instant::now();
     while info(server, id).await.is_some() {
@@ -163,6 +176,11 @@ async fn three_nodes_share_a_head_and_a_stream_frame_for_frame() {
     }
     assert!(compared >= 30, "{compared} frames compared");
     assert!(moving >= 25, "{moving} of them move the head");
+    // The bus carried parameters: 40 frames and the end out of node 2, into node 3, each
+    // frame's hop measured.
+    assert_eq!(metric(&n2, "facewire_bus_messages_out_total").await, 41.0);
+    assert_eq!(metric(&n3, "facewire_bus_messages_in_total").await, 41.0);
+    assert_eq!(metric(&n3, "facewire_bus_hop_seconds_count").await, 40.0);
 
     // Deleted on one node, gone on every node.
     let deleted = reqwest::Client::new()

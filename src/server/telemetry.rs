@@ -46,9 +46,8 @@ pub struct Telemetry {
     pub frames_skipped: Family<StageLabel, Counter>,
     pub deform_seconds: Histogram,
     pub encode_seconds: Histogram,
-    /// Latency per hop: `receive_to_publish` (parameters in to encoded frame out),
-    /// `publish_to_send` (encoded to written to a viewer socket) and `bus` (received by
-    /// the producer's node to received here, for frames from other nodes).
+    /// Latency per hop: `receive_to_publish` (parameters in to encoded frame out) and
+    /// `publish_to_send` (encoded to written to a viewer socket).
     pub latency_seconds: Family<HopLabel, Histogram>,
     pub viewers: Gauge,
     pub producers: Gauge,
@@ -61,6 +60,9 @@ pub struct Telemetry {
     pub bus_messages_in: Counter,
     /// Bus messages dropped, by cause (`queue_full`, `unknown_head`, `bad_frame`, ...).
     pub bus_dropped: Family<CodeLabel, Counter>,
+    /// Frames from other nodes: the producer's node's receipt to this node's, seconds, in
+    /// buckets 20 % apart (the NATS hop is measured from these).
+    pub bus_hop_seconds: Histogram,
     /// CPU seconds of the whole process, read when the metrics are rendered.
     process_cpu_seconds: Gauge<f64, AtomicU64>,
     /// Resident memory of the whole process, bytes, read when the metrics are rendered.
@@ -91,6 +93,8 @@ impl Default for Telemetry {
             bus_messages_out: Counter::default(),
             bus_messages_in: Counter::default(),
             bus_dropped: Family::default(),
+            // 50 us .. ~0.45 s, each bucket 1.2 x the one before.
+            bus_hop_seconds: Histogram::new(exponential_buckets(5e-5, 1.2, 50)),
             process_cpu_seconds: Gauge::default(),
             process_resident_bytes: Gauge::default(),
             registry: Registry::default(),
@@ -141,6 +145,11 @@ impl Default for Telemetry {
             "bus_dropped",
             "Cluster bus messages dropped, by cause",
             t.bus_dropped.clone(),
+        );
+        registry.register(
+            "bus_hop_seconds",
+            "Frames from other nodes: producer's node's receipt to this node's",
+            t.bus_hop_seconds.clone(),
         );
         registry.register(
             "process_cpu_seconds",

@@ -212,10 +212,9 @@ fn deliver(
         tracing::warn!(subject = %message.subject, error = %e, "bus frame refused");
         "bad_frame"
     })?;
-    telemetry.latency(
-        "bus",
-        crate::server::now_us().saturating_sub(received_us) as f64 * 1e-6,
-    );
+    telemetry
+        .bus_hop_seconds
+        .observe(crate::server::now_us().saturating_sub(received_us) as f64 * 1e-6);
     stream.publish_relayed(Arc::new(ReceivedFrame { frame, received_us }));
     Ok(())
 }
