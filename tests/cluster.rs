@@ -403,3 +403,36 @@ async fn buckets_an_operator_made_first_are_used_as_they_are() {
         "the head is in the operator's bucket"
     );
 }
+
+#[test]
+fn a_node_that_cannot_reach_nats_at_start_exits_with_the_reason() {
+    // Nothing listens on this port: the node says so and exits, rather than serving
+    // alone as if it were a cluster.
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("node.toml");
+    std::fs::write(&config, format!("bus = \"nats://127.0.0.1:{port}\"\n")).unwrap();
+    let started = Instant::now();
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_facewire"))
+        .args(["serve", "--addr", "127.0.0.1:0", "--config"])
+        .arg(&config)
+        .output()
+        .unwrap();
+    assert!(!output.status.success());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains(&format!(
+            "bus \"nats://127.0.0.1:{port}\": cannot connect to NATS"
+        )),
+        "{stderr}"
+    );
+    assert!(
+        started.elapsed() < Duration::from_secs(10),
+        "took {:?}",
+        started.elapsed()
+    );
+}
