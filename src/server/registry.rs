@@ -134,7 +134,7 @@ impl Registry {
         let record = match persist {
             true => match self.inner.store.save(record).await {
                 Ok(record) => record,
-                Err(e) => return Err(self.forget(&entry.id, e)),
+                Err(e) => return Err(self.forget(&entry, e)),
             },
             false => record,
         };
@@ -177,9 +177,14 @@ impl Registry {
         Ok(entry)
     }
 
-    /// Drops an entry whose registration could not start; passes its error on.
-    fn forget(&self, id: &str, error: ApiError) -> ApiError {
-        self.inner.heads.lock().expect("heads lock").remove(id);
+    /// Drops an entry whose registration could not start (only that entry: in a cluster,
+    /// another node's head of the same id may have replaced it meanwhile); passes its
+    /// error on.
+    fn forget(&self, entry: &Arc<HeadEntry>, error: ApiError) -> ApiError {
+        let mut heads = self.inner.heads.lock().expect("heads lock");
+        if heads.get(&entry.id).is_some_and(|held| Arc::ptr_eq(held, entry)) {
+            heads.remove(&entry.id);
+        }
         error
     }
 

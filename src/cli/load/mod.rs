@@ -131,6 +131,9 @@ pub struct LoadReport {
     /// Those of `stalls` where the producer's sends of the two frames were as far apart:
     /// the generator fell behind, not the server.
     pub producer_stalls: u64,
+    /// The seconds of the run with the most stalls (at most 10, most first): a burst shows
+    /// as one second with many.
+    pub stall_seconds: Vec<StallSecond>,
     /// Viewers that received no frame at all.
     pub viewers_without_frames: usize,
     /// Producer-to-viewer latency, milliseconds.
@@ -145,6 +148,13 @@ pub struct LoadReport {
     pub generator_cpu_percent: f64,
     /// Where the numbers come from.
     pub note: &'static str,
+}
+
+#[derive(Debug, Serialize)]
+pub struct StallSecond {
+    /// Whole seconds since the producers started.
+    pub second: u64,
+    pub stalls: u64,
 }
 
 #[derive(Debug, Serialize)]
@@ -319,6 +329,7 @@ async fn load(
                 times: times[s].clone(),
                 received: received.clone(),
                 stall_after: period.mul_f64(STALL_PERIODS),
+                start,
                 deadline,
             };
             tokio::spawn(viewer::watch(plan, socket, algorithm))
@@ -398,6 +409,7 @@ async fn load(
         regressions: outcomes.iter().map(|o| o.regressions).sum(),
         stalls: outcomes.iter().map(|o| o.stalls).sum(),
         producer_stalls: outcomes.iter().map(|o| o.producer_stalls).sum(),
+        stall_seconds: busiest_seconds(&outcomes),
         viewers_without_frames: outcomes.iter().filter(|o| o.frames == 0).count() + args.viewers
             - outcomes.len(),
         latency_ms: LatencySummary {
@@ -503,6 +515,23 @@ async fn progress_line(start: Instant, length: Duration, sent: Arc<AtomicU64>, r
     }
 }
 
+/// The seconds with the most stalls over every viewer, at most 10, most first.
+fn busiest_seconds(outcomes: &[ViewerOutcome]) -> Vec<StallSecond> {
+    let mut by_second = std::collections::BTreeMap::<u64, u64>::new();
+    for outcome in outcomes {
+        for (&second, &stalls) in &outcome.stall_seconds {
+            *by_second.entry(second).or_default() += stalls;
+        }
+    }
+    let mut seconds: Vec<StallSecond> = by_second
+        .into_iter()
+        .map(|(second, stalls)| StallSecond { second, stalls })
+        .collect();
+    seconds.sort_by_key(|s| (std::cmp::Reverse(s.stalls), s.second));
+    seconds.truncate(10);
+    seconds
+}
+
 /// Distinct messages with their counts, most frequent first, at most 20.
 fn tally(messages: Vec<String>) -> Vec<(String, usize)> {
     let mut counts: Vec<(String, usize)> = Vec::new();
@@ -542,6 +571,17 @@ fn print(r: &LoadReport) {
         r.regressions,
         r.viewers_without_frames
     );
+    if !r.stall_seconds.is_empty() {
+        let seconds: Vec<String> = r
+            .stall_seconds
+            .iter()
+            .map(|s| format!("{} s: {}", s.second, s.stalls))
+            .collect();
+        println!(
+            "  stalls by second of the run (busiest first): {}",
+            seconds.join(", ")
+        );
+    }
     println!(
         "  producer-to-viewer latency ms: p50 {:.2}  p90 {:.2}  p99 {:.2}  max {:.2}; {:.0} bytes/frame",
         r.latency_ms.p50, r.latency_ms.p90, r.latency_ms.p99, r.latency_ms.max, r.bytes_per_frame

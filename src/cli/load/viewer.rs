@@ -2,6 +2,7 @@
 //! is over, counting what a person watching would notice: latency from the producer,
 //! skipped frames, stalls and frames that arrive older than one already shown.
 
+use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
@@ -31,6 +32,9 @@ pub struct ViewerOutcome {
     /// Those of `stalls` where the producer's own sends were as far apart: the generator
     /// paused, not the server.
     pub producer_stalls: u64,
+    /// Stalls by the second of the run they began in (whole seconds since the producers
+    /// started): a burst shows as one second with many.
+    pub stall_seconds: BTreeMap<u64, u64>,
     pub latencies: Latencies,
     /// The refusal or failure that ended it early, if any.
     pub failure: Option<String>,
@@ -59,6 +63,8 @@ impl ViewerOutcome {
                         .send_gap_us(previous, seq)
                         .is_some_and(|gap| gap > stall_us);
                     self.producer_stalls += u64::from(producer_paused);
+                    let second = at.saturating_duration_since(plan.start).as_secs();
+                    *self.stall_seconds.entry(second).or_default() += 1;
                 }
             }
             None => {}
@@ -74,6 +80,8 @@ pub struct ViewerPlan {
     /// Frames received by every viewer, for the progress line.
     pub received: Arc<AtomicU64>,
     pub stall_after: Duration,
+    /// When the producers started: stalls are timed from here.
+    pub start: Instant,
     /// When to stop if the stream has not ended.
     pub deadline: Instant,
 }
@@ -155,4 +163,34 @@ pub async fn watch(plan: ViewerPlan, mut socket: Socket, algorithm: String) -> V
     }
     let _ = socket.close(None).await;
     outcome
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[tokio::test(start_paused = true)]
+    async fn a_stall_is_counted_in_the_second_it_began() {
+        let start = Instant::now();
+        let plan = ViewerPlan {
+            times: Arc::new(SendTimes::new(std::time::Instant::now())),
+            received: Arc::default(),
+            stall_after: Duration::from_millis(100),
+            start,
+            deadline: start + Duration::from_secs(10),
+        };
+        let mut outcome = ViewerOutcome::default();
+        let mut last = None;
+        // A frame every 33 ms for 2.5 s (the last at 2.508 s), then 200 ms with none.
+        for seq in 0..76 {
+            tokio::time::advance(Duration::from_millis(33)).await;
+            outcome.record(seq, 100, &mut last, &plan);
+        }
+        tokio::time::advance(Duration::from_millis(200)).await;
+        outcome.record(76, 100, &mut last, &plan);
+        tokio::time::advance(Duration::from_millis(33)).await;
+        outcome.record(77, 100, &mut last, &plan);
+        assert_eq!((outcome.frames, outcome.stalls, outcome.skipped), (78, 1, 0));
+        assert_eq!(outcome.stall_seconds, BTreeMap::from([(2, 1)]));
+    }
 }
