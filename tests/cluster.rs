@@ -346,7 +346,32 @@ async fn a_nats_restart_is_survived_without_restarting_facewire() {
     }
 
     nats.kill();
-    tokio::time::sleep(Duration::from_secs(2)).await;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    // While NATS is away, what needs the cluster is refused at once, with the reason.
+    let asked = Instant::now();
+    let mut refused = connect(&n2.ws(&format!("/v1/heads/{HEAD}/streams/other/produce"))).await;
+    match next_json(&mut refused).await {
+        ServerMessage::Error { code, .. } => assert_eq!(code.as_str(), "bus_unavailable"),
+        other => panic!("expected bus_unavailable, got {other:?}"),
+    }
+    assert_eq!(close_code(&mut refused).await, 4503);
+    let registering = reqwest::Client::new()
+        .post(n2.http("/v1/heads"))
+        .json(&serde_json::json!({
+            "id": "during",
+            "obj": std::fs::read_to_string(common::data("heads/makehuman_head.obj")).unwrap(),
+            "fit": std::fs::read_to_string(common::data("heads/makehuman_head.fit.toml")).unwrap(),
+        }))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(registering.status(), 503);
+    assert!(
+        asked.elapsed() < Duration::from_secs(2),
+        "refused after {:?}",
+        asked.elapsed()
+    );
+    tokio::time::sleep(Duration::from_millis(1700)).await;
     nats.restart();
     let restarted = Instant::now();
     // Frames produced on node 1 reach node 2 again.

@@ -50,6 +50,8 @@ fn bus(e: impl std::fmt::Display) -> SharedHeadError {
 pub struct ClusterHeads {
     kv: kv::Store,
     objects: object_store::ObjectStore,
+    /// To refuse at once, rather than after a timeout, while NATS is away.
+    client: async_nats::Client,
 }
 
 fn mesh_name(id: &str, tag: &str) -> String {
@@ -64,7 +66,10 @@ impl ClusterHeads {
     /// Opens the buckets, making them (one replica) if this is the cluster's first node;
     /// buckets an operator made first, with more replicas, are used as they are. The error
     /// names the bucket.
-    pub async fn open(js: &jetstream::Context) -> Result<ClusterHeads, (&'static str, String)> {
+    pub async fn open(
+        js: &jetstream::Context,
+        client: async_nats::Client,
+    ) -> Result<ClusterHeads, (&'static str, String)> {
         let kv = match js.get_key_value(HEADS_BUCKET).await {
             Ok(kv) => kv,
             Err(_) => js
@@ -90,12 +95,13 @@ impl ClusterHeads {
                 .await
                 .map_err(|e| (MESHES_BUCKET, e.to_string()))?,
         };
-        Ok(ClusterHeads { kv, objects })
+        Ok(ClusterHeads { kv, objects, client })
     }
 
     /// Stores a new head for every node; `record.meta.registration_tag` must be set.
     /// Fails with `Exists` when any node has registered the id.
     pub async fn save(&self, record: &HeadRecord) -> Result<(), SharedHeadError> {
+        self.check_connected()?;
         let id = record.id.as_str();
         let tag = record.meta.registration_tag.clone().unwrap_or_default();
         if self.current(id).await?.is_some() {
@@ -132,6 +138,7 @@ impl ClusterHeads {
 
     /// Removes a head for every node; false when the cluster has no such head.
     pub async fn delete(&self, id: &str) -> Result<bool, SharedHeadError> {
+        self.check_connected()?;
         let Some(shared) = self.current(id).await? else {
             return Ok(false);
         };
@@ -142,6 +149,13 @@ impl ClusterHeads {
         }
         self.remove_objects(names.into_iter()).await;
         Ok(true)
+    }
+
+    fn check_connected(&self) -> Result<(), SharedHeadError> {
+        match self.client.connection_state() {
+            async_nats::connection::State::Connected => Ok(()),
+            _ => Err(SharedHeadError::Bus("not connected to NATS".into())),
+        }
     }
 
     async fn current(&self, id: &str) -> Result<Option<SharedHead>, SharedHeadError> {

@@ -26,6 +26,9 @@ pub use lease::LeaseError;
 
 /// Subject and bucket names start with this.
 const PREFIX: &str = "facewire";
+/// How long a JetStream request (a lease, a registry entry, a mesh chunk) may take before
+/// the operation is refused as `bus_unavailable`.
+const JETSTREAM_TIMEOUT: Duration = Duration::from_secs(3);
 
 #[derive(Debug, thiserror::Error)]
 pub enum ClusterError {
@@ -89,7 +92,8 @@ impl Cluster {
                 url: url.to_string(),
                 source,
             })?;
-        let js = jetstream::new(client.clone());
+        let mut js = jetstream::new(client.clone());
+        js.set_timeout(JETSTREAM_TIMEOUT);
         let bucket_error = |bucket: &'static str| {
             move |e: &dyn std::fmt::Display| ClusterError::Bucket {
                 url: url.to_string(),
@@ -97,7 +101,7 @@ impl Cluster {
                 message: e.to_string(),
             }
         };
-        let heads = ClusterHeads::open(&js)
+        let heads = ClusterHeads::open(&js, client.clone())
             .await
             .map_err(|(bucket, e)| bucket_error(bucket)(&e))?;
         let leases = lease::Leases::open(&js, client.clone(), node)
@@ -145,6 +149,9 @@ impl Cluster {
         stream: &str,
         cancel_producer: tokio_util::sync::CancellationToken,
     ) -> Result<Box<dyn super::stream::Relay>, LeaseError> {
+        if !self.connected() {
+            return Err(LeaseError::Unavailable("not connected to NATS".into()));
+        }
         let lease = self.leases.claim(head, stream, cancel_producer).await?;
         Ok(Box::new(self.outbox.relay(head, stream, lease)))
     }
