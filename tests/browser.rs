@@ -260,11 +260,7 @@ async fn check_failover_across_nodes(browser: &Browser) {
         let mut ticks = tokio::time::interval(Duration::from_millis(33));
         for seq in 0.. {
             ticks.tick().await;
-            let jaw = 0.15 + 0.15 * (seq as f64 * 0.3).sin();
-            let line = format!(
-                r#"{{"seq":{seq},"t":{},"au":{{"jaw_drop":{jaw}}}}}"#,
-                seq as f64 / 30.0
-            );
+            let line = common::service::moving_jaw_line(seq);
             if producer.send(Message::Text(line.into())).await.is_err() {
                 return;
             }

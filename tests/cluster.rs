@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use common::nats::NatsServer;
-use common::service::{close_code, connect, next_json, next_message, Server, Socket};
+use common::service::{close_code, connect, moving_jaw_line, next_json, next_message, Server, Socket};
 use facewire_proto::frame::{decode, ViewerFrame};
 use facewire_proto::messages::{HeadInfo, ServerMessage};
 use futures_util::SinkExt;
@@ -63,13 +63,15 @@ async fn wait_gone(server: &Server, id: &str, within: Duration) {
     }
 }
 
-/// A frame line whose jaw moves with `seq`, so every frame differs.
-fn line(seq: u64) -> String {
-    let jaw = 0.15 + 0.15 * (seq as f64 * 0.4).sin();
-    format!(
-        r#"{{"seq":{seq},"t":{},"au":{{"jaw_drop":{jaw}}}}}"#,
-        seq as f64 / 30.0
-    )
+/// Three nodes on `nats`, the MakeHuman head registered on the first and ready on all.
+async fn three_nodes_with_the_head(nats: &NatsServer) -> (Server, Server, Server) {
+    let n1 = node(nats, "n1").await;
+    let n2 = node(nats, "n2").await;
+    let n3 = node(nats, "n3").await;
+    n1.register(HEAD, "makehuman_head", "").await;
+    n2.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
+    n3.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
+    (n1, n2, n3)
 }
 
 async fn viewer(server: &Server) -> Socket {
@@ -84,7 +86,10 @@ async fn producer(server: &Server) -> Socket {
 
 /// Sends frame `seq` and waits for its ack.
 async fn produce(socket: &mut Socket, seq: u64) {
-    socket.send(Message::Text(line(seq).into())).await.unwrap();
+    socket
+        .send(Message::Text(moving_jaw_line(seq).into()))
+        .await
+        .unwrap();
     match next_json(socket).await {
         ServerMessage::Ack { seq: acked, .. } => assert_eq!(acked, seq),
         other => panic!("expected the ack of {seq}, got {other:?}"),
@@ -134,13 +139,7 @@ fn content(frame: &ViewerFrame) -> ViewerFrame {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn three_nodes_share_a_head_and_a_stream_frame_for_frame() {
     let nats = NatsServer::start();
-    let n1 = node(&nats, "n1").await;
-    let n2 = node(&nats, "n2").await;
-    let n3 = node(&nats, "n3").await;
-
-    n1.register(HEAD, "makehuman_head", "").await;
-    n2.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
-    n3.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
+    let (n1, n2, n3) = three_nodes_with_the_head(&nats).await;
 
     // Viewers on the producer's node (the single-node path) and on a node with no producer.
     let mut here = viewer(&n2).await;
@@ -214,7 +213,7 @@ async fn keep_producing(
     let mut ticks = tokio::time::interval(Duration::from_millis(33));
     while !stop.is_cancelled() {
         ticks.tick().await;
-        let sent = socket.send(Message::Text(line(seq).into())).await;
+        let sent = socket.send(Message::Text(moving_jaw_line(seq).into())).await;
         let acked = match sent {
             Ok(()) => matches!(
                 tokio::time::timeout(Duration::from_secs(2), futures_util::StreamExt::next(&mut socket))
@@ -232,7 +231,9 @@ async fn keep_producing(
             at = (at + 1) % urls.len();
             if let Ok((mut next, _)) = tokio_tungstenite::connect_async(&urls[at]).await {
                 // A refusal (the lease still held) comes as an error and a close.
-                next.send(Message::Text(line(seq).into())).await.unwrap();
+                next.send(Message::Text(moving_jaw_line(seq).into()))
+                    .await
+                    .unwrap();
                 if let Ok(Some(Ok(Message::Text(text)))) =
                     tokio::time::timeout(Duration::from_secs(2), futures_util::StreamExt::next(&mut next))
                         .await
@@ -258,12 +259,7 @@ async fn keep_producing(
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_killed_node_drops_only_its_own_connections() {
     let nats = NatsServer::start();
-    let n1 = node(&nats, "n1").await;
-    let n2 = node(&nats, "n2").await;
-    let n3 = node(&nats, "n3").await;
-    n1.register(HEAD, "makehuman_head", "").await;
-    n2.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
-    n3.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
+    let (n1, n2, n3) = three_nodes_with_the_head(&nats).await;
 
     let mut on_n2 = viewer(&n2).await;
     let mut on_n3 = viewer(&n3).await;

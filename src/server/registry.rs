@@ -114,7 +114,7 @@ impl Registry {
         }
         if persist {
             if let HeadStore::Cluster(_) = self.inner.store {
-                record.meta.registration_tag = Some(super::cluster::random_node_name());
+                record.meta.registration_tag = Some(super::cluster::unique_name("reg"));
             }
         }
         let entry = {

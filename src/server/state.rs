@@ -85,7 +85,8 @@ impl AppState {
             Some(dir) => HeadStore::Dir(Store::open(dir)?),
             None => HeadStore::Memory,
         };
-        Ok(AppState::build(config, store, None, Arc::default()))
+        let mask = Arc::new(Mask::candide3());
+        Ok(AppState::build(config, store, None, mask, Arc::default()))
     }
 
     /// State for `config`, alone or as a cluster node: connects to the bus, opens its
@@ -98,12 +99,12 @@ impl AppState {
         let node = config
             .node_name
             .clone()
-            .unwrap_or_else(super::cluster::random_node_name);
+            .unwrap_or_else(|| super::cluster::unique_name("node"));
         let telemetry = Arc::new(Telemetry::default());
         let mask = Arc::new(Mask::candide3());
-        let cluster = Arc::new(Cluster::connect(&url, &node, mask, telemetry.clone()).await?);
+        let cluster = Arc::new(Cluster::connect(&url, &node, mask.clone(), telemetry.clone()).await?);
         let store = HeadStore::Cluster(Box::new(cluster.heads.clone()));
-        let state = AppState::build(config, store, Some(cluster.clone()), telemetry);
+        let state = AppState::build(config, store, Some(cluster.clone()), mask, telemetry);
         cluster
             .start(
                 state.registry.clone(),
@@ -142,6 +143,7 @@ impl AppState {
         config: Config,
         store: HeadStore,
         cluster: Option<Arc<Cluster>>,
+        mask: Arc<Mask>,
         telemetry: Arc<Telemetry>,
     ) -> AppState {
         let (default_spec, allowed_specs) = config.allowed_algorithms().expect("validated by the caller");
@@ -171,7 +173,7 @@ impl AppState {
                 tokens: Tokens::new(&config.auth),
                 viewer_slots: Arc::new(Semaphore::new(limits.max_viewers)),
                 trimmer: Arc::default(),
-                mask: Arc::new(Mask::candide3()),
+                mask,
                 arkit: Arc::new(ArkitBasis::shipped()),
                 started: Instant::now(),
                 cluster,

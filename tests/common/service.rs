@@ -300,6 +300,16 @@ pub fn jaw_line(seq: u64, t: f64) -> String {
     format!(r#"{{"seq":{seq},"t":{t},"au":{{"jaw_drop":0.3}}}}"#)
 }
 
+/// A JSONL frame line whose jaw opens and closes with `seq` (30 fps timestamps), so every
+/// frame differs from the one before.
+pub fn moving_jaw_line(seq: u64) -> String {
+    let jaw = 0.15 + 0.15 * (seq as f64 * 0.4).sin();
+    format!(
+        r#"{{"seq":{seq},"t":{},"au":{{"jaw_drop":{jaw}}}}}"#,
+        seq as f64 / 30.0
+    )
+}
+
 /// Resident memory, KiB, from a `/proc/{pid}/statm` file.
 fn resident_kib(statm: &str) -> u64 {
     let statm = std::fs::read_to_string(statm).unwrap();

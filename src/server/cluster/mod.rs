@@ -157,11 +157,12 @@ impl Cluster {
     }
 }
 
-/// A node name nobody else has: `node-` and 10 hex digits from the process id and clock.
-pub fn random_node_name() -> String {
+/// A name nobody else has, for a node (`node-...`) or a registration's tag (`reg-...`):
+/// `prefix`, `-` and 10 hex digits from the process id and the clock.
+pub fn unique_name(prefix: &str) -> String {
     use sha2::{Digest, Sha256};
     let seed = format!("{}-{}", std::process::id(), super::now_us());
     let digest = Sha256::digest(seed.as_bytes());
     let hex: String = digest[..5].iter().map(|b| format!("{b:02x}")).collect();
-    format!("node-{hex}")
+    format!("{prefix}-{hex}")
 }
