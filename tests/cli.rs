@@ -93,6 +93,63 @@ fn fit_reproduces_the_shipped_fits() {
 }
 
 #[test]
+fn fit_without_landmarks_finds_the_face_and_guesses_the_units() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_path = dir.path().join("ict.fit.toml");
+    let head = data("heads/ict_head.obj");
+    let args = [
+        "fit",
+        "--head",
+        head.to_str().unwrap(),
+        "--out",
+        out_path.to_str().unwrap(),
+    ];
+    let out = facewire(&args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("with no landmarks"), "{stdout}");
+    assert!(stdout.contains("probably in centimetres"), "{stdout}");
+    // The written fit is a fit like any other: `facewire inspect` resolves it on the head.
+    let inspected = json(&[
+        "inspect",
+        out_path.to_str().unwrap(),
+        "--head",
+        head.to_str().unwrap(),
+        "--json",
+    ]);
+    let mm = inspected["mm_per_unit"].as_f64().unwrap();
+    assert!((9.0..10.5).contains(&mm), "{inspected}");
+
+    let mut json_args = args.to_vec();
+    json_args.push("--json");
+    let report = json(&json_args);
+    assert_eq!(report["unit_guess"], "centimetres");
+    assert_eq!(report["mm_per_unit_source"], "63 mm pupil separation");
+    assert!(
+        report["residuals"]["surface"]["mean_mm"].as_f64().unwrap() < 2.0,
+        "{report}"
+    );
+    let forward = report["forward"].as_array().unwrap();
+    assert!(forward[2].as_f64().unwrap() > 0.99, "{report}");
+
+    // A mesh with no face is refused with the reason, and nothing is written.
+    let ball = dir.path().join("ball.obj");
+    std::fs::write(&ball, common::ball_obj()).unwrap();
+    let refused = dir.path().join("ball.fit.toml");
+    let out = facewire(&[
+        "fit",
+        "--head",
+        ball.to_str().unwrap(),
+        "--out",
+        refused.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no face found") && err.contains("+y"), "{err}");
+    assert!(!refused.exists());
+}
+
+#[test]
 fn render_writes_a_png() {
     let dir = tempfile::tempdir().unwrap();
     let png = dir.path().join("mh.png");

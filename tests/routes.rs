@@ -204,6 +204,55 @@ async fn register_and_wait(
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_head_with_neither_fit_nor_landmarks_is_fitted_automatically() {
+    let router = app(AppState::new(memory_config()).unwrap());
+    let obj = std::fs::read_to_string(data("heads/ict_head.obj")).unwrap();
+    let info = register_and_wait(&router, serde_json::json!({"id": "found", "obj": obj}), None).await;
+    assert_eq!(info["status"], "ready", "{info}");
+    let mean = info["fit"]["surface_mean_mm"].as_f64().unwrap();
+    assert!(mean < 2.0, "{info}");
+
+    // A mesh with no face: refused at once, naming the reason and the assumption.
+    let ball = common::ball_obj();
+    let (status, body) = call(
+        &router,
+        Method::POST,
+        "/v1/heads",
+        None,
+        Body::from(serde_json::json!({"id": "ball", "obj": ball}).to_string()),
+    )
+    .await;
+    let body: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(
+        (status, body["error"].as_str()),
+        (StatusCode::BAD_REQUEST, Some("bad_head")),
+        "{body}"
+    );
+    let message = body["message"].as_str().unwrap_or_default();
+    assert!(
+        message.contains("no face found") && message.contains("+y"),
+        "{body}"
+    );
+
+    // Both a fit and landmarks: which one was meant is not guessed.
+    let both = serde_json::json!({"id": "both", "obj": "v 0 0 0", "fit": "", "landmarks": ""});
+    let (status, body) = call(
+        &router,
+        Method::POST,
+        "/v1/heads",
+        None,
+        Body::from(both.to_string()),
+    )
+    .await;
+    let body: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(
+        (status, body["error"].as_str()),
+        (StatusCode::BAD_REQUEST, Some("bad_request")),
+        "{body}"
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn heads_that_cannot_be_animated_fail_with_the_reason() {
     let router = app(AppState::new(memory_config()).unwrap());
     let fit = std::fs::read_to_string(data("heads/makehuman_head.fit.toml")).unwrap();

@@ -1,5 +1,6 @@
-//! `facewire fit`: solve a fit from landmarks and write it as `.fit.toml`, printing how
-//! far the mask lies from the head before (similarity only) and after (with shape units).
+//! `facewire fit`: solve a fit and write it as `.fit.toml`. From landmarks it prints how far
+//! the mask lies from the head before (similarity only) and after (with shape units); with
+//! no landmarks it finds the face itself and says what it found and guessed.
 
 use serde::Serialize;
 
@@ -7,17 +8,21 @@ use super::{load_head, load_mask, print_json, CliResult, FilePath};
 use crate::atomic::write_atomic;
 use crate::fit::limits::{in_range, MM_PER_UNIT_RANGE};
 use crate::fit::{
-    fit_from_landmarks, residuals, solve_fit, Fit, FitFile, FittedMask, Landmarks, Residuals, SolveOptions,
+    fit_automatically, fit_from_landmarks, residuals, solve_fit, AutomaticFit, Fit, FitFile, FittedMask,
+    Landmarks, Residuals, SolveOptions,
 };
+use crate::head::Head;
+use crate::mask::Mask;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// The head mesh (OBJ).
     #[arg(long)]
     head: FilePath,
-    /// Landmark correspondences (.landmarks.toml).
+    /// Landmark correspondences (.landmarks.toml). Without them the face is found
+    /// automatically (the head's +y must be up).
     #[arg(long)]
-    landmarks: FilePath,
+    landmarks: Option<FilePath>,
     /// Where to write the fit (.fit.toml).
     #[arg(long)]
     out: FilePath,
@@ -46,7 +51,93 @@ struct Report {
 pub fn run(args: Args) -> CliResult {
     let mask = load_mask(args.mask.as_deref())?;
     let head = load_head(&args.head)?;
-    let mut landmarks = Landmarks::load(&args.landmarks)?;
+    match &args.landmarks {
+        Some(landmarks) => from_landmarks(&args, landmarks, &head, &mask),
+        None => automatic(&args, &head, &mask),
+    }
+}
+
+#[derive(Serialize)]
+struct AutomaticReport {
+    fit: FitFile,
+    mm_per_unit_source: &'static str,
+    /// The unit `mm_per_unit` is near, when it is near one.
+    unit_guess: Option<&'static str>,
+    /// The direction the face looks, head frame.
+    forward: [f32; 3],
+    /// The nose tip found, head units.
+    nose_tip: [f32; 3],
+    residuals: Residuals,
+}
+
+fn automatic(args: &Args, head: &Head, mask: &Mask) -> CliResult {
+    let mm_per_unit = args
+        .mm_per_unit
+        .map(|mm| in_range("--mm-per-unit", mm, MM_PER_UNIT_RANGE))
+        .transpose()?;
+    let found: AutomaticFit = fit_automatically(head, mask, mm_per_unit)?;
+    let fitted = FittedMask::new(mask.clone(), found.fit.clone());
+    let residuals = residuals::measure(
+        head,
+        &fitted.neutral,
+        &mask.used_vertices(),
+        &[],
+        found.fit.mm_per_unit,
+    );
+    let file = write_fit(args, &fitted.fit, mask)?;
+    let source = if found.mm_per_unit_from_pupils {
+        "63 mm pupil separation"
+    } else {
+        "command line"
+    };
+    if args.json {
+        return print_json(&AutomaticReport {
+            fit: file,
+            mm_per_unit_source: source,
+            unit_guess: found.unit_name(),
+            forward: found.forward.to_array(),
+            nose_tip: found.nose_tip.to_array(),
+            residuals,
+        });
+    }
+    let [fx, fy, fz] = found.forward.to_array();
+    let [nx, ny, nz] = found.nose_tip.to_array();
+    println!(
+        "fit {} to {} with no landmarks: the face looks along ({fx:.2}, {fy:.2}, {fz:.2}), nose tip at \
+         ({nx:.3}, {ny:.3}, {nz:.3}) head units",
+        mask_name(&args.mask),
+        args.head.display(),
+    );
+    let unit = found
+        .unit_name()
+        .map_or_else(String::new, |name| format!(", so the head is probably in {name}"));
+    println!(
+        "mm per head unit: {:.4} ({source}{unit}); scale {:.5} head units per mask unit",
+        found.fit.mm_per_unit, found.fit.pose.scale.x
+    );
+    println!(
+        "mask vertices to head surface: mean {:.3} mm, max {:.3} mm (mask vertex {})",
+        residuals.surface.mean_mm, residuals.surface.max_mm, residuals.surface.worst_mask_vertex
+    );
+    println!("wrote {}", args.out.display());
+    Ok(())
+}
+
+/// Writes `fit` to `--out` and returns what was written.
+fn write_fit(
+    args: &Args,
+    fit: &Fit,
+    mask: &Mask,
+) -> Result<FitFile, Box<dyn std::error::Error + Send + Sync>> {
+    let head_name = args.head.file_name().map(|n| n.to_string_lossy().into_owned());
+    let file = FitFile::from_fit(fit, mask, head_name);
+    write_atomic(&args.out, file.to_toml().as_bytes())
+        .map_err(|e| format!("cannot write {}: {e}", args.out.display()))?;
+    Ok(file)
+}
+
+fn from_landmarks(args: &Args, landmarks_path: &FilePath, head: &Head, mask: &Mask) -> CliResult {
+    let mut landmarks = Landmarks::load(landmarks_path)?;
     let source = match (args.mm_per_unit, landmarks.mm_per_unit) {
         (Some(mm), _) => {
             landmarks.mm_per_unit = Some(in_range("--mm-per-unit", mm, MM_PER_UNIT_RANGE)?);
@@ -55,17 +146,17 @@ pub fn run(args: Args) -> CliResult {
         (None, Some(_)) => "landmarks file",
         (None, None) => "63 mm pupil separation",
     };
-    let origin = args.landmarks.display().to_string();
-    let solved = fit_from_landmarks(&head, &landmarks, &origin, &mask)?;
+    let origin = landmarks_path.display().to_string();
+    let solved = fit_from_landmarks(head, &landmarks, &origin, mask)?;
     let after = &solved.fit;
     let mm_per_unit = after.mm_per_unit;
     // The similarity alone, for comparison: how much the shape units add.
-    let pairs = landmarks.targets(&head);
+    let pairs = landmarks.targets(head);
     let similarity_only = SolveOptions {
         solve_shape: false,
         ..SolveOptions::default()
     };
-    let before = solve_fit(&mask, &pairs, &[], &similarity_only)?;
+    let before = solve_fit(mask, &pairs, &[], &similarity_only)?;
     let index_pairs: Vec<(u32, u32)> = landmarks
         .landmarks
         .iter()
@@ -82,18 +173,14 @@ pub fn run(args: Args) -> CliResult {
         };
         let fitted = FittedMask::new(mask.clone(), fit);
         (
-            residuals::measure(&head, &fitted.neutral, &used, &index_pairs, mm_per_unit),
+            residuals::measure(head, &fitted.neutral, &used, &index_pairs, mm_per_unit),
             fitted.fit,
         )
     };
     let (before_residuals, _) = measure(&before.shape, before.pose);
     let (after_residuals, fit) = measure(&after.shape, after.pose);
 
-    let head_name = args.head.file_name().map(|n| n.to_string_lossy().into_owned());
-    let file = FitFile::from_fit(&fit, &mask, head_name);
-    write_atomic(&args.out, file.to_toml().as_bytes())
-        .map_err(|e| format!("cannot write {}: {e}", args.out.display()))?;
-
+    let file = write_fit(args, &fit, mask)?;
     if args.json {
         return print_json(&Report {
             fit: file,

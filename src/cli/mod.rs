@@ -54,7 +54,7 @@ pub enum Command {
     /// Summarize a mask (.wfm), head (.obj), fit (.fit.toml), landmarks (.landmarks.toml)
     /// or parameter stream (.jsonl, .fap, .fau, .txt).
     Inspect(inspect::Args),
-    /// Solve a fit of the CANDIDE-3 mask to a head from landmark correspondences.
+    /// Solve a fit of the CANDIDE-3 mask to a head, from landmarks or automatically.
     Fit(fit::Args),
     /// Render a head, optionally with its fitted mask, to a PNG picture.
     Render(render::Args),

@@ -6,6 +6,7 @@
 //! `mm_per_unit` maps head units to millimetres.
 
 mod anchors;
+mod automatic;
 mod file;
 mod from_landmarks;
 mod landmarks;
@@ -19,6 +20,7 @@ use glam::Vec3;
 use crate::mask::{fap, FapuValues, Mask, MaskPose};
 
 pub use anchors::{anchor_mask, Anchors};
+pub use automatic::{fit_automatically, AutomaticFit, AutomaticFitError};
 pub use file::{FitFile, FitFileError, Nudge};
 pub use from_landmarks::{fit_from_landmarks, FitError, LandmarkFit};
 pub use landmarks::{Landmark, LandmarkError, Landmarks};

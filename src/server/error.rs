@@ -25,6 +25,9 @@ pub enum ApiError {
     BadId { what: &'static str, id: String },
     #[error("{0}")]
     BadLandmarks(String),
+    /// A head that cannot be fitted automatically (no face found, an OBJ that does not parse).
+    #[error("{0}")]
+    BadHead(String),
     #[error("{0}")]
     BadFrame(String),
     #[error("{0}")]
@@ -75,6 +78,7 @@ impl ApiError {
             ApiError::BadRequest(_)
             | ApiError::BadId { .. }
             | ApiError::BadLandmarks(_)
+            | ApiError::BadHead(_)
             | ApiError::BadFrame(_)
             | ApiError::BadAlgorithm(_) => StatusCode::BAD_REQUEST,
             ApiError::TooLarge { .. } | ApiError::TooManyFrames { .. } | ApiError::TooLong { .. } => {
@@ -102,6 +106,7 @@ impl ApiError {
             ApiError::BadRequest(_) => ErrorCode::BadRequest,
             ApiError::BadId { .. } => ErrorCode::BadId,
             ApiError::BadLandmarks(_) => ErrorCode::BadLandmarks,
+            ApiError::BadHead(_) => ErrorCode::BadHead,
             ApiError::BadFrame(_) => ErrorCode::BadFrame,
             ApiError::BadAlgorithm(_) => ErrorCode::BadAlgorithm,
             ApiError::TooLarge { .. } => ErrorCode::TooLarge,

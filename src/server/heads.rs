@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use super::error::ApiError;
 use super::ids::valid_id;
-use super::registration::fit_from_landmarks;
+use super::registration::{fit_automatically, fit_from_landmarks};
 use super::store::{HeadMeta, HeadRecord, PartRecord};
 use super::AppState;
 use crate::deform::AlgoSpec;
@@ -33,7 +33,8 @@ pub struct RegisterRequest {
     /// A `.fit.toml` text, or
     #[serde(default)]
     pub fit: Option<String>,
-    /// a `.landmarks.toml` text to solve the fit from.
+    /// a `.landmarks.toml` text to solve the fit from; with neither, the fit is found
+    /// automatically.
     #[serde(default)]
     pub landmarks: Option<String>,
     /// This head's own producer token (stored as a digest).
@@ -107,9 +108,16 @@ pub async fn register_head(
                 .map_err(ApiError::internal)?
                 .map_err(|e| ApiError::BadLandmarks(e.to_string()))?
         }
-        _ => {
+        (None, None) => {
+            let obj = request.obj.clone();
+            tokio::task::spawn_blocking(move || fit_automatically(obj.as_bytes()))
+                .await
+                .map_err(ApiError::internal)?
+                .map_err(|e| ApiError::BadHead(e.to_string()))?
+        }
+        (Some(_), Some(_)) => {
             return Err(ApiError::BadRequest(
-                "give exactly one of `fit` and `landmarks`".into(),
+                "give at most one of `fit` and `landmarks` (neither: the fit is found automatically)".into(),
             ))
         }
     };

@@ -14,7 +14,7 @@ use super::head::ReadyHead;
 use super::store::PartRecord;
 use crate::animate::{AnimatedHead, AnimatedHeadError, PartInput};
 use crate::deform::Registration;
-use crate::fit::{FitError, FitFile, FitFileError, FittedMask, Landmarks};
+use crate::fit::{AutomaticFitError, FitError, FitFile, FitFileError, FittedMask, Landmarks};
 use crate::head::{Head, ObjError};
 use crate::mask::Mask;
 use facewire_proto::mesh::RestMesh;
@@ -154,6 +154,24 @@ pub fn register(
         rest_obj: Bytes::from(rest_obj),
         bindings: BindingCache::new(input.max_bindings),
     })
+}
+
+/// Why a head with neither fit nor landmarks could not be fitted.
+#[derive(Debug, thiserror::Error)]
+pub enum AutomaticFitFailure {
+    #[error("head.obj: {0}")]
+    Obj(#[from] ObjError),
+    #[error(transparent)]
+    Fit(#[from] AutomaticFitError),
+}
+
+/// Finds the face and fits the mask with no landmarks, for a registration request
+/// (blocking; about a second for a 30,000-triangle head).
+pub fn fit_automatically(obj: &[u8]) -> Result<String, AutomaticFitFailure> {
+    let head = Head::from_obj_bytes("head.obj", obj)?;
+    let mask = Mask::candide3();
+    let found = crate::fit::fit_automatically(&head, &mask, None)?;
+    Ok(FitFile::from_fit(&found.fit, &mask, None).to_toml())
 }
 
 /// Solves a fit from a `.landmarks.toml` text for a registration request (blocking).

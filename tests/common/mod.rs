@@ -152,3 +152,27 @@ pub fn upper_lip_vertices(reg: &Registration) -> Vec<usize> {
         })
         .collect()
 }
+
+/// A ball as OBJ text (20 x 20 vertices, unit radius): a closed surface with no face on it.
+pub fn ball_obj() -> String {
+    let mut text = String::new();
+    for r in 0..20 {
+        for c in 0..20 {
+            let theta = std::f32::consts::PI * r as f32 / 19.0;
+            let phi = std::f32::consts::TAU * c as f32 / 20.0;
+            text.push_str(&format!(
+                "v {} {} {}\n",
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin()
+            ));
+        }
+    }
+    for r in 0..19 {
+        for c in 0..20 {
+            let (a, b) = (r * 20 + c + 1, r * 20 + (c + 1) % 20 + 1);
+            text.push_str(&format!("f {a} {} {b}\nf {b} {} {}\n", a + 20, a + 20, b + 20));
+        }
+    }
+    text
+}

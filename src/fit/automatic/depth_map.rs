@@ -1,0 +1,302 @@
+//! A range image of a head seen from one horizontal direction: for each cell of a grid laid
+//! across the view, how far forward the surface comes there. The automatic fit looks for
+//! the nose on it (the point that stands out most from the surface beside it) and reads
+//! the face's width at the nose.
+//!
+//! All lengths are head units. The view's axes are `lateral` (the face's left, CANDIDE's
+//! +x), `up` (+y of the head) and `forward` (out of the face, CANDIDE's +z).
+
+use glam::{Vec2, Vec3};
+
+/// Directions of a view: a right-handed frame with `lateral = up x forward`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct View {
+    pub lateral: Vec3,
+    pub up: Vec3,
+    pub forward: Vec3,
+}
+
+impl View {
+    /// Looking at the head from `yaw` radians about +y: yaw 0 sees a face that looks along +z.
+    pub fn horizontal(yaw: f32) -> View {
+        let forward = Vec3::new(yaw.sin(), 0.0, yaw.cos());
+        let up = Vec3::Y;
+        View {
+            lateral: up.cross(forward),
+            up,
+            forward,
+        }
+    }
+
+    /// The view along a mask pose's axes: CANDIDE's x, y and z in the head frame.
+    pub fn of_rotation(rotation: glam::Mat3) -> View {
+        View {
+            lateral: rotation.x_axis.normalize(),
+            up: rotation.y_axis.normalize(),
+            forward: rotation.z_axis.normalize(),
+        }
+    }
+
+    pub fn project(&self, p: Vec3) -> (Vec2, f32) {
+        (
+            Vec2::new(p.dot(self.lateral), p.dot(self.up)),
+            p.dot(self.forward),
+        )
+    }
+
+    pub fn point(&self, across: Vec2, depth: f32) -> Vec3 {
+        across.x * self.lateral + across.y * self.up + depth * self.forward
+    }
+}
+
+/// +1 when `triangles` mostly wind counter-clockwise seen from outside (their normals
+/// point away from the mesh's centre), -1 otherwise.
+pub fn outward_winding(positions: &[Vec3], triangles: &[[u32; 3]]) -> f32 {
+    let centre = positions.iter().copied().sum::<Vec3>() / positions.len().max(1) as f32;
+    let outwardness: f32 = triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| positions[v as usize]);
+            (b - a).cross(c - a).dot((a + b + c) / 3.0 - centre)
+        })
+        .sum();
+    if outwardness >= 0.0 {
+        1.0
+    } else {
+        -1.0
+    }
+}
+
+/// Where the nose seems to be in one view.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoseCandidate {
+    /// The nose tip, head units.
+    pub tip: Vec3,
+    /// How far the tip stands out of the surface around it (the nearest of the four
+    /// points `radius` away to its left, right, above and below), as a fraction of `radius`.
+    pub prominence: f32,
+    /// The width of the surface across the view at the tip's height, head units.
+    pub width_at_tip: f32,
+}
+
+#[derive(Debug, Clone)]
+pub struct DepthMap {
+    view: View,
+    /// Lower-left corner of the grid (lateral, up), head units.
+    origin: Vec2,
+    cell: f32,
+    columns: usize,
+    rows: usize,
+    /// Row-major, `f32::NEG_INFINITY` where no surface covers the cell.
+    depth: Vec<f32>,
+}
+
+impl DepthMap {
+    /// Rasterizes the triangles of `triangles` that face the viewer on a grid whose longer
+    /// side has `cells` cells, keeping the surface that comes furthest forward in each cell.
+    /// `winding` is +1 when the triangles wind counter-clockwise seen from outside, -1 when
+    /// clockwise ([`outward_winding`]). Faces turned away (the inside of a mouth seen from
+    /// behind a face-only mesh, say) are not drawn.
+    pub fn render(
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+        view: View,
+        cells: usize,
+        winding: f32,
+    ) -> DepthMap {
+        let (mut low, mut high) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+        for &p in positions {
+            let (a, _) = view.project(p);
+            low = low.min(a);
+            high = high.max(a);
+        }
+        let extent = (high - low).max_element().max(f32::MIN_POSITIVE);
+        let cell = extent / cells as f32;
+        let columns = (((high.x - low.x) / cell) as usize + 1).min(cells + 1);
+        let rows = (((high.y - low.y) / cell) as usize + 1).min(cells + 1);
+        let mut map = DepthMap {
+            view,
+            origin: low,
+            cell,
+            columns,
+            rows,
+            depth: vec![f32::NEG_INFINITY; columns * rows],
+        };
+        for t in triangles {
+            let [a, b, c] = t.map(|v| positions[v as usize]);
+            if winding * (b - a).cross(c - a).dot(view.forward) <= 0.0 {
+                continue;
+            }
+            map.rasterize([a, b, c].map(|p| view.project(p)));
+        }
+        map
+    }
+
+    fn rasterize(&mut self, corners: [(Vec2, f32); 3]) {
+        let grid = corners.map(|(a, d)| ((a - self.origin) / self.cell, d));
+        let [(a, da), (b, db), (c, dc)] = grid;
+        let area = (b - a).perp_dot(c - a);
+        if area.abs() <= f32::EPSILON {
+            return;
+        }
+        let low = a.min(b).min(c);
+        let high = a.max(b).max(c);
+        let first_column = low.x.ceil().max(0.0) as usize;
+        let last_column = (high.x.floor() as isize).min(self.columns as isize - 1);
+        let first_row = low.y.ceil().max(0.0) as usize;
+        let last_row = (high.y.floor() as isize).min(self.rows as isize - 1);
+        for row in first_row as isize..=last_row {
+            for column in first_column as isize..=last_column {
+                let p = Vec2::new(column as f32, row as f32);
+                let wa = (b - p).perp_dot(c - p) / area;
+                let wb = (c - p).perp_dot(a - p) / area;
+                let wc = 1.0 - wa - wb;
+                if wa < -1e-6 || wb < -1e-6 || wc < -1e-6 {
+                    continue;
+                }
+                let depth = wa * da + wb * db + wc * dc;
+                let slot = &mut self.depth[row as usize * self.columns + column as usize];
+                *slot = slot.max(depth);
+            }
+        }
+    }
+
+    /// The depth of the surface at `across` (lateral, up; head units), from the nearest
+    /// cell, if a surface covers it.
+    pub fn depth_at(&self, across: Vec2) -> Option<f32> {
+        let cell = ((across - self.origin) / self.cell).round();
+        self.at(cell.x as isize, cell.y as isize)
+    }
+
+    fn at(&self, column: isize, row: isize) -> Option<f32> {
+        if column < 0 || row < 0 || column as usize >= self.columns || row as usize >= self.rows {
+            return None;
+        }
+        let d = self.depth[row as usize * self.columns + column as usize];
+        d.is_finite().then_some(d)
+    }
+
+    /// The cell that stands out most from the surface `radius` (head units) to its left,
+    /// right, above and below: a nose tip seen from the front. `None` when no covered cell
+    /// has surface on all four sides.
+    pub fn nose(&self, radius: f32) -> Option<NoseCandidate> {
+        let reach = ((radius / self.cell).round() as isize).max(1);
+        let mut best: Option<(f32, isize, isize, f32)> = None;
+        for row in 0..self.rows as isize {
+            for column in 0..self.columns as isize {
+                // A nose has surface all round it: cheeks beside, the bridge above, the lip
+                // below (an edge of the mesh, such as a cut neck, does not).
+                let (Some(d), Some(left), Some(right), Some(above), Some(below)) = (
+                    self.at(column, row),
+                    self.at(column - reach, row),
+                    self.at(column + reach, row),
+                    self.at(column, row + reach),
+                    self.at(column, row - reach),
+                ) else {
+                    continue;
+                };
+                let prominence = d - left.max(right).max(above).max(below);
+                if best.is_none_or(|(p, ..)| prominence > p) {
+                    best = Some((prominence, column, row, d));
+                }
+            }
+        }
+        let (prominence, column, row, depth) = best?;
+        let across = self.origin + Vec2::new(column as f32, row as f32) * self.cell;
+        Some(NoseCandidate {
+            tip: self.view.point(across, depth),
+            prominence: prominence / radius,
+            width_at_tip: self.width_of_row(row),
+        })
+    }
+
+    /// Distance between the first and the last covered cell of `row`, head units.
+    fn width_of_row(&self, row: isize) -> f32 {
+        let covered: Vec<isize> = (0..self.columns as isize)
+            .filter(|&c| self.at(c, row).is_some())
+            .collect();
+        match (covered.first(), covered.last()) {
+            (Some(first), Some(last)) => (last - first) as f32 * self.cell,
+            _ => 0.0,
+        }
+    }
+
+    /// The longer side of the view, head units.
+    pub fn extent(&self) -> f32 {
+        self.cell * self.columns.max(self.rows) as f32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A flat square at depth 0 facing +z with a pyramid of height 1 rising from its middle.
+    fn plate_with_a_peak() -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let positions = vec![
+            Vec3::new(-5.0, -5.0, 0.0),
+            Vec3::new(5.0, -5.0, 0.0),
+            Vec3::new(5.0, 5.0, 0.0),
+            Vec3::new(-5.0, 5.0, 0.0),
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(-1.0, 1.0, 0.0),
+            Vec3::new(0.0, 0.0, 1.0),
+        ];
+        let triangles = vec![
+            [0, 1, 5],
+            [0, 5, 4],
+            [1, 2, 6],
+            [1, 6, 5],
+            [2, 3, 7],
+            [2, 7, 6],
+            [3, 0, 4],
+            [3, 4, 7],
+            [4, 5, 8],
+            [5, 6, 8],
+            [6, 7, 8],
+            [7, 4, 8],
+        ];
+        (positions, triangles)
+    }
+
+    #[test]
+    fn the_view_is_right_handed_and_yaw_zero_looks_along_z() {
+        let view = View::horizontal(0.0);
+        assert!(view.forward.distance(Vec3::Z) < 1e-6);
+        assert!(view.lateral.distance(Vec3::X) < 1e-6);
+        let turned = View::horizontal(std::f32::consts::FRAC_PI_2);
+        assert!(turned.forward.distance(Vec3::X) < 1e-6);
+        assert!(turned.lateral.distance(-Vec3::Z) < 1e-6);
+    }
+
+    #[test]
+    fn the_peak_is_the_nose_seen_from_its_side() {
+        let (positions, triangles) = plate_with_a_peak();
+        let map = DepthMap::render(&positions, &triangles, View::horizontal(0.0), 100, 1.0);
+        let nose = map.nose(2.0).expect("a peak");
+        assert!(
+            nose.tip.distance(Vec3::new(0.0, 0.0, 1.0)) < 0.11,
+            "{:?}",
+            nose.tip
+        );
+        assert!((nose.prominence - 0.5).abs() < 0.06, "{}", nose.prominence);
+        assert!((nose.width_at_tip - 10.0).abs() < 0.11, "{}", nose.width_at_tip);
+        assert!((map.extent() - 10.0).abs() < 0.2);
+    }
+
+    #[test]
+    fn from_behind_the_plate_shows_no_peak() {
+        let (positions, triangles) = plate_with_a_peak();
+        let map = DepthMap::render(
+            &positions,
+            &triangles,
+            View::horizontal(std::f32::consts::PI),
+            100,
+            1.0,
+        );
+        let nose = map.nose(2.0);
+        assert!(nose.is_none_or(|n| n.prominence < 0.05), "{nose:?}");
+    }
+}

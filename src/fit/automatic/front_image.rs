@@ -1,0 +1,47 @@
+//! The head seen from straight in front of a first fit: a range image along the fitted
+//! mask's z axis, read in **mask units** (x to the face's left, y up, z out of the face), so
+//! that features can be looked for where CANDIDE puts them.
+
+use glam::{DVec3, Vec2};
+
+use super::depth_map::{DepthMap, View};
+use crate::fit::umeyama::Similarity;
+use crate::head::Head;
+
+/// Cells along the longer side of the range image.
+const CELLS: usize = 256;
+
+pub struct FrontImage {
+    similarity: Similarity,
+    view: View,
+    map: DepthMap,
+    /// The translation's component along the view, head units.
+    forward_offset: f64,
+}
+
+impl FrontImage {
+    /// `winding` as for [`DepthMap::render`].
+    pub fn render(head: &Head, similarity: &Similarity, winding: f32) -> FrontImage {
+        let view = View::of_rotation(similarity.rotation.as_mat3());
+        FrontImage {
+            similarity: *similarity,
+            view,
+            map: DepthMap::render(&head.positions, &head.triangles, view, CELLS, winding),
+            forward_offset: similarity.translation.dot(view.forward.as_dvec3()),
+        }
+    }
+
+    /// How far forward the surface comes at mask point (x, y), as a mask z.
+    pub fn z_at(&self, x: f64, y: f64) -> Option<f64> {
+        let on_plane = self.similarity.apply(DVec3::new(x, y, 0.0)).as_vec3();
+        let (across, _): (Vec2, f32) = self.view.project(on_plane);
+        self.map
+            .depth_at(across)
+            .map(|d| (f64::from(d) - self.forward_offset) / self.similarity.scale)
+    }
+
+    /// A mask-frame point in head units.
+    pub fn head_point(&self, mask_point: DVec3) -> DVec3 {
+        self.similarity.apply(mask_point)
+    }
+}

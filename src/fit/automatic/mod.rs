@@ -1,0 +1,296 @@
+//! A fit with no landmarks, for heads nobody has marked up: find which way the face looks
+//! and where its nose is on range images of the head from every horizontal direction,
+//! place the mask there at a few scales guessed from the face's width, lay it on the surface
+//! by iterated closest points (pose, then shape units), and keep the start that lies closest.
+//!
+//! Assumes +y of the head is up (within about 30 degrees) and that the face is not hidden
+//! (one nose, in front). Works in head units; the physical scale comes from the caller or,
+//! as for landmark fits, from 63 mm pupils.
+
+mod closest_points;
+mod depth_map;
+mod eyes;
+mod front_image;
+mod profile;
+mod symmetry;
+
+use glam::{DMat3, DVec3, Vec3};
+
+use super::limits::{in_range, RangeError, MM_PER_UNIT_RANGE};
+use super::umeyama::Similarity;
+use super::{Fit, SolveError};
+use crate::head::Head;
+use crate::mask::{fap, Mask};
+use closest_points::lay_mask;
+use depth_map::{DepthMap, NoseCandidate, View};
+
+/// CANDIDE-3's nose tip (FP 9.3).
+const MASK_NOSE_TIP: u32 = 5;
+/// CANDIDE-3's mouth middle: the inner lips, upper and lower, which meet at rest.
+const MASK_MOUTH_MIDDLE: [u32; 2] = [40, 87];
+/// Directions the head is looked at from, evenly around +y.
+const VIEWS: usize = 24;
+/// Cells along the longer side of each range image.
+const DEPTH_MAP_CELLS: usize = 96;
+/// The sides of a nose are compared this far from the tip, as a fraction of the head's size.
+const NOSE_RADIUS: f32 = 0.1;
+/// A nose must stand out of the surface beside it by at least this fraction of that radius.
+const MIN_NOSE_PROMINENCE: f32 = 0.15;
+/// The width of the head across the nose tip, in mask units (measured on the shipped
+/// heads' landmark fits: 1.63 to 1.78); the starting scale is the measured width over this.
+const HEAD_WIDTH_AT_NOSE: f64 = 1.7;
+/// Starting scales, as factors of the one guessed from the width.
+const START_SCALES: [f64; 3] = [0.8, 1.0, 1.25];
+/// The fitted face's up may lean this far from +y (degrees) before the fit is refused.
+const MAX_LEAN_DEG: f64 = 35.0;
+/// A fit whose score (mean capped distance, mask units; 0.045 is about 4.5 mm) is worse
+/// than this did not find a face.
+const MAX_SCORE: f64 = 0.045;
+
+#[derive(Debug, thiserror::Error)]
+pub enum AutomaticFitError {
+    #[error(
+        "{head}: no face found: looked from every horizontal direction for a nose (the automatic fit \
+         assumes +y is up); the best stood out {prominence:.2} of the surface beside it, a nose \
+         stands out at least {MIN_NOSE_PROMINENCE}. Give landmarks, or turn the head so +y is up"
+    )]
+    NoNose { head: String, prominence: f32 },
+    #[error(
+        "{head}: the face lies on its side: it is mirror-symmetric about the level plane through its \
+         nose (median mirror distance {about_level:.3} head units), not the upright one ({about_upright:.3}); \
+         the automatic fit assumes +y is up. Turn the head, or give landmarks"
+    )]
+    Sideways {
+        head: String,
+        about_upright: f32,
+        about_level: f32,
+    },
+    #[error(
+        "{head}: found a nose at ({x:.3}, {y:.3}, {z:.3}) but no mouth below it (a notch between two lips, \
+         toward -y); the automatic fit assumes +y is up. Turn the head, or give landmarks",
+        x = nose_tip.x, y = nose_tip.y, z = nose_tip.z
+    )]
+    NoMouth { head: String, nose_tip: Vec3 },
+    #[error(
+        "{head}: the best fit stands the face {lean_deg:.0} degrees from +y; the automatic fit assumes \
+         +y is up (within {MAX_LEAN_DEG} degrees). Turn the head, or give landmarks"
+    )]
+    NotUpright { head: String, lean_deg: f64 },
+    #[error(
+        "{head}: the mask does not lie on this mesh: its vertices are {mean_mask_units:.3} mask units \
+         (about {about_mm:.1} mm) from the surface on average after the best start. Give landmarks"
+    )]
+    NoFit {
+        head: String,
+        mean_mask_units: f64,
+        about_mm: f64,
+    },
+    #[error("{head}: {source}")]
+    Solve { head: String, source: SolveError },
+    #[error("{head}: the solved fit is out of range: {source}")]
+    Range { head: String, source: RangeError },
+}
+
+/// A fit found without landmarks, with what was assumed and found on the way.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AutomaticFit {
+    pub fit: Fit,
+    /// The direction the face looks, head frame.
+    pub forward: Vec3,
+    /// The nose tip found on the range image, head units.
+    pub nose_tip: Vec3,
+    /// Mean distance of the fitted mask's vertices to the surface (each capped near 5 mm),
+    /// mask units.
+    pub score: f64,
+    /// No `mm_per_unit` was given; it comes from 63 mm pupils.
+    pub mm_per_unit_from_pupils: bool,
+}
+
+impl AutomaticFit {
+    /// A unit `mm_per_unit` is close to (within 15 %), if any: the guess put in words.
+    pub fn unit_name(&self) -> Option<&'static str> {
+        const UNITS: [(&str, f32); 5] = [
+            ("millimetres", 1.0),
+            ("centimetres", 10.0),
+            ("inches", 25.4),
+            ("decimetres", 100.0),
+            ("metres", 1000.0),
+        ];
+        let mm = self.fit.mm_per_unit;
+        UNITS
+            .iter()
+            .find(|(_, size)| (mm / size - 1.0).abs() <= 0.15)
+            .map(|(name, _)| *name)
+    }
+}
+
+/// Fits `mask` to `head` with no landmarks. `mm_per_unit`, when given, is kept; otherwise
+/// it comes from 63 mm pupils like a landmark fit's.
+pub fn fit_automatically(
+    head: &Head,
+    mask: &Mask,
+    mm_per_unit: Option<f32>,
+) -> Result<AutomaticFit, AutomaticFitError> {
+    let name = || head.name.clone();
+    let winding = depth_map::outward_winding(&head.positions, &head.triangles);
+    let (view, nose) = find_nose(head, winding);
+    if nose.prominence < MIN_NOSE_PROMINENCE {
+        return Err(AutomaticFitError::NoNose {
+            head: name(),
+            prominence: nose.prominence,
+        });
+    }
+    // A face is mirror-symmetric about the upright plane through its nose; one lying on its
+    // side is symmetric about the level plane instead.
+    let about_upright = symmetry::asymmetry(head, nose.tip, view.lateral);
+    let about_level = symmetry::asymmetry(head, nose.tip, view.up);
+    if about_level < about_upright {
+        return Err(AutomaticFitError::Sideways {
+            head: name(),
+            about_upright,
+            about_level,
+        });
+    }
+    let used: Vec<u32> = mask
+        .used_vertices()
+        .iter()
+        .enumerate()
+        .filter(|(_, &u)| u)
+        .map(|(j, _)| j as u32)
+        .collect();
+    let rotation = DMat3::from_cols(
+        view.lateral.as_dvec3(),
+        view.up.as_dvec3(),
+        view.forward.as_dvec3(),
+    );
+    let tip = nose.tip.as_dvec3();
+    let mask_tip = mask.vertices[MASK_NOSE_TIP as usize].as_dvec3();
+    let guessed_scale = f64::from(nose.width_at_tip) / HEAD_WIDTH_AT_NOSE;
+    let solve_error = |source| AutomaticFitError::Solve { head: name(), source };
+    let mut best = None;
+    for factor in START_SCALES {
+        let scale = guessed_scale * factor;
+        let start = Similarity {
+            rotation,
+            scale,
+            translation: tip - scale * (rotation * mask_tip),
+        };
+        let laid = lay_mask(head, mask, &used, start, &[(MASK_NOSE_TIP, tip)]).map_err(solve_error)?;
+        if best
+            .as_ref()
+            .is_none_or(|b: &closest_points::Laid| laid.score < b.score)
+        {
+            best = Some(laid);
+        }
+    }
+    let mut best = best.expect("at least one start");
+    // Pin the mask's nose tip to the profile's, its mouth to the profile's mouth height and
+    // its pupils to the eyes (when they are found), and lay it again.
+    let first = best.solution.clone();
+    let image = front_image::FrontImage::render(head, &first.similarity, winding);
+    let shaped = mask.shaped(&first.shape);
+    let features = profile::midline_features(&image).ok_or_else(|| AutomaticFitError::NoMouth {
+        head: name(),
+        nose_tip: nose.tip,
+    })?;
+    let mut anchors = vec![(MASK_NOSE_TIP, features.nose_tip)];
+    for vertex in MASK_MOUTH_MIDDLE {
+        let lips = shaped[vertex as usize].as_dvec3();
+        anchors.push((
+            vertex,
+            image.head_point(DVec3::new(lips.x, features.mouth_height, lips.z)),
+        ));
+    }
+    if let Some(centres) = eyes::eye_centres(&image) {
+        for (centre, pupil) in centres.iter().zip([&fap::LEFT_PUPIL, &fap::RIGHT_PUPIL]) {
+            let middle = fap::centroid(&shaped, pupil).as_dvec3();
+            for &vertex in pupil {
+                let offset = shaped[vertex].as_dvec3() - middle;
+                let target = DVec3::new(centre.x + offset.x, centre.y + offset.y, middle.z + offset.z);
+                anchors.push((vertex as u32, image.head_point(target)));
+            }
+        }
+    }
+    best = lay_mask(head, mask, &used, first.similarity, &anchors).map_err(solve_error)?;
+    let up = best.solution.similarity.rotation * DVec3::Y;
+    let lean_deg = up.dot(DVec3::Y).clamp(-1.0, 1.0).acos().to_degrees();
+    if lean_deg > MAX_LEAN_DEG {
+        return Err(AutomaticFitError::NotUpright {
+            head: name(),
+            lean_deg,
+        });
+    }
+    let pose = best.solution.pose;
+    let shape = best.solution.shape;
+    let range = |source| AutomaticFitError::Range { head: name(), source };
+    let (mm_per_unit, from_pupils) = match mm_per_unit {
+        Some(mm) => (
+            in_range("mm_per_unit", mm, MM_PER_UNIT_RANGE).map_err(range)?,
+            false,
+        ),
+        None => (
+            in_range(
+                "mm_per_unit (from 63 mm pupils)",
+                Fit::mm_per_unit_from_pupils(mask, &shape, &pose),
+                MM_PER_UNIT_RANGE,
+            )
+            .map_err(range)?,
+            true,
+        ),
+    };
+    if best.score > MAX_SCORE {
+        let mm_per_mask_unit = f64::from(mm_per_unit) * best.solution.similarity.scale;
+        return Err(AutomaticFitError::NoFit {
+            head: name(),
+            mean_mask_units: best.score,
+            about_mm: best.score * mm_per_mask_unit,
+        });
+    }
+    let fit = Fit {
+        pose,
+        shape,
+        nudges: Vec::new(),
+        mm_per_unit,
+    };
+    fit.check_ranges().map_err(range)?;
+    Ok(AutomaticFit {
+        fit,
+        forward: view.forward,
+        nose_tip: nose.tip,
+        score: best.score,
+        mm_per_unit_from_pupils: from_pupils,
+    })
+}
+
+/// The view whose nose lies on the head's plane of mirror symmetry, and that nose. An ear
+/// or a brow seen from the side can stand out as much as a nose, but the head is not
+/// symmetric about a plane through it.
+fn find_nose(head: &Head, winding: f32) -> (View, NoseCandidate) {
+    let mut best: Option<(f32, View, NoseCandidate)> = None;
+    let mut most_prominent = NoseCandidate {
+        tip: Vec3::ZERO,
+        prominence: 0.0,
+        width_at_tip: 0.0,
+    };
+    for k in 0..VIEWS {
+        let view = View::horizontal(k as f32 * std::f32::consts::TAU / VIEWS as f32);
+        let map = DepthMap::render(&head.positions, &head.triangles, view, DEPTH_MAP_CELLS, winding);
+        let radius = NOSE_RADIUS * map.extent();
+        let Some(nose) = map.nose(radius) else { continue };
+        if nose.prominence > most_prominent.prominence {
+            most_prominent = nose;
+        }
+        if nose.prominence < MIN_NOSE_PROMINENCE {
+            continue;
+        }
+        // Seen from behind, a bump on the midline of the back of the head lies on the
+        // same plane as the nose; the nose stands out more.
+        let badness = symmetry::asymmetry(head, nose.tip, view.lateral) / radius / nose.prominence;
+        if best.as_ref().is_none_or(|(b, ..)| badness < *b) {
+            best = Some((badness, view, nose));
+        }
+    }
+    best.map_or((View::horizontal(0.0), most_prominent), |(_, view, nose)| {
+        (view, nose)
+    })
+}

@@ -1,0 +1,248 @@
+//! The automatic fit (no landmarks) against the shipped landmark fits, head by head, on
+//! face-only meshes cut out of the heads, on a head turned to look along +x and on heads in
+//! other units; and refused, with the reason, on a head lying on its side and on a mesh
+//! with no face.
+//!
+//! What is held (docs/FITTING.md, "The automatic fit"): on whole heads the mask within 2 mm
+//! of the surface on average; the ten landmark mask vertices within 6 mm of the landmark
+//! fit's on average and 10 mm at most (the goal is 3 mm, not reached yet: these bounds keep
+//! what is); face-only meshes within looser bounds (`FACE_BOUNDS`).
+
+mod common;
+
+use facewire::fit::{
+    fit_automatically, fit_from_landmarks, residuals, AutomaticFit, AutomaticFitError, Fit, FittedMask,
+    Landmarks,
+};
+use facewire::head::Head;
+use facewire::mask::Mask;
+use glam::{Mat3, Vec3};
+
+const HEADS: [(&str, &str); 5] = [
+    ("heads/makehuman_head.obj", "heads/makehuman_head.landmarks.toml"),
+    (
+        "heads/lee_perry_smith_head.obj",
+        "heads/lee_perry_smith_head.landmarks.toml",
+    ),
+    ("heads/ict_head.obj", "heads/ict_head.landmarks.toml"),
+    // The ICT identities share the generic head's numbering, so its landmarks hold for them.
+    ("heads/ict_identity_1.obj", "heads/ict_head.landmarks.toml"),
+    ("heads/ict_identity_2.obj", "heads/ict_head.landmarks.toml"),
+];
+
+/// How an automatic fit compares with a landmark fit (mm at the landmark fit's scale).
+#[derive(Debug)]
+struct Comparison {
+    surface_mean_mm: f32,
+    landmark_vertices_mean_mm: f32,
+    landmark_vertices_max_mm: f32,
+    mm_per_unit_ratio: f32,
+}
+
+fn compare(head: &Head, automatic: &AutomaticFit, reference: &Fit, landmark_vertices: &[u32]) -> Comparison {
+    let mask = Mask::candide3();
+    let mm = reference.mm_per_unit;
+    let reference_mask = FittedMask::new(mask.clone(), reference.clone());
+    let automatic_mask = FittedMask::new(mask.clone(), automatic.fit.clone());
+    let surface = residuals::measure(head, &automatic_mask.neutral, &mask.used_vertices(), &[], mm).surface;
+    let distances: Vec<f32> = landmark_vertices
+        .iter()
+        .map(|&j| automatic_mask.neutral[j as usize].distance(reference_mask.neutral[j as usize]) * mm)
+        .collect();
+    Comparison {
+        surface_mean_mm: surface.mean_mm,
+        landmark_vertices_mean_mm: distances.iter().sum::<f32>() / distances.len() as f32,
+        landmark_vertices_max_mm: distances.iter().copied().fold(0.0, f32::max),
+        mm_per_unit_ratio: automatic.fit.mm_per_unit / mm,
+    }
+}
+
+/// A shipped head, its landmarks and its landmark fit.
+fn shipped(obj: &str, landmarks: &str) -> (Head, Landmarks, Fit) {
+    let head = Head::load(&common::data(obj)).unwrap();
+    let landmarks = Landmarks::load(&common::data(landmarks)).unwrap();
+    let reference = fit_from_landmarks(&head, &landmarks, "landmarks", &Mask::candide3())
+        .unwrap()
+        .fit;
+    (head, landmarks, reference)
+}
+
+fn mask_vertices(landmarks: &Landmarks) -> Vec<u32> {
+    landmarks.landmarks.iter().map(|l| l.mask_vertex).collect()
+}
+
+/// Bounds on a comparison: mean surface distance, mean and max landmark vertex distance (mm).
+struct Bounds {
+    surface_mean_mm: f32,
+    landmark_vertices_mean_mm: f32,
+    landmark_vertices_max_mm: f32,
+}
+
+/// Whole heads: the 2 mm to the surface; the landmark vertices where they are today.
+const HEAD_BOUNDS: Bounds = Bounds {
+    surface_mean_mm: 2.0,
+    landmark_vertices_mean_mm: 6.0,
+    landmark_vertices_max_mm: 10.0,
+};
+
+/// Face-only meshes: the mask's outline (forehead top, temples) lies past the mesh's edge
+/// and counts in the surface distance; measured 3.6 mm on both.
+const FACE_BOUNDS: Bounds = Bounds {
+    surface_mean_mm: 4.5,
+    landmark_vertices_mean_mm: 8.0,
+    landmark_vertices_max_mm: 16.0,
+};
+
+fn holds(what: &str, c: &Comparison, bounds: &Bounds) -> Result<(), String> {
+    let ok = c.surface_mean_mm < bounds.surface_mean_mm
+        && c.landmark_vertices_mean_mm < bounds.landmark_vertices_mean_mm
+        && c.landmark_vertices_max_mm < bounds.landmark_vertices_max_mm
+        && (0.92..1.05).contains(&c.mm_per_unit_ratio);
+    ok.then_some(()).ok_or_else(|| format!("{what}: {c:?}"))
+}
+
+#[test]
+fn every_shipped_head_is_fitted_close_to_its_landmark_fit() {
+    let mask = Mask::candide3();
+    let mut failures = Vec::new();
+    for (obj, landmarks) in HEADS {
+        let (head, landmarks, reference) = shipped(obj, landmarks);
+        let automatic = fit_automatically(&head, &mask, None).unwrap();
+        assert!(automatic.mm_per_unit_from_pupils);
+        let forward = automatic.fit.pose.rotation() * Vec3::Z;
+        assert!(
+            forward.angle_between(Vec3::Z).to_degrees() < 10.0,
+            "{obj}: {forward}"
+        );
+        let c = compare(&head, &automatic, &reference, &mask_vertices(&landmarks));
+        eprintln!("{obj}: {c:?}");
+        failures.extend(holds(obj, &c, &HEAD_BOUNDS).err());
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// The part of `head` within `radius_mm` of `centre` and in front of the plane `depth_mm`
+/// behind it (+z forward), renumbered.
+fn cut_face(head: &Head, centre: Vec3, radius_mm: f32, depth_mm: f32, mm_per_unit: f32) -> Head {
+    let keep: Vec<bool> = head
+        .positions
+        .iter()
+        .map(|p| p.distance(centre) * mm_per_unit < radius_mm && (centre.z - p.z) * mm_per_unit < depth_mm)
+        .collect();
+    let mut renumber = vec![u32::MAX; head.positions.len()];
+    let mut positions = Vec::new();
+    for (v, p) in head.positions.iter().enumerate() {
+        if keep[v] {
+            renumber[v] = positions.len() as u32;
+            positions.push(*p);
+        }
+    }
+    let triangles = head
+        .triangles
+        .iter()
+        .filter(|t| t.iter().all(|&v| keep[v as usize]))
+        .map(|t| t.map(|v| renumber[v as usize]))
+        .collect();
+    Head::new("face.obj", positions, triangles)
+}
+
+#[test]
+fn a_face_cut_out_of_a_head_is_fitted_like_the_head() {
+    let mask = Mask::candide3();
+    let mut failures = Vec::new();
+    for (obj, landmarks) in [HEADS[0], HEADS[2]] {
+        let (head, landmarks, reference) = shipped(obj, landmarks);
+        let nose = head.positions[landmarks
+            .landmarks
+            .iter()
+            .find(|l| l.mask_vertex == 5)
+            .unwrap()
+            .head_vertex as usize];
+        // A face mask: 110 mm around the nose tip, 60 mm deep; no ears, no back of the head.
+        let face = cut_face(&head, nose, 110.0, 60.0, reference.mm_per_unit);
+        assert!(
+            face.positions.len() * 4 < head.positions.len() * 3,
+            "{obj}: {}",
+            face.positions.len()
+        );
+        let automatic = fit_automatically(&face, &mask, None).unwrap();
+        let c = compare(&face, &automatic, &reference, &mask_vertices(&landmarks));
+        eprintln!("face of {obj} ({} vertices): {c:?}", face.positions.len());
+        failures.extend(holds(obj, &c, &FACE_BOUNDS).err());
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+fn transformed(head: &Head, f: impl Fn(Vec3) -> Vec3) -> Head {
+    Head::new(
+        &head.name,
+        head.positions.iter().map(|&p| f(p)).collect(),
+        head.triangles.clone(),
+    )
+}
+
+#[test]
+fn a_head_turned_to_look_along_x_is_fitted_as_before() {
+    let mask = Mask::candide3();
+    let (head, _, _) = shipped(HEADS[2].0, HEADS[2].1);
+    let turn = Mat3::from_rotation_y(std::f32::consts::FRAC_PI_2);
+    let turned = transformed(&head, |p| turn * p);
+    let straight = fit_automatically(&head, &mask, None).unwrap();
+    let found = fit_automatically(&turned, &mask, None).unwrap();
+    assert!(found.forward.distance(Vec3::X) < 1e-3, "{}", found.forward);
+    let straight_mask = FittedMask::new(mask.clone(), straight.fit.clone()).neutral;
+    let turned_mask = FittedMask::new(mask.clone(), found.fit.clone()).neutral;
+    let mm = straight.fit.mm_per_unit;
+    let worst = straight_mask
+        .iter()
+        .zip(&turned_mask)
+        .map(|(a, b)| (turn * *a).distance(*b) * mm)
+        .fold(0.0, f32::max);
+    assert!(
+        worst < 1.0,
+        "the turned head's mask is {worst} mm from the straight one's"
+    );
+}
+
+#[test]
+fn the_units_are_guessed_from_the_pupils() {
+    let mask = Mask::candide3();
+    let (head, _, _) = shipped(HEADS[2].0, HEADS[2].1);
+    assert_eq!(
+        fit_automatically(&head, &mask, None).unwrap().unit_name(),
+        Some("centimetres")
+    );
+    for (factor, unit) in [(10.0, "millimetres"), (0.01, "metres")] {
+        let scaled = transformed(&head, |p| p * factor);
+        let found = fit_automatically(&scaled, &mask, None).unwrap();
+        assert_eq!(found.unit_name(), Some(unit), "{}", found.fit.mm_per_unit);
+    }
+    let given = fit_automatically(&head, &mask, Some(10.0)).unwrap();
+    assert_eq!(given.fit.mm_per_unit, 10.0);
+    assert!(!given.mm_per_unit_from_pupils);
+}
+
+#[test]
+fn a_head_lying_on_its_side_is_refused_naming_the_up_axis() {
+    let mask = Mask::candide3();
+    let (head, _, _) = shipped(HEADS[2].0, HEADS[2].1);
+    let lying = transformed(&head, |p| Mat3::from_rotation_z(std::f32::consts::FRAC_PI_2) * p);
+    let error = fit_automatically(&lying, &mask, None).unwrap_err();
+    assert!(
+        matches!(
+            error,
+            AutomaticFitError::Sideways { .. } | AutomaticFitError::NoMouth { .. }
+        ),
+        "{error}"
+    );
+    assert!(error.to_string().contains("+y"), "{error}");
+}
+
+#[test]
+fn a_mesh_with_no_face_is_refused() {
+    let ball = Head::from_obj_bytes("ball.obj", common::ball_obj().as_bytes()).unwrap();
+    let error = fit_automatically(&ball, &Mask::candide3(), None).unwrap_err();
+    assert!(matches!(error, AutomaticFitError::NoNose { .. }), "{error}");
+    let message = error.to_string();
+    assert!(message.starts_with("ball.obj: no face found"), "{message}");
+}
