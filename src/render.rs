@@ -7,6 +7,9 @@ use std::io::Write;
 
 use glam::{Mat3, Vec3};
 
+use crate::fit::FittedMask;
+use crate::head::Head;
+
 /// Where the camera looks from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
@@ -206,6 +209,43 @@ impl Canvas {
         writer.write_image_data(&bytes)?;
         writer.finish()
     }
+}
+
+/// Draws `fitted`'s neutral mask (its edges, its vertices, the lips in red) over what the
+/// canvas holds. `slack` (head units) lets lines on the surface through the depth test.
+pub fn draw_fitted_mask(canvas: &mut Canvas, fitted: &FittedMask, points: &[Vec3], slack: f32) {
+    let used = fitted.mask.used_vertices();
+    for t in &fitted.mask.triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
+            canvas.draw_line(points[a], points[b], Ink::see_through([20, 90, 200]), slack);
+        }
+    }
+    for (j, &p) in points.iter().enumerate().filter(|(j, _)| used[*j]) {
+        let lip = crate::mask::LIP_VERTICES.contains(&j);
+        canvas.draw_dot(
+            p,
+            2.5,
+            Ink::see_through(if lip { [200, 30, 30] } else { [20, 60, 160] }),
+            slack,
+        );
+    }
+}
+
+/// A PNG of `fitted` on `head`, `size` pixels square, framed on the mask and seen from
+/// `view` of the face: the fit's own front, whichever way the head's axes point.
+pub fn fitted_mask_png(head: &Head, fitted: &FittedMask, view: View, size: usize) -> Vec<u8> {
+    let to_face = fitted.fit.pose.rotation().transpose();
+    let positions: Vec<Vec3> = head.positions.iter().map(|&p| to_face * p).collect();
+    let mask: Vec<Vec3> = fitted.neutral.iter().map(|&p| to_face * p).collect();
+    let mut canvas = Canvas::framing(&mask, view, size, size);
+    canvas.draw_mesh(&positions, &head.triangles, |_| [0.86, 0.76, 0.68]);
+    draw_fitted_mask(&mut canvas, fitted, &mask, 0.004 * head.bounds().size().length());
+    let mut png = Vec::new();
+    canvas
+        .write_png(&mut png)
+        .expect("encoding a picture into memory cannot fail");
+    png
 }
 
 #[cfg(test)]

@@ -121,31 +121,6 @@ fn every_shipped_head_is_fitted_close_to_its_landmark_fit() {
     assert!(failures.is_empty(), "{failures:#?}");
 }
 
-/// The part of `head` within `radius_mm` of `centre` and in front of the plane `depth_mm`
-/// behind it (+z forward), renumbered.
-fn cut_face(head: &Head, centre: Vec3, radius_mm: f32, depth_mm: f32, mm_per_unit: f32) -> Head {
-    let keep: Vec<bool> = head
-        .positions
-        .iter()
-        .map(|p| p.distance(centre) * mm_per_unit < radius_mm && (centre.z - p.z) * mm_per_unit < depth_mm)
-        .collect();
-    let mut renumber = vec![u32::MAX; head.positions.len()];
-    let mut positions = Vec::new();
-    for (v, p) in head.positions.iter().enumerate() {
-        if keep[v] {
-            renumber[v] = positions.len() as u32;
-            positions.push(*p);
-        }
-    }
-    let triangles = head
-        .triangles
-        .iter()
-        .filter(|t| t.iter().all(|&v| keep[v as usize]))
-        .map(|t| t.map(|v| renumber[v as usize]))
-        .collect();
-    Head::new("face.obj", positions, triangles)
-}
-
 #[test]
 fn a_face_cut_out_of_a_head_is_fitted_like_the_head() {
     let mask = Mask::candide3();
@@ -159,7 +134,7 @@ fn a_face_cut_out_of_a_head_is_fitted_like_the_head() {
             .unwrap()
             .head_vertex as usize];
         // A face mask: 110 mm around the nose tip, 60 mm deep; no ears, no back of the head.
-        let face = cut_face(&head, nose, 110.0, 60.0, reference.mm_per_unit);
+        let face = common::cut_face(&head, nose, 110.0, 60.0, reference.mm_per_unit);
         assert!(
             face.positions.len() * 4 < head.positions.len() * 3,
             "{obj}: {}",

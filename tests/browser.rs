@@ -505,6 +505,23 @@ async fn check_the_inner_mouth_close_up(browser: &Browser, url: &str, long: Dura
         inner.as_str().unwrap().contains("teeth_lower (jaw)"),
         "the view names the parts and their roles: {inner}"
     );
+    // The chosen head's fit report: its regions, and pictures that loaded.
+    browser
+        .wait_for(
+            "the fit report shown",
+            "return document.getElementById('fit-regions')?.rows.length === 6",
+            long,
+        )
+        .await;
+    let overall = browser.js(&text_of("fit-overall")).await;
+    assert!(overall.as_str().unwrap().contains("mm"), "{overall}");
+    browser
+        .wait_for(
+            "the fit pictures loaded",
+            "return [...document.querySelectorAll('#fit img')].filter(i => i.complete && i.naturalWidth === 800).length === 2",
+            long,
+        )
+        .await;
     let pressed = browser
         .js("return document.getElementById('mouth-view').getAttribute('aria-pressed')")
         .await;

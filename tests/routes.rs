@@ -75,7 +75,7 @@ async fn every_endpoint_takes_exactly_the_tokens_of_the_table() {
     let admin = [false, false, false, false, false, true];
     let producer_plain = [false, false, false, true, false, true];
     let producer_own = [false, false, false, false, true, true];
-    let table: [(Method, &str, [bool; 6]); 19] = [
+    let table: [(Method, &str, [bool; 6]); 21] = [
         (Method::GET, "/healthz", open),
         (Method::GET, "/", open),
         (Method::GET, "/app.js", open),
@@ -85,6 +85,8 @@ async fn every_endpoint_takes_exactly_the_tokens_of_the_table() {
         (Method::GET, "/v1/heads/own", viewer),
         (Method::GET, "/v1/heads/own/mesh.bin", viewer),
         (Method::GET, "/v1/heads/own/mesh.obj", viewer),
+        (Method::GET, "/v1/heads/own/fit", viewer),
+        (Method::GET, "/v1/heads/own/fit.png?view=side", viewer),
         (Method::GET, "/v1/heads/own/streams/s/view", viewer),
         (Method::POST, "/v1/heads", admin),
         (Method::DELETE, "/v1/heads/nosuch", admin),
@@ -211,6 +213,55 @@ async fn a_head_with_neither_fit_nor_landmarks_is_fitted_automatically() {
     assert_eq!(info["status"], "ready", "{info}");
     let mean = info["fit"]["surface_mean_mm"].as_f64().unwrap();
     assert!(mean < 2.0, "{info}");
+    assert_eq!(info["fit"]["warnings"], serde_json::json!([]), "{info}");
+
+    // Its report, and pictures of it from the front and the side.
+    let (status, body) = call(&router, Method::GET, "/v1/heads/found/fit", None, Body::empty()).await;
+    let report: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(status, StatusCode::OK, "{report}");
+    assert_eq!(report["surface"]["mean_mm"], info["fit"]["surface_mean_mm"]);
+    let regions: Vec<&str> = report["regions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["region"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        regions,
+        ["eyes", "brow", "nose", "mouth", "jaw", "forehead_and_cheeks"]
+    );
+    assert!(report["inner_lip_gap_mm"].as_f64().unwrap() < 2.0, "{report}");
+    let mut pictures = Vec::new();
+    for view in ["front", "side"] {
+        let uri = format!("/v1/heads/found/fit.png?view={view}");
+        let (status, png) = call(&router, Method::GET, &uri, None, Body::empty()).await;
+        assert_eq!(status, StatusCode::OK);
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n", "{view}");
+        pictures.push(png);
+    }
+    assert_ne!(pictures[0], pictures[1]);
+    let (status, again) = call(
+        &router,
+        Method::GET,
+        "/v1/heads/found/fit.png",
+        None,
+        Body::empty(),
+    )
+    .await;
+    assert_eq!(
+        (status, &again),
+        (StatusCode::OK, &pictures[0]),
+        "front is the default, drawn once"
+    );
+    let (status, _) = call(
+        &router,
+        Method::GET,
+        "/v1/heads/found/fit.png?view=top",
+        None,
+        Body::empty(),
+    )
+    .await;
+    assert_eq!(status, StatusCode::BAD_REQUEST);
 
     // A mesh with no face: refused at once, naming the reason and the assumption.
     let ball = common::ball_obj();

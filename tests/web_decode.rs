@@ -2,8 +2,8 @@
 //! by `facewire_proto::frame::FrameEncoder` (with and without label, face roughness, head
 //! and jaw motion, tongue deltas, lip folds and deflate; negative and large deltas;
 //! malformed ones) and a `mesh.bin`, written with the values the Rust decoder reads from
-//! them to a JSON file that `node web/decode.test.mjs` checks; and the page's node list
-//! (`node web/nodes.test.mjs`).
+//! them to a JSON file that `node web/decode.test.mjs` checks; the page's node list
+//! (`node web/nodes.test.mjs`) and its fit report (`node web/fit.test.mjs`).
 
 mod common;
 
@@ -507,10 +507,9 @@ fn decode_js_agrees_with_the_rust_encoder() {
     println!("{stdout}");
 }
 
-#[test]
-fn nodes_js_fails_over_round_robin() {
-    // The page's node list (`?nodes=`): parsing, URL building and round-robin failover.
-    let script = repo_path("web/nodes.test.mjs");
+/// Runs `node` on a test script of `web/`, failing with its output.
+fn run_node_test(script: &str) {
+    let script = repo_path(script);
     let output = match Command::new("node").arg(&script).output() {
         Ok(output) => output,
         Err(e) => panic!("cannot run `node` ({e}): the web tests need Node.js 20 or newer on PATH"),
@@ -523,4 +522,16 @@ fn nodes_js_fails_over_round_robin() {
         String::from_utf8_lossy(&output.stdout),
         String::from_utf8_lossy(&output.stderr)
     );
+}
+
+#[test]
+fn fit_js_shows_the_fit_report() {
+    // The head's fit report as the page shows it: paths, numbers, every answer of the endpoint.
+    run_node_test("web/fit.test.mjs");
+}
+
+#[test]
+fn nodes_js_fails_over_round_robin() {
+    // The page's node list (`?nodes=`): parsing, URL building and round-robin failover.
+    run_node_test("web/nodes.test.mjs");
 }

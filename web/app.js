@@ -4,11 +4,13 @@
 // fills the pickers from /v1/heads (read again every few seconds, so new heads and streams
 // appear) and /v1/algorithms, runs one view or two side by side (one shared camera), and
 // the drawing loop: once per animation frame each view decodes only its newest frame, and
-// two views draw the same sequence number so they stay in step.
+// two views draw the same sequence number so they stay in step. Under them, the chosen
+// head's fit report (fit.js), fetched again when the head's status changes.
 
 import { attachPointerControls, handleCameraKey, OrbitCamera } from "./camera.js";
 import { LiveChart } from "./chart.js";
 import { parseMesh } from "./decode.js";
+import { fitOutcome, fitPaths } from "./fit.js";
 import { Nodes } from "./nodes.js";
 import { DEFAULT_HEAT_MAX, Panel } from "./panel.js";
 
@@ -29,6 +31,21 @@ const controls = {
   views: byId("views"),
   message: byId("page-message"),
 };
+/** The fit report's section (index.html). */
+const fitParts = {
+  section: byId("fit"),
+  title: byId("fit-title"),
+  note: byId("fit-note"),
+  report: byId("fit-report"),
+  overall: byId("fit-overall"),
+  lipGap: byId("fit-lip-gap"),
+  regions: byId("fit-regions"),
+  warnings: byId("fit-warnings"),
+  front: byId("fit-front"),
+  frontLink: byId("fit-front-link"),
+  side: byId("fit-side"),
+  sideLink: byId("fit-side-link"),
+};
 
 const params = new URLSearchParams(location.search);
 /** Where every fetch and socket goes: the `nodes` list, else the page's own origin. */
@@ -45,6 +62,13 @@ const camera = new OrbitCamera();
 const chart = new LiveChart(byId("chart"));
 const meshes = new Map();
 let framedMesh = null;
+/**
+ * The fit report's fetches: `seen` is the chosen head's status when the last one started
+ * (a change, e.g. registering to ready, fetches again), `retry` that it failed in a way
+ * worth retrying with the next head list read, `generation` drops an answer for a head no
+ * longer chosen.
+ */
+const fit = { head: null, seen: null, retry: false, loading: false, generation: 0 };
 
 async function fetchJson(path) {
   const response = await nodes.fetch(path);
@@ -141,6 +165,110 @@ function writeUrl() {
     query.set("nodes", params.get("nodes"));
   }
   history.replaceState(null, "", `?${query}`);
+}
+
+/**
+ * The chosen head's status and fit summary in the head list, as a key: when it changes
+ * (the head became ready, failed, was registered again) the fit report is fetched again.
+ */
+function headKey(id) {
+  const info = page.heads.find((h) => h.id === id);
+  return JSON.stringify([info?.status ?? null, info?.fit ?? null]);
+}
+
+/**
+ * Fetches the chosen head's fit report and shows it. Never throws: a failure is a line in
+ * the section, and an older server without the endpoint leaves the section hidden.
+ */
+async function loadFit() {
+  const head = page.head;
+  const generation = ++fit.generation;
+  if (fit.head !== head) {
+    fitParts.section.hidden = true; // the last head's report must not show under this one's name
+  }
+  Object.assign(fit, { head, seen: headKey(head), retry: false, loading: true });
+  const outcome = await fetchFit(head);
+  if (generation !== fit.generation) {
+    return; // another head was picked meanwhile, and its own fetch shows it
+  }
+  Object.assign(fit, { retry: outcome.kind === "error", loading: false });
+  showFit(head, outcome);
+}
+
+/** The endpoint's answer as fitOutcome gives it; a network failure is an error. */
+async function fetchFit(head) {
+  try {
+    const response = await nodes.fetch(fitPaths(head).report);
+    const body = await response.json().catch(() => null); // a proxy's HTML 404, say
+    return fitOutcome(response.status, body);
+  } catch (error) {
+    return { kind: "error", text: `Cannot read the fit report: ${error.message}.` };
+  }
+}
+
+/** After a head list read: fetches the report again if the head changed state or the last fetch failed. */
+function refreshFit() {
+  if (!fit.loading && (fit.retry || headKey(page.head) !== fit.seen)) {
+    loadFit();
+  }
+}
+
+/** Shows `outcome` (fit.js fitOutcome) for `head`: the report, a line, or nothing. */
+function showFit(head, outcome) {
+  const { section, title, note, report } = fitParts;
+  section.hidden = outcome.kind === "none";
+  title.textContent = `Fit of head "${head}"`;
+  note.hidden = !outcome.text;
+  note.textContent = outcome.text ?? "";
+  note.dataset.kind = outcome.kind; // an error is styled as one, a note (registering) is not
+  report.hidden = outcome.kind !== "report";
+  if (outcome.kind === "report") {
+    fillFitReport(head, outcome.fit);
+  }
+}
+
+/** The report's numbers, region table, warnings and pictures (formatFit's text). */
+function fillFitReport(head, report) {
+  const { overall, lipGap, regions, warnings } = fitParts;
+  overall.textContent = report.overall;
+  lipGap.textContent = report.lipGap;
+  regions.replaceChildren(...report.regions.map(regionRow));
+  regions.closest("table").hidden = report.regions.length === 0;
+  warnings.replaceChildren(...report.warnings.map(warningItem));
+  warnings.hidden = report.warnings.length === 0;
+  const paths = fitPaths(head);
+  showPicture(fitParts.front, fitParts.frontLink, nodes.httpUrl(paths.front));
+  showPicture(fitParts.side, fitParts.sideLink, nodes.httpUrl(paths.side));
+}
+
+function regionRow({ name, mean, max }) {
+  const row = document.createElement("tr");
+  const header = document.createElement("th");
+  header.scope = "row";
+  header.textContent = name;
+  row.append(header);
+  for (const value of [mean, max]) {
+    const cell = document.createElement("td");
+    cell.textContent = value;
+    row.append(cell);
+  }
+  return row;
+}
+
+/** A warning's message, marked as one in words as well as colour. */
+function warningItem(message) {
+  const item = document.createElement("li");
+  const mark = document.createElement("strong");
+  mark.textContent = "Warning: ";
+  item.append(mark, message);
+  return item;
+}
+
+/** A thumbnail linking to its full picture (start() hides the link if the picture does not load). */
+function showPicture(img, link, url) {
+  link.hidden = false;
+  link.href = url;
+  img.src = url;
 }
 
 /** What a view connects with: the page's head and stream, the view's own choices. */
@@ -278,6 +406,11 @@ async function start() {
   camera.onChange(() => {
     cameraMoved = true;
   });
+  for (const [img, link] of [[fitParts.front, fitParts.frontLink], [fitParts.side, fitParts.sideLink]]) {
+    img.addEventListener("error", () => {
+      link.hidden = true; // a broken picture says nothing; the numbers still do
+    });
+  }
   controls.zoomIn.addEventListener("click", () => camera.zoomIn());
   controls.zoomOut.addEventListener("click", () => camera.zoomOut());
   controls.resetView.addEventListener("click", () => camera.reset());
@@ -295,6 +428,7 @@ async function start() {
     }
     fillStreamPicker();
     reconnectAll();
+    loadFit();
   });
   controls.stream.addEventListener("change", () => {
     page.stream = controls.stream.value;
@@ -313,6 +447,7 @@ async function start() {
   }
   fillHeadPicker();
   fillStreamPicker();
+  loadFit(); // before the 3D view: the report is worth showing even without WebGL
   try {
     addPanel(resolveAlgorithm(params.get("algo")), heatParam("heat"), heatMaxParam("heatmax"));
   } catch (error) {
@@ -326,7 +461,8 @@ async function start() {
 
 /**
  * Reads the head list again: heads registered and streams started since the page loaded
- * appear in the pickers (the choices stay). A failed read keeps the old list.
+ * appear in the pickers (the choices stay), and the fit report follows the chosen head's
+ * status. A failed read keeps the old list.
  */
 async function refreshHeads() {
   let heads;
@@ -335,10 +471,12 @@ async function refreshHeads() {
   } catch {
     return;
   }
-  if (JSON.stringify(heads) === JSON.stringify(page.heads)) {
+  const changed = JSON.stringify(heads) !== JSON.stringify(page.heads);
+  page.heads = heads;
+  refreshFit();
+  if (!changed) {
     return;
   }
-  page.heads = heads;
   if (document.activeElement !== controls.head) {
     fillHeadPicker();
   }

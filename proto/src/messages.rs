@@ -114,13 +114,17 @@ pub struct HeadInfo {
 }
 
 /// How well a head's fit lays the CANDIDE mask on it: the distance from each fitted mask
-/// vertex (those a triangle uses) to the head's surface, mm.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// vertex (those a triangle uses) to the head's surface, mm, and what to look at
+/// (`GET /v1/heads/{id}/fit` has the whole report).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FitSummary {
     pub surface_mean_mm: f32,
     pub surface_max_mm: f32,
     /// The mask vertex furthest from the surface.
     pub worst_mask_vertex: u32,
+    /// The fit report's warnings, as sentences.
+    #[serde(default)]
+    pub warnings: Vec<String>,
 }
 
 impl ServerMessage {

@@ -8,8 +8,8 @@ use super::{load_head, load_mask, print_json, CliResult, FilePath};
 use crate::atomic::write_atomic;
 use crate::fit::limits::{in_range, MM_PER_UNIT_RANGE};
 use crate::fit::{
-    fit_automatically, fit_from_landmarks, residuals, solve_fit, AutomaticFit, Fit, FitFile, FittedMask,
-    Landmarks, Residuals, SolveOptions,
+    fit_automatically, fit_from_landmarks, report, residuals, solve_fit, AutomaticFit, Fit, FitFile,
+    FitReport, FittedMask, Landmarks, Residuals, SolveOptions,
 };
 use crate::head::Head;
 use crate::mask::Mask;
@@ -46,6 +46,7 @@ struct Report {
     before: Residuals,
     /// Similarity and shape units.
     after: Residuals,
+    report: FitReport,
 }
 
 pub fn run(args: Args) -> CliResult {
@@ -67,7 +68,7 @@ struct AutomaticReport {
     forward: [f32; 3],
     /// The nose tip found, head units.
     nose_tip: [f32; 3],
-    residuals: Residuals,
+    report: FitReport,
 }
 
 fn automatic(args: &Args, head: &Head, mask: &Mask) -> CliResult {
@@ -76,15 +77,8 @@ fn automatic(args: &Args, head: &Head, mask: &Mask) -> CliResult {
         .map(|mm| in_range("--mm-per-unit", mm, MM_PER_UNIT_RANGE))
         .transpose()?;
     let found: AutomaticFit = fit_automatically(head, mask, mm_per_unit)?;
-    let fitted = FittedMask::new(mask.clone(), found.fit.clone());
-    let residuals = residuals::measure(
-        head,
-        &fitted.neutral,
-        &mask.used_vertices(),
-        &[],
-        found.fit.mm_per_unit,
-    );
-    let file = write_fit(args, &fitted.fit, mask)?;
+    let report = fit_report(head, mask, &found.fit);
+    let file = write_fit(args, &found.fit, mask)?;
     let source = if found.mm_per_unit_from_pupils {
         "63 mm pupil separation"
     } else {
@@ -97,7 +91,7 @@ fn automatic(args: &Args, head: &Head, mask: &Mask) -> CliResult {
             unit_guess: found.unit_name(),
             forward: found.forward.to_array(),
             nose_tip: found.nose_tip.to_array(),
-            residuals,
+            report,
         });
     }
     let [fx, fy, fz] = found.forward.to_array();
@@ -115,12 +109,36 @@ fn automatic(args: &Args, head: &Head, mask: &Mask) -> CliResult {
         "mm per head unit: {:.4} ({source}{unit}); scale {:.5} head units per mask unit",
         found.fit.mm_per_unit, found.fit.pose.scale.x
     );
-    println!(
-        "mask vertices to head surface: mean {:.3} mm, max {:.3} mm (mask vertex {})",
-        residuals.surface.mean_mm, residuals.surface.max_mm, residuals.surface.worst_mask_vertex
-    );
+    print_report(&report);
     println!("wrote {}", args.out.display());
     Ok(())
+}
+
+/// The report of `fit` on `head`.
+fn fit_report(head: &Head, mask: &Mask, fit: &Fit) -> FitReport {
+    report(head, &FittedMask::new(mask.clone(), fit.clone()))
+}
+
+/// The report as a table of regions and a list of warnings.
+fn print_report(report: &FitReport) {
+    println!(
+        "{:<34} {:>10} {:>10} {:>8}",
+        "mask to head surface (mm)", "mean", "max", "worst"
+    );
+    let row = |name: &str, d: &crate::fit::DistanceStats| {
+        println!(
+            "  {:<32} {:>10.3} {:>10.3} {:>8}",
+            name, d.mean_mm, d.max_mm, d.worst_mask_vertex
+        );
+    };
+    row("all", &report.surface);
+    for region in &report.regions {
+        row(region.region.name(), &region.distances);
+    }
+    println!("inner lips apart at rest: {:.2} mm", report.inner_lip_gap_mm);
+    for warning in &report.warnings {
+        println!("warning: {}", warning.message);
+    }
 }
 
 /// Writes `fit` to `--out` and returns what was written.
@@ -188,6 +206,7 @@ fn from_landmarks(args: &Args, landmarks_path: &FilePath, head: &Head, mask: &Ma
             iterations: solved.iterations,
             before: before_residuals,
             after: after_residuals,
+            report: fit_report(head, mask, &fit),
         });
     }
     println!(
@@ -222,6 +241,7 @@ fn from_landmarks(args: &Args, landmarks_path: &FilePath, head: &Head, mask: &Ma
             r.landmarks.worst_mask_vertex
         );
     }
+    print_report(&fit_report(head, mask, &fit));
     println!("wrote {}", args.out.display());
     Ok(())
 }

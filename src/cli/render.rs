@@ -48,27 +48,7 @@ pub fn run(args: Args) -> CliResult {
     canvas.draw_mesh(&head.positions, &head.triangles, |_| [0.86, 0.76, 0.68]);
     if let Some(fitted) = &fitted {
         let slack = 0.004 * head.bounds().size().length();
-        let used = fitted.mask.used_vertices();
-        for t in &fitted.mask.triangles {
-            for k in 0..3 {
-                let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
-                canvas.draw_line(
-                    fitted.neutral[a],
-                    fitted.neutral[b],
-                    Ink::see_through([20, 90, 200]),
-                    slack,
-                );
-            }
-        }
-        for (j, &p) in fitted.neutral.iter().enumerate().filter(|(j, _)| used[*j]) {
-            let lip = crate::mask::LIP_VERTICES.contains(&j);
-            canvas.draw_dot(
-                p,
-                2.5,
-                Ink::see_through(if lip { [200, 30, 30] } else { [20, 60, 160] }),
-                slack,
-            );
-        }
+        crate::render::draw_fitted_mask(&mut canvas, fitted, &fitted.neutral, slack);
         if args.anchors {
             let anchors = anchor_mask(&head, &fitted.neutral, fitted.fit.mm_per_unit);
             for &j in &crate::mask::LIP_VERTICES {

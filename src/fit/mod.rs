@@ -6,11 +6,12 @@
 //! `mm_per_unit` maps head units to millimetres.
 
 mod anchors;
-mod automatic;
+pub(crate) mod automatic;
 mod file;
 mod from_landmarks;
 mod landmarks;
 pub mod limits;
+pub mod report;
 pub mod residuals;
 mod solve;
 pub mod umeyama;
@@ -25,6 +26,7 @@ pub use file::{FitFile, FitFileError, Nudge};
 pub use from_landmarks::{fit_from_landmarks, FitError, LandmarkFit};
 pub use landmarks::{Landmark, LandmarkError, Landmarks};
 pub use limits::RangeError;
+pub use report::{report, FaceRegion, FitReport, FitWarning};
 pub use residuals::{DistanceStats, Residuals};
 pub use solve::{solve_fit, FitSolution, SolveError, SolveOptions};
 

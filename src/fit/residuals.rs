@@ -17,7 +17,8 @@ pub struct DistanceStats {
 }
 
 impl DistanceStats {
-    fn of(distances: impl Iterator<Item = (u32, f32)>) -> DistanceStats {
+    /// The stats of (mask vertex, distance mm) pairs.
+    pub fn of(distances: impl Iterator<Item = (u32, f32)>) -> DistanceStats {
         let (mut sum, mut count, mut max, mut worst) = (0.0f64, 0usize, 0.0f32, 0u32);
         for (v, d) in distances {
             sum += f64::from(d);

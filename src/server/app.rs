@@ -53,6 +53,11 @@ pub fn app(state: AppState) -> Router {
             "/v1/heads/{id}/mesh.obj",
             get(heads::mesh_obj).route_layer(viewer()),
         )
+        .route("/v1/heads/{id}/fit", get(heads::fit_report).route_layer(viewer()))
+        .route(
+            "/v1/heads/{id}/fit.png",
+            get(heads::fit_png).route_layer(viewer()),
+        )
         .route(
             "/v1/heads/{id}/streams/{stream}/produce",
             get(producer::produce).route_layer(producer()),

@@ -4,7 +4,7 @@
 //! close, and a head registered again under the same id is a new entry.
 
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Duration;
 
 use bytes::Bytes;
@@ -18,6 +18,7 @@ use super::ids::valid_id;
 use super::store::HeadMeta;
 use super::stream::Stream;
 use crate::animate::AnimatedHead;
+use crate::fit::FitReport;
 use facewire_proto::codes::EndReason;
 use facewire_proto::messages::{FitSummary, HeadInfo, PartInfo};
 
@@ -29,8 +30,12 @@ pub struct ReadyHead {
     pub rest_obj: Bytes,
     /// `mesh.bin` of each part, in `animated.parts` order.
     pub part_bins: Vec<Bytes>,
-    /// The fit's residuals, for head info.
+    /// The fit's residuals and warnings, for head info.
     pub fit: FitSummary,
+    /// The whole fit report, for `GET /v1/heads/{id}/fit`.
+    pub fit_report: FitReport,
+    /// `fit.png` from the front and the side, drawn when first asked for.
+    pub fit_pictures: [OnceLock<Bytes>; 2],
     pub bindings: BindingCache,
 }
 
@@ -213,7 +218,7 @@ impl HeadEntry {
             error,
             streams,
             parts: ready.as_ref().map(|r| r.part_infos(&self.id)).unwrap_or_default(),
-            fit: ready.as_ref().map(|r| r.fit),
+            fit: ready.as_ref().map(|r| r.fit.clone()),
             algorithms: ready.map(|r| r.bindings.bound()).unwrap_or_default(),
         }
     }

@@ -5,10 +5,11 @@
 use std::time::Duration;
 
 use axum::body::Body;
-use axum::extract::{Path, State};
+use axum::extract::{Path, Query, State};
 use axum::http::{header, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
+use bytes::Bytes;
 use serde::{Deserialize, Serialize};
 
 use super::error::ApiError;
@@ -17,6 +18,7 @@ use super::registration::{fit_automatically, fit_from_landmarks};
 use super::store::{HeadMeta, HeadRecord, PartRecord};
 use super::AppState;
 use crate::deform::AlgoSpec;
+use crate::fit::FitReport;
 use crate::head::{check_part_names, PartRole};
 use facewire_proto::messages::HeadInfo;
 
@@ -172,6 +174,66 @@ pub async fn part_mesh_bin(
         .part_bin(&part)
         .ok_or_else(|| ApiError::NotFound(format!("part {part} of head {id}")))?;
     Ok(([(header::CONTENT_TYPE, "application/octet-stream")], bin.clone()).into_response())
+}
+
+/// `GET /v1/heads/{id}/fit`: the fit report.
+pub async fn fit_report(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<FitReport>, ApiError> {
+    Ok(Json(state.registry.head(&id)?.ready()?.fit_report.clone()))
+}
+
+/// `fit.png`'s query: which side of the face (other keys, a cache-busting one say, are
+/// ignored).
+#[derive(Debug, Deserialize)]
+pub struct PictureQuery {
+    #[serde(default)]
+    view: PictureView,
+}
+
+#[derive(Debug, Clone, Copy, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum PictureView {
+    #[default]
+    Front,
+    Side,
+}
+
+/// Pixels across `fit.png`.
+const FIT_PICTURE_SIZE: usize = 800;
+
+/// `GET /v1/heads/{id}/fit.png?view=front|side`: the fitted mask on the head, drawn once
+/// per view (off the runtime's threads) and kept.
+pub async fn fit_png(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    Query(query): Query<PictureQuery>,
+) -> Result<Response, ApiError> {
+    let ready = state.registry.head(&id)?.ready()?;
+    let (slot, view) = match query.view {
+        PictureView::Front => (0, crate::render::View::Front),
+        PictureView::Side => (1, crate::render::View::Side),
+    };
+    let png = match ready.fit_pictures[slot].get() {
+        Some(png) => png.clone(),
+        None => {
+            let drawing = ready.clone();
+            let png = tokio::task::spawn_blocking(move || {
+                let reg = &drawing.animated.registration;
+                Bytes::from(crate::render::fitted_mask_png(
+                    &reg.head,
+                    &reg.fitted,
+                    view,
+                    FIT_PICTURE_SIZE,
+                ))
+            })
+            .await
+            .map_err(ApiError::internal)?;
+            ready.fit_pictures[slot].get_or_init(|| png).clone()
+        }
+    };
+    Ok(([(header::CONTENT_TYPE, "image/png")], png).into_response())
 }
 
 pub async fn mesh_obj(State(state): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {

@@ -133,17 +133,12 @@ pub fn register(
         &reg.head.triangles,
     )
     .expect("writing to memory cannot fail");
-    let residuals = crate::fit::residuals::measure(
-        &reg.head,
-        &reg.fitted.neutral,
-        &reg.fitted.mask.used_vertices(),
-        &[],
-        reg.mm_per_unit(),
-    );
+    let fit_report = crate::fit::report(&reg.head, &reg.fitted);
     let fit = FitSummary {
-        surface_mean_mm: residuals.surface.mean_mm,
-        surface_max_mm: residuals.surface.max_mm,
-        worst_mask_vertex: residuals.surface.worst_mask_vertex,
+        surface_mean_mm: fit_report.surface.mean_mm,
+        surface_max_mm: fit_report.surface.max_mm,
+        worst_mask_vertex: fit_report.surface.worst_mask_vertex,
+        warnings: fit_report.warnings.iter().map(|w| w.message.clone()).collect(),
     };
     stage(1.0)?;
     Ok(ReadyHead {
@@ -151,6 +146,8 @@ pub fn register(
         rest_bin,
         part_bins,
         fit,
+        fit_report,
+        fit_pictures: Default::default(),
         rest_obj: Bytes::from(rest_obj),
         bindings: BindingCache::new(input.max_bindings),
     })

@@ -11,9 +11,9 @@ const CSS: &str = "text/css; charset=utf-8";
 const JS: &str = "text/javascript; charset=utf-8";
 
 /// `(path, content type, body)` of every embedded file. `web/decode.test.mjs`,
-/// `web/nodes.test.mjs` and `web/package.json` are for the tests (`tests/web_decode.rs`),
+/// `web/nodes.test.mjs`, `web/fit.test.mjs` and `web/package.json` are for the tests (`tests/web_decode.rs`),
 /// not served.
-const ASSETS: [(&str, &str, &str); 11] = [
+const ASSETS: [(&str, &str, &str); 12] = [
     ("/", HTML, include_str!("../../web/index.html")),
     ("/style.css", CSS, include_str!("../../web/style.css")),
     ("/app.js", JS, include_str!("../../web/app.js")),
@@ -21,6 +21,7 @@ const ASSETS: [(&str, &str, &str); 11] = [
     ("/chart.js", JS, include_str!("../../web/chart.js")),
     ("/codes.js", JS, include_str!("../../web/codes.js")),
     ("/decode.js", JS, include_str!("../../web/decode.js")),
+    ("/fit.js", JS, include_str!("../../web/fit.js")),
     ("/nodes.js", JS, include_str!("../../web/nodes.js")),
     ("/panel.js", JS, include_str!("../../web/panel.js")),
     ("/render.js", JS, include_str!("../../web/render.js")),

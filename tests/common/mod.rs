@@ -176,3 +176,34 @@ pub fn ball_obj() -> String {
     }
     text
 }
+
+/// The part of `head` within `radius_mm` of `centre` and in front of the plane `depth_mm`
+/// behind it (+z forward), renumbered.
+pub fn cut_face(
+    head: &facewire::head::Head,
+    centre: glam::Vec3,
+    radius_mm: f32,
+    depth_mm: f32,
+    mm_per_unit: f32,
+) -> facewire::head::Head {
+    let keep: Vec<bool> = head
+        .positions
+        .iter()
+        .map(|p| p.distance(centre) * mm_per_unit < radius_mm && (centre.z - p.z) * mm_per_unit < depth_mm)
+        .collect();
+    let mut renumber = vec![u32::MAX; head.positions.len()];
+    let mut positions = Vec::new();
+    for (v, p) in head.positions.iter().enumerate() {
+        if keep[v] {
+            renumber[v] = positions.len() as u32;
+            positions.push(*p);
+        }
+    }
+    let triangles = head
+        .triangles
+        .iter()
+        .filter(|t| t.iter().all(|&v| keep[v as usize]))
+        .map(|t| t.map(|v| renumber[v as usize]))
+        .collect();
+    facewire::head::Head::new("face.obj", positions, triangles)
+}

@@ -176,11 +176,14 @@ impl DepthMap {
         d.is_finite().then_some(d)
     }
 
-    /// The cell that stands out most from the surface `radius` (head units) to its left,
-    /// right, above and below: a nose tip seen from the front. `None` when no covered cell
-    /// has surface on all four sides.
+    /// The cell within `radius` (head units) of the most forward one that stands out most
+    /// from the surface `radius` to its left, right, above and below: a nose tip seen from
+    /// the front. `None` when no such cell has surface on all four sides.
     pub fn nose(&self, radius: f32) -> Option<NoseCandidate> {
         let reach = ((radius / self.cell).round() as isize).max(1);
+        // A nose tip is the front of the face: no more than `radius` behind the most forward
+        // point (a chin lowered by an open jaw stands out of its surroundings, further back).
+        let front = self.depth.iter().copied().fold(f32::NEG_INFINITY, f32::max);
         let mut best: Option<(f32, isize, isize, f32)> = None;
         for row in 0..self.rows as isize {
             for column in 0..self.columns as isize {
@@ -195,6 +198,9 @@ impl DepthMap {
                 ) else {
                     continue;
                 };
+                if d < front - radius {
+                    continue;
+                }
                 let prominence = d - left.max(right).max(above).max(below);
                 if best.is_none_or(|(p, ..)| prominence > p) {
                     best = Some((prominence, column, row, d));

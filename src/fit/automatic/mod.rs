@@ -8,9 +8,9 @@
 //! as for landmark fits, from 63 mm pupils.
 
 mod closest_points;
-mod depth_map;
+pub(crate) mod depth_map;
 mod eyes;
-mod front_image;
+pub(crate) mod front_image;
 mod profile;
 mod symmetry;
 

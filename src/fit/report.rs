@@ -1,0 +1,345 @@
+//! A fit's report, for people deciding whether to trust it: how far the fitted mask lies
+//! from the head (mm), overall and per face region, and what looks wrong: mask vertices far
+//! off the surface, parts of the mask with no head under them (a face-only mesh that ends
+//! before the mask does), lips apart at rest (p, b and m may then not close them).
+//!
+//! Regions are fixed sets of CANDIDE-3 vertices, picked by where the standard mask puts
+//! them (mask units), so every head's report speaks of the same vertices.
+
+use glam::Vec3;
+use serde::Serialize;
+
+use super::automatic::depth_map::outward_winding;
+use super::automatic::front_image::FrontImage;
+use super::residuals::DistanceStats;
+use super::umeyama::Similarity;
+use super::FittedMask;
+use crate::head::Head;
+use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
+
+/// A mask vertex further than this from the surface (mm) is far off it.
+pub const FAR_FROM_SURFACE_MM: f32 = 8.0;
+/// Inner lips further apart than this at rest (mm) are apart.
+pub const LIPS_APART_MM: f32 = 2.0;
+/// A mask vertex whose nearest surface point is at the mesh's edge and further than this
+/// (mm) has no head under it.
+const PAST_EDGE_MM: f32 = 2.0;
+/// CANDIDE-3's subnasale (FP 9.15): the top of the mouth's window.
+const MASK_SUBNASALE: usize = 6;
+/// The lips' gap is looked for up to this far above and below the mask's mouth (mask
+/// units) ...
+const MOUTH_WINDOW: f64 = 0.25;
+/// ... in steps of this ...
+const GAP_STEP: f64 = 0.002;
+/// ... as the run, through the mouth's height (within this band), where the surface seen
+/// from the front lies this far behind the
+/// lips (mask units, about 20 mm: lips that meet inside the mouth, as the ICT head's do,
+/// leave a notch more than 12 mm deep), or is not there: the mouth's opening.
+const OPENING_DEPTH: f64 = 0.2;
+const MOUTH_BAND: f64 = 0.05;
+
+/// A part of the face, by CANDIDE-3 vertices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FaceRegion {
+    Eyes,
+    Brow,
+    Nose,
+    Mouth,
+    Jaw,
+    ForeheadAndCheeks,
+}
+
+impl FaceRegion {
+    pub const ALL: [FaceRegion; 6] = [
+        FaceRegion::Eyes,
+        FaceRegion::Brow,
+        FaceRegion::Nose,
+        FaceRegion::Mouth,
+        FaceRegion::Jaw,
+        FaceRegion::ForeheadAndCheeks,
+    ];
+
+    /// The region of a vertex of the standard mask at `p` (mask units).
+    pub fn of(p: Vec3) -> FaceRegion {
+        let (x, y) = (p.x.abs(), p.y);
+        if (0.08..=0.56).contains(&x) && (0.04..=0.26).contains(&y) {
+            FaceRegion::Eyes
+        } else if y > 0.26 && y <= 0.5 && x <= 0.6 {
+            FaceRegion::Brow
+        } else if x < 0.2 && (-0.3..0.26).contains(&y) {
+            FaceRegion::Nose
+        } else if x <= 0.3 && (-0.62..-0.3).contains(&y) {
+            FaceRegion::Mouth
+        } else if y < -0.3 {
+            FaceRegion::Jaw
+        } else {
+            FaceRegion::ForeheadAndCheeks
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            FaceRegion::Eyes => "eyes",
+            FaceRegion::Brow => "brow",
+            FaceRegion::Nose => "nose",
+            FaceRegion::Mouth => "mouth",
+            FaceRegion::Jaw => "jaw",
+            FaceRegion::ForeheadAndCheeks => "forehead and cheeks",
+        }
+    }
+}
+
+/// Distances from one region's mask vertices to the surface, mm.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RegionResidual {
+    pub region: FaceRegion,
+    #[serde(flatten)]
+    pub distances: DistanceStats,
+}
+
+/// Something about a fit that a person should look at.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum FitWarning {
+    /// Mask vertices more than [`FAR_FROM_SURFACE_MM`] from the surface.
+    FarFromSurface {
+        mask_vertices: Vec<u32>,
+        worst_mask_vertex: u32,
+        worst_mm: f32,
+    },
+    /// Mask vertices of `region` past the mesh's edge.
+    NoHeadUnder {
+        region: FaceRegion,
+        mask_vertices: Vec<u32>,
+    },
+    /// The head's inner lips (at the mask's inner-lip middle) are `gap_mm` apart at rest.
+    LipsApartAtRest { gap_mm: f32 },
+}
+
+impl FitWarning {
+    /// The warning as a sentence.
+    pub fn message(&self) -> String {
+        match self {
+            FitWarning::FarFromSurface {
+                mask_vertices,
+                worst_mask_vertex,
+                worst_mm,
+            } => format!(
+                "{} mask vertices lie more than {FAR_FROM_SURFACE_MM} mm from the surface, the worst \
+                 (vertex {worst_mask_vertex}) {worst_mm:.1} mm: the mask does not follow the head there",
+                mask_vertices.len()
+            ),
+            FitWarning::NoHeadUnder {
+                region,
+                mask_vertices,
+            } => format!(
+                "{}: {} mask vertices have no head under them (the mesh ends first); their motion \
+                 moves nothing",
+                region.name(),
+                mask_vertices.len()
+            ),
+            FitWarning::LipsApartAtRest { gap_mm } => {
+                format!("the inner lips are {gap_mm:.1} mm apart at rest: p, b and m may not close them")
+            }
+        }
+    }
+}
+
+/// A warning with its sentence, as reports carry it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Warning {
+    #[serde(flatten)]
+    pub warning: FitWarning,
+    pub message: String,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FitReport {
+    pub mm_per_unit: f32,
+    /// Every mask vertex a triangle uses, to the surface.
+    pub surface: DistanceStats,
+    pub regions: Vec<RegionResidual>,
+    /// The mouth's opening at rest on the midline, mm: how far apart the inner lips are.
+    pub inner_lip_gap_mm: f32,
+    pub warnings: Vec<Warning>,
+}
+
+/// The report of `fitted` on `head`.
+pub fn report(head: &Head, fitted: &FittedMask) -> FitReport {
+    let mm = fitted.fit.mm_per_unit;
+    let used = fitted.mask.used_vertices();
+    let at_edge = edge_vertices(head);
+    // (mask vertex, distance mm, nearest point at the mesh's edge)
+    let distances: Vec<(u32, f32, bool)> = fitted
+        .neutral
+        .iter()
+        .enumerate()
+        .filter(|&(j, _)| used[j])
+        .map(|(j, &p)| match head.surface.closest_point(p) {
+            Some(s) => {
+                let corners = head.triangles[s.triangle as usize];
+                let edge = corners.iter().any(|&v| at_edge[v as usize]);
+                (j as u32, s.distance * mm, edge && s.distance * mm > PAST_EDGE_MM)
+            }
+            None => (j as u32, f32::INFINITY, true),
+        })
+        .collect();
+    let region_of = |j: u32| FaceRegion::of(fitted.mask.vertices[j as usize]);
+    let surface = DistanceStats::of(distances.iter().map(|&(j, d, _)| (j, d)));
+    let regions = FaceRegion::ALL
+        .iter()
+        .map(|&region| RegionResidual {
+            region,
+            distances: DistanceStats::of(
+                distances
+                    .iter()
+                    .filter(|&&(j, ..)| region_of(j) == region)
+                    .map(|&(j, d, _)| (j, d)),
+            ),
+        })
+        .collect();
+    let inner_lip_gap_mm = mouth_opening(head, fitted) * fitted.mm_per_mask_unit() as f64;
+    let inner_lip_gap_mm = inner_lip_gap_mm as f32;
+
+    let mut warnings = Vec::new();
+    // Eyes are often openings in the mesh (the eyeballs are separate meshes, or none):
+    // mask vertices over them are expected to find the mesh's edge.
+    for region in FaceRegion::ALL.into_iter().filter(|&r| r != FaceRegion::Eyes) {
+        let mask_vertices: Vec<u32> = distances
+            .iter()
+            .filter(|&&(j, _, past_edge)| past_edge && region_of(j) == region)
+            .map(|&(j, ..)| j)
+            .collect();
+        if !mask_vertices.is_empty() {
+            warnings.push(FitWarning::NoHeadUnder {
+                region,
+                mask_vertices,
+            });
+        }
+    }
+    let far: Vec<(u32, f32)> = distances
+        .iter()
+        .filter(|&&(j, d, past_edge)| {
+            !(past_edge && region_of(j) != FaceRegion::Eyes) && d > FAR_FROM_SURFACE_MM
+        })
+        .map(|&(j, d, _)| (j, d))
+        .collect();
+    if let Some(&(worst_mask_vertex, worst_mm)) = far.iter().max_by(|a, b| a.1.total_cmp(&b.1)) {
+        warnings.push(FitWarning::FarFromSurface {
+            mask_vertices: far.iter().map(|&(j, _)| j).collect(),
+            worst_mask_vertex,
+            worst_mm,
+        });
+    }
+    if inner_lip_gap_mm > LIPS_APART_MM {
+        warnings.push(FitWarning::LipsApartAtRest {
+            gap_mm: inner_lip_gap_mm,
+        });
+    }
+    FitReport {
+        mm_per_unit: mm,
+        surface,
+        regions,
+        inner_lip_gap_mm,
+        warnings: warnings
+            .into_iter()
+            .map(|warning| Warning {
+                message: warning.message(),
+                warning,
+            })
+            .collect(),
+    }
+}
+
+/// The height of the mouth's opening on the midline (mask units): seen straight along the
+/// fitted mask's z axis, the run of heights through the mouth where the surface lies
+/// [`OPENING_DEPTH`] behind the lips or is missing. Zero for closed lips, however deep the
+/// notch between them.
+fn mouth_opening(head: &Head, fitted: &FittedMask) -> f64 {
+    let pose = &fitted.fit.pose;
+    let similarity = Similarity {
+        rotation: pose.rotation().as_dmat3(),
+        scale: f64::from(pose.scale.x),
+        translation: pose.translation.as_dvec3(),
+    };
+    let winding = outward_winding(&head.positions, &head.triangles);
+    let image = FrontImage::render(head, &similarity, winding);
+    let mouth = f64::from(fitted.base[INNER_LIP_MID_UPPER].y + fitted.base[INNER_LIP_MID_LOWER].y) / 2.0;
+    // From below the mouth up to the nose's base, which stands further forward than lips.
+    let top = f64::from(fitted.base[MASK_SUBNASALE].y).min(mouth + MOUTH_WINDOW);
+    let bottom = mouth - MOUTH_WINDOW;
+    let samples = ((top - bottom) / GAP_STEP).max(0.0) as usize + 1;
+    let depths: Vec<Option<f64>> = (0..samples)
+        .map(|k| image.z_at(0.0, bottom + k as f64 * GAP_STEP))
+        .collect();
+    let lips = depths.iter().flatten().copied().fold(f64::NEG_INFINITY, f64::max);
+    let open = |k: usize| depths[k].is_none_or(|z| z < lips - OPENING_DEPTH);
+    // The run through the mouth's own height (under the chin the surface falls away too).
+    let at_mouth = (((mouth - bottom) / GAP_STEP).round().max(0.0) as usize).min(samples - 1);
+    let band = (MOUTH_BAND / GAP_STEP) as usize;
+    let Some(inside) =
+        (at_mouth.saturating_sub(band)..=(at_mouth + band).min(samples - 1)).find(|&k| open(k))
+    else {
+        return 0.0;
+    };
+    let first = (0..=inside)
+        .rev()
+        .take_while(|&k| open(k))
+        .last()
+        .unwrap_or(inside);
+    let last = (inside..samples)
+        .take_while(|&k| open(k))
+        .last()
+        .unwrap_or(inside);
+    (last - first + 1) as f64 * GAP_STEP
+}
+
+/// Per head vertex: on an edge used by one triangle.
+fn edge_vertices(head: &Head) -> Vec<bool> {
+    let mut at_edge = vec![false; head.positions.len()];
+    for edge in head.topology.edges.iter().filter(|e| e.triangles == 1) {
+        at_edge[edge.a as usize] = true;
+        at_edge[edge.b as usize] = true;
+    }
+    at_edge
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mask::Mask;
+
+    #[test]
+    fn every_region_holds_its_features() {
+        let mask = Mask::candide3();
+        let region = |j: usize| FaceRegion::of(mask.vertices[j]);
+        // Outer eye corners, the nose tip, the mouth's middle, the chin, the forehead top.
+        assert_eq!(region(20), FaceRegion::Eyes);
+        assert_eq!(region(53), FaceRegion::Eyes);
+        assert_eq!(region(5), FaceRegion::Nose);
+        assert_eq!(region(40), FaceRegion::Mouth);
+        assert_eq!(region(10), FaceRegion::Jaw);
+        assert_eq!(region(0), FaceRegion::ForeheadAndCheeks);
+        assert_eq!(region(17), FaceRegion::Brow);
+        let counts: Vec<usize> = FaceRegion::ALL
+            .iter()
+            .map(|&r| mask.vertices.iter().filter(|&&p| FaceRegion::of(p) == r).count())
+            .collect();
+        assert_eq!(counts, [36, 10, 19, 21, 8, 19]);
+    }
+
+    #[test]
+    fn warnings_read_as_sentences() {
+        let lips = FitWarning::LipsApartAtRest { gap_mm: 5.84 };
+        assert_eq!(
+            lips.message(),
+            "the inner lips are 5.8 mm apart at rest: p, b and m may not close them"
+        );
+        let edge = FitWarning::NoHeadUnder {
+            region: FaceRegion::ForeheadAndCheeks,
+            mask_vertices: vec![0, 1],
+        };
+        assert!(edge.message().starts_with("forehead and cheeks: 2 mask vertices"));
+    }
+}
