@@ -253,7 +253,7 @@ async fn a_head_with_neither_fit_nor_landmarks_is_fitted_automatically() {
         (StatusCode::OK, &pictures[0]),
         "front is the default, drawn once"
     );
-    let (status, _) = call(
+    let (status, body) = call(
         &router,
         Method::GET,
         "/v1/heads/found/fit.png?view=top",
@@ -261,7 +261,16 @@ async fn a_head_with_neither_fit_nor_landmarks_is_fitted_automatically() {
         Body::empty(),
     )
     .await;
-    assert_eq!(status, StatusCode::BAD_REQUEST);
+    let body: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(
+        (status, body["error"].as_str()),
+        (StatusCode::BAD_REQUEST, Some("bad_request")),
+        "{body}"
+    );
+    assert!(
+        body["message"].as_str().unwrap().contains("front or side"),
+        "{body}"
+    );
 
     // A mesh with no face: refused at once, naming the reason and the assumption.
     let ball = common::ball_obj();

@@ -184,20 +184,11 @@ pub async fn fit_report(
     Ok(Json(state.registry.head(&id)?.ready()?.fit_report.clone()))
 }
 
-/// `fit.png`'s query: which side of the face (other keys, a cache-busting one say, are
-/// ignored).
+/// `fit.png`'s query: which side of the face, `front` (the default) or `side`. Other keys
+/// (a cache-busting one, say) are ignored.
 #[derive(Debug, Deserialize)]
 pub struct PictureQuery {
-    #[serde(default)]
-    view: PictureView,
-}
-
-#[derive(Debug, Clone, Copy, Default, Deserialize)]
-#[serde(rename_all = "snake_case")]
-enum PictureView {
-    #[default]
-    Front,
-    Side,
+    view: Option<String>,
 }
 
 /// Pixels across `fit.png`.
@@ -211,9 +202,15 @@ pub async fn fit_png(
     Query(query): Query<PictureQuery>,
 ) -> Result<Response, ApiError> {
     let ready = state.registry.head(&id)?.ready()?;
-    let (slot, view) = match query.view {
-        PictureView::Front => (0, crate::render::View::Front),
-        PictureView::Side => (1, crate::render::View::Side),
+    let (slot, view) = match query.view.as_deref() {
+        None | Some("front") => (0, crate::render::View::Front),
+        Some("side") => (1, crate::render::View::Side),
+        Some(other) => {
+            return Err(ApiError::BadRequest(format!(
+                "view: expected front or side, found {}",
+                crate::quote::clip(other)
+            )))
+        }
     };
     let png = match ready.fit_pictures[slot].get() {
         Some(png) => png.clone(),
