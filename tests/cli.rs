@@ -126,8 +126,18 @@ fn fit_without_landmarks_finds_the_face_and_guesses_the_units() {
     assert_eq!(report["unit_guess"], "centimetres");
     assert_eq!(report["mm_per_unit_source"], "63 mm pupil separation");
     assert!(
-        report["residuals"]["surface"]["mean_mm"].as_f64().unwrap() < 2.0,
+        report["report"]["surface"]["mean_mm"].as_f64().unwrap() < 2.0,
         "{report}"
+    );
+    assert_eq!(
+        report["report"]["regions"].as_array().unwrap().len(),
+        6,
+        "{report}"
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("forehead and cheeks") && stdout.contains("inner lips apart at rest"),
+        "{stdout}"
     );
     let forward = report["forward"].as_array().unwrap();
     assert!(forward[2].as_f64().unwrap() > 0.99, "{report}");
