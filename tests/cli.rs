@@ -109,6 +109,11 @@ fn fit_without_landmarks_finds_the_face_and_guesses_the_units() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("with no landmarks"), "{stdout}");
     assert!(stdout.contains("probably in centimetres"), "{stdout}");
+    // The fit report: the regions' table and the mouth at rest.
+    assert!(
+        stdout.contains("forehead and cheeks") && stdout.contains("inner lips apart at rest"),
+        "{stdout}"
+    );
     // The written fit is a fit like any other: `facewire inspect` resolves it on the head.
     let inspected = json(&[
         "inspect",
@@ -133,11 +138,6 @@ fn fit_without_landmarks_finds_the_face_and_guesses_the_units() {
         report["report"]["regions"].as_array().unwrap().len(),
         6,
         "{report}"
-    );
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        stdout.contains("forehead and cheeks") && stdout.contains("inner lips apart at rest"),
-        "{stdout}"
     );
     let forward = report["forward"].as_array().unwrap();
     assert!(forward[2].as_f64().unwrap() > 0.99, "{report}");

@@ -34,6 +34,17 @@ async fn call(
     (status, bytes.to_vec())
 }
 
+/// Like [`call`] with no token, for answers that are JSON.
+async fn call_json(
+    router: &Router,
+    method: Method,
+    uri: &str,
+    body: Body,
+) -> (StatusCode, serde_json::Value) {
+    let (status, bytes) = call(router, method, uri, None, body).await;
+    (status, serde_json::from_slice(&bytes).unwrap())
+}
+
 /// A server state with every token set and two ready heads: `own` (with its own producer
 /// token) and `plain` (without).
 async fn guarded() -> Router {
@@ -150,15 +161,13 @@ async fn what_no_route_answers_is_a_json_error() {
         "obj": std::fs::read_to_string(data("heads/makehuman_head.obj")).unwrap(),
         "landmarks": "mm_per_unit = nan\\n",
     });
-    let (status, body) = call(
+    let (status, body) = call_json(
         &router,
         Method::POST,
         "/v1/heads",
-        None,
         Body::from(landmarks.to_string()),
     )
     .await;
-    let body: serde_json::Value = serde_json::from_slice(&body).unwrap();
     assert_eq!(
         (status, body["error"].as_str()),
         (StatusCode::BAD_REQUEST, Some("bad_landmarks")),
@@ -216,8 +225,7 @@ async fn a_head_with_neither_fit_nor_landmarks_is_fitted_automatically() {
     assert_eq!(info["fit"]["warnings"], serde_json::json!([]), "{info}");
 
     // Its report, and pictures of it from the front and the side.
-    let (status, body) = call(&router, Method::GET, "/v1/heads/found/fit", None, Body::empty()).await;
-    let report: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    let (status, report) = call_json(&router, Method::GET, "/v1/heads/found/fit", Body::empty()).await;
     assert_eq!(status, StatusCode::OK, "{report}");
     assert_eq!(report["surface"]["mean_mm"], info["fit"]["surface_mean_mm"]);
     let regions: Vec<&str> = report["regions"]
@@ -251,17 +259,15 @@ async fn a_head_with_neither_fit_nor_landmarks_is_fitted_automatically() {
     assert_eq!(
         (status, &again),
         (StatusCode::OK, &pictures[0]),
-        "front is the default, drawn once"
+        "front is the default"
     );
-    let (status, body) = call(
+    let (status, body) = call_json(
         &router,
         Method::GET,
         "/v1/heads/found/fit.png?view=top",
-        None,
         Body::empty(),
     )
     .await;
-    let body: serde_json::Value = serde_json::from_slice(&body).unwrap();
     assert_eq!(
         (status, body["error"].as_str()),
         (StatusCode::BAD_REQUEST, Some("bad_request")),
@@ -274,15 +280,8 @@ async fn a_head_with_neither_fit_nor_landmarks_is_fitted_automatically() {
 
     // A mesh with no face: refused at once, naming the reason and the assumption.
     let ball = common::ball_obj();
-    let (status, body) = call(
-        &router,
-        Method::POST,
-        "/v1/heads",
-        None,
-        Body::from(serde_json::json!({"id": "ball", "obj": ball}).to_string()),
-    )
-    .await;
-    let body: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    let ball = serde_json::json!({"id": "ball", "obj": ball});
+    let (status, body) = call_json(&router, Method::POST, "/v1/heads", Body::from(ball.to_string())).await;
     assert_eq!(
         (status, body["error"].as_str()),
         (StatusCode::BAD_REQUEST, Some("bad_head")),
@@ -296,15 +295,7 @@ async fn a_head_with_neither_fit_nor_landmarks_is_fitted_automatically() {
 
     // Both a fit and landmarks: which one was meant is not guessed.
     let both = serde_json::json!({"id": "both", "obj": "v 0 0 0", "fit": "", "landmarks": ""});
-    let (status, body) = call(
-        &router,
-        Method::POST,
-        "/v1/heads",
-        None,
-        Body::from(both.to_string()),
-    )
-    .await;
-    let body: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    let (status, body) = call_json(&router, Method::POST, "/v1/heads", Body::from(both.to_string())).await;
     assert_eq!(
         (status, body["error"].as_str()),
         (StatusCode::BAD_REQUEST, Some("bad_request")),

@@ -205,10 +205,11 @@ pub fn report(head: &Head, fitted: &FittedMask) -> FitReport {
     let mut warnings = Vec::new();
     // Eyes are often openings in the mesh (the eyeballs are separate meshes, or none):
     // mask vertices over them are expected to find the mesh's edge.
-    for region in FaceRegion::ALL.into_iter().filter(|&r| r != FaceRegion::Eyes) {
+    let no_head_under = |j: u32, past_edge: bool| past_edge && region_of(j) != FaceRegion::Eyes;
+    for region in FaceRegion::ALL {
         let mask_vertices: Vec<u32> = distances
             .iter()
-            .filter(|&&(j, _, past_edge)| past_edge && region_of(j) == region)
+            .filter(|&&(j, _, past_edge)| no_head_under(j, past_edge) && region_of(j) == region)
             .map(|&(j, ..)| j)
             .collect();
         if !mask_vertices.is_empty() {
@@ -220,9 +221,7 @@ pub fn report(head: &Head, fitted: &FittedMask) -> FitReport {
     }
     let far: Vec<(u32, f32)> = distances
         .iter()
-        .filter(|&&(j, d, past_edge)| {
-            !(past_edge && region_of(j) != FaceRegion::Eyes) && d > FAR_FROM_SURFACE_MM
-        })
+        .filter(|&&(j, d, past_edge)| !no_head_under(j, past_edge) && d > FAR_FROM_SURFACE_MM)
         .map(|&(j, d, _)| (j, d))
         .collect();
     if let Some(&(worst_mask_vertex, worst_mm)) = far.iter().max_by(|a, b| a.1.total_cmp(&b.1)) {

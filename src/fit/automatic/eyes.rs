@@ -3,8 +3,6 @@
 //! mesh (seen through to the far inside of the head) or a closed lid, a dome that stands out
 //! of the orbit around it. Looked for on each side where CANDIDE puts the eye, in mask units.
 
-use glam::DVec3;
-
 use super::front_image::FrontImage;
 
 /// CANDIDE's pupils are at x = +-0.3065, y = 0.157; each eye is looked for within this
@@ -14,18 +12,16 @@ const WINDOW_Y: [f64; 2] = [-0.05, 0.35];
 const STEP: f64 = 0.008;
 /// A sample this far behind the window's median surface is seen through an opening.
 const OPENING_BEHIND: f64 = 0.25;
-/// An opening counts when it covers at least this many samples (about 1 cm^2).
+/// An opening counts when it covers at least this many samples (about 8 mm^2).
 const MIN_OPENING_SAMPLES: usize = 12;
 /// A closed lid is compared with the surface this far around it.
 const LID_REACH: f64 = 0.07;
 
-/// Where an eye was found, mask frame of the first fit.
+/// Where an eye was found, mask frame of the first fit (mask units).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EyeCentre {
     pub x: f64,
     pub y: f64,
-    /// Head units.
-    pub point: DVec3,
 }
 
 /// The left (+x) and right eye centres, or `None` when either side shows neither an
@@ -60,12 +56,7 @@ fn eye(image: &FrontImage, side: f64) -> Option<EyeCentre> {
         let n = opening.len() as f64;
         let x = opening.iter().map(|p| p.0).sum::<f64>() / n;
         let y = opening.iter().map(|p| p.1).sum::<f64>() / n;
-        // The centre of an opening lies on the lids' plane: the surface's depth around it.
-        return Some(EyeCentre {
-            x,
-            y,
-            point: image.head_point(DVec3::new(x, y, median)),
-        });
+        return Some(EyeCentre { x, y });
     }
     let mut best: Option<(f64, EyeCentre)> = None;
     for &(x, y, z) in &samples {
@@ -84,14 +75,7 @@ fn eye(image: &FrontImage, side: f64) -> Option<EyeCentre> {
         };
         let prominence = z - highest_around;
         if prominence > 0.0 && best.is_none_or(|(p, _)| prominence > p) {
-            best = Some((
-                prominence,
-                EyeCentre {
-                    x,
-                    y,
-                    point: image.head_point(DVec3::new(x, y, z)),
-                },
-            ));
+            best = Some((prominence, EyeCentre { x, y }));
         }
     }
     best.map(|(_, centre)| centre)

@@ -1,9 +1,10 @@
 //! A fit with no landmarks, for heads nobody has marked up: find which way the face looks
 //! and where its nose is on range images of the head from every horizontal direction,
 //! place the mask there at a few scales guessed from the face's width, lay it on the surface
-//! by iterated closest points (pose, then shape units), and keep the start that lies closest.
+//! by iterated closest points (pose, then shape units), keep the start that lies closest,
+//! then pin its nose, mouth and pupils to what the face shows there and lay it again.
 //!
-//! Assumes +y of the head is up (within about 30 degrees) and that the face is not hidden
+//! Assumes +y of the head is up (within 35 degrees) and that the face is not hidden
 //! (one nose, in front). Works in head units; the physical scale comes from the caller or,
 //! as for landmark fits, from 63 mm pupils.
 
@@ -36,8 +37,9 @@ const DEPTH_MAP_CELLS: usize = 96;
 const NOSE_RADIUS: f32 = 0.1;
 /// A nose must stand out of the surface beside it by at least this fraction of that radius.
 const MIN_NOSE_PROMINENCE: f32 = 0.15;
-/// The width of the head across the nose tip, in mask units (measured on the shipped
-/// heads' landmark fits: 1.63 to 1.78); the starting scale is the measured width over this.
+/// The width of the head across the nose tip, in mask units (1.65 to 1.97 on the shipped
+/// heads' landmark fits); the starting scale is the measured width over this, and
+/// [`START_SCALES`] cover the spread.
 const HEAD_WIDTH_AT_NOSE: f64 = 1.7;
 /// Starting scales, as factors of the one guessed from the width.
 const START_SCALES: [f64; 3] = [0.8, 1.0, 1.25];

@@ -8,18 +8,22 @@
 use glam::DVec3;
 
 use super::front_image::FrontImage;
+
 /// The profile is sampled from this height to that (mask units; CANDIDE's chin is at
 /// -0.85, its forehead top at 1.06) ...
 const LOWEST: f64 = -1.3;
 const HIGHEST: f64 = 0.4;
 /// ... this far apart.
 const STEP: f64 = 0.004;
-/// CANDIDE's nose tip (vertex 5) is 0.239 above its mouth (vertices 40, 87). The mouth is looked for this far below the nose tip ...
+/// CANDIDE's nose tip (vertex 5) is 0.239 above its mouth (vertices 40, 87). The mouth is
+/// looked for this far below the nose tip ...
 const MOUTH_BELOW_NOSE: [f64; 2] = [0.15, 0.4];
-/// ... between lips that come forward within this distance above and below it, the upper
-/// lip at least this far below the nose tip (so that the nose is not taken for a lip).
+/// ... with its upper lip at least this far below the nose tip (so that the nose is not
+/// taken for a lip) ...
 const UPPER_LIP_BELOW_NOSE: f64 = 0.1;
+/// ... between lips that come forward within this distance above and below it.
 const LIP_REACH: f64 = 0.08;
+
 /// Midline features.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MidlineFeatures {
