@@ -342,9 +342,11 @@ impl FrameEncoder {
         out.extend_from_slice(&0u32.to_le_bytes());
         let start = out.len();
         if deflate {
+            // Level 2: zlib-rs's level 1 codes with fixed Huffman tables, 29 % more bytes a
+            // frame on the scan's syllable stream; level 2 is 9 % fewer than miniz_oxide's 1.
             let compressor = self
                 .compressor
-                .get_or_insert_with(|| flate2::Compress::new(flate2::Compression::fast(), false));
+                .get_or_insert_with(|| flate2::Compress::new(flate2::Compression::new(2), false));
             compressor.reset();
             loop {
                 out.reserve(block.len() / 2 + 64);

@@ -46,15 +46,17 @@ pub struct FoldMeter {
     edges: Vec<[u32; 2]>,
     /// Unit normals at rest, one per triangle.
     rest_normals: Vec<DVec3>,
-    /// Dihedral angles at rest, degrees, one per interior edge.
+    /// Dihedral angles at rest, degrees, and their cosines, one per interior edge.
     rest_angles: Vec<f64>,
+    rest_cosines: Vec<f64>,
     /// The region's vertices, for its rigid motion.
     vertices: Vec<u32>,
     rest_positions: Vec<DVec3>,
     /// Unit normals of the pose being measured (zero for a collapsed triangle).
     normals: Vec<DVec3>,
-    /// How far each triangle turned in the last pose measured, degrees.
-    turns: Vec<f64>,
+    /// The cosine of how far each triangle turned in the last pose measured (-1 for a
+    /// collapsed one): angles are taken (`acos`) only when asked for, per vertex.
+    turn_cosines: Vec<f64>,
     /// The head's vertex count, which every pose must have.
     head_vertices: usize,
 }
@@ -89,21 +91,23 @@ impl FoldMeter {
             .collect();
         edges.sort_unstable();
         let rest_normals: Vec<DVec3> = triangles.iter().map(|&t| normal(rest, t)).collect();
-        let rest_angles = edges
+        let rest_cosines: Vec<f64> = edges
             .iter()
-            .map(|&[a, b]| angle_deg(rest_normals[a as usize], rest_normals[b as usize]))
+            .map(|&[a, b]| cosine(rest_normals[a as usize], rest_normals[b as usize]))
             .collect();
+        let rest_angles = rest_cosines.iter().map(|&c| degrees(c)).collect();
         let mut vertices: Vec<u32> = triangles.iter().flatten().copied().collect();
         vertices.sort_unstable();
         vertices.dedup();
         let rest_positions = vertices.iter().map(|&v| rest[v as usize].as_dvec3()).collect();
         Ok(FoldMeter {
             normals: vec![DVec3::ZERO; triangles.len()],
-            turns: vec![0.0; triangles.len()],
+            turn_cosines: vec![1.0; triangles.len()],
             triangles,
             edges,
             rest_normals,
             rest_angles,
+            rest_cosines,
             vertices,
             rest_positions,
             head_vertices: rest.len(),
@@ -131,15 +135,20 @@ impl FoldMeter {
         for (n, &t) in self.normals.iter_mut().zip(&self.triangles) {
             *n = normal(positions, t);
         }
-        let max_dihedral_increase_deg = self
-            .edges
-            .iter()
-            .zip(&self.rest_angles)
-            .filter_map(|(&[a, b], rest)| {
-                let (na, nb) = (self.normals[a as usize], self.normals[b as usize]);
-                (na != DVec3::ZERO && nb != DVec3::ZERO).then(|| angle_deg(na, nb) - rest)
-            })
-            .fold(0.0f64, f64::max);
+        // Only an edge whose cosine fell can have bent further, so only those take an acos.
+        let mut max_dihedral_increase_deg = 0.0f64;
+        for ((&[a, b], &rest), &rest_cosine) in
+            self.edges.iter().zip(&self.rest_angles).zip(&self.rest_cosines)
+        {
+            let (na, nb) = (self.normals[a as usize], self.normals[b as usize]);
+            if na == DVec3::ZERO || nb == DVec3::ZERO {
+                continue;
+            }
+            let now = cosine(na, nb);
+            if now < rest_cosine {
+                max_dihedral_increase_deg = max_dihedral_increase_deg.max(degrees(now) - rest);
+            }
+        }
         let rotation = umeyama_pairs(|| {
             self.rest_positions
                 .iter()
@@ -147,16 +156,23 @@ impl FoldMeter {
                 .map(|(&r, &v)| (r, positions[v as usize].as_dvec3()))
         })
         .map_or(DMat3::IDENTITY, |s| s.rotation);
+        // A turn over t degrees is a cosine under cos t: no acos per triangle.
+        let (fold_cosine, flip_cosine) = (FOLD_DEG.to_radians().cos(), FLIP_DEG.to_radians().cos());
         let (mut turned_over_60, mut turned_over_90) = (0, 0);
-        for ((&now, &rest), turn) in self.normals.iter().zip(&self.rest_normals).zip(&mut self.turns) {
+        for ((&now, &rest), turn) in self
+            .normals
+            .iter()
+            .zip(&self.rest_normals)
+            .zip(&mut self.turn_cosines)
+        {
             let turned = if now == DVec3::ZERO {
-                180.0
+                -1.0
             } else {
-                angle_deg(now, rotation * rest)
+                cosine(now, rotation * rest)
             };
             *turn = turned;
-            turned_over_60 += u32::from(turned > FOLD_DEG);
-            turned_over_90 += u32::from(turned > FLIP_DEG);
+            turned_over_60 += u32::from(turned < fold_cosine);
+            turned_over_90 += u32::from(turned < flip_cosine);
         }
         Ok(Folds {
             max_dihedral_increase_deg,
@@ -172,7 +188,8 @@ impl FoldMeter {
     /// slot per head vertex. Allocates nothing.
     pub fn vertex_turns_deg(&self, out: &mut [f32]) {
         out.fill(0.0);
-        for (t, &turn) in self.triangles.iter().zip(&self.turns) {
+        for (t, &turn_cosine) in self.triangles.iter().zip(&self.turn_cosines) {
+            let turn = degrees(turn_cosine);
             for &v in t {
                 if let Some(slot) = out.get_mut(v as usize) {
                     *slot = slot.max(turn as f32);
@@ -188,9 +205,14 @@ fn normal(positions: &[Vec3], t: [u32; 3]) -> DVec3 {
     (b - a).cross(c - a).normalize_or_zero()
 }
 
-/// Angle between two unit vectors, degrees.
-fn angle_deg(a: DVec3, b: DVec3) -> f64 {
-    a.dot(b).clamp(-1.0, 1.0).acos().to_degrees()
+/// Cosine of the angle between two unit vectors, clamped to [-1, 1].
+fn cosine(a: DVec3, b: DVec3) -> f64 {
+    a.dot(b).clamp(-1.0, 1.0)
+}
+
+/// The angle whose cosine is `cosine`, degrees.
+fn degrees(cosine: f64) -> f64 {
+    cosine.acos().to_degrees()
 }
 
 #[cfg(test)]

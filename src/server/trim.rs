@@ -3,12 +3,16 @@
 //! peak; `malloc_trim` returns it. A trim walks every arena under its lock, so the
 //! threads sending to viewers wait for it: fifty pipelines retiring together, one trim
 //! each, delayed every other stream's frames by over 100 ms (docs/PERFORMANCE.md). The
-//! [`Trimmer`] runs at most one trim per [`TRIM_INTERVAL`], however many are asked for.
+//! [`Trimmer`] runs at most one trim per [`TRIM_INTERVAL`], however many are asked for,
+//! and only after the interval: when many streams end together, the trim comes after the
+//! last of their frames, not between them.
 
-use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
 
-/// The shortest time between two coalesced trims.
+/// How long a trim waits after the request that planned it (so also the shortest time
+/// between two trims).
 pub const TRIM_INTERVAL: Duration = Duration::from_secs(1);
 
 /// Releases freed heap now. Blocking (milliseconds).
@@ -20,41 +24,24 @@ pub fn release_memory() {
     }
 }
 
-/// Coalesces trim requests: the first runs at once, those that come while it runs or
-/// within [`TRIM_INTERVAL`] after it make one more trim at the end of the interval.
+/// Coalesces trim requests: a request plans a trim [`TRIM_INTERVAL`] later, and those
+/// that come before it starts join it.
 #[derive(Default)]
 pub struct Trimmer {
-    state: Mutex<TrimState>,
-}
-
-#[derive(Default)]
-struct TrimState {
     /// A trim is planned and has not started yet.
-    pending: bool,
-    last: Option<Instant>,
+    pending: AtomicBool,
 }
 
 impl Trimmer {
     /// Asks for a trim, soon; must be called on the runtime.
     pub fn request(self: &Arc<Self>) {
-        let wait = {
-            let mut state = self.state.lock().expect("trim lock");
-            if state.pending {
-                return;
-            }
-            state.pending = true;
-            state.last.map_or(Duration::ZERO, |last| {
-                TRIM_INTERVAL.saturating_sub(last.elapsed())
-            })
-        };
+        if self.pending.swap(true, Ordering::AcqRel) {
+            return;
+        }
         let trimmer = self.clone();
         tokio::spawn(async move {
-            tokio::time::sleep(wait).await;
-            {
-                let mut state = trimmer.state.lock().expect("trim lock");
-                state.pending = false;
-                state.last = Some(Instant::now());
-            }
+            tokio::time::sleep(TRIM_INTERVAL).await;
+            trimmer.pending.store(false, Ordering::Release);
             let _ = tokio::task::spawn_blocking(release_memory).await;
         });
     }

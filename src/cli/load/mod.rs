@@ -9,6 +9,7 @@
 //! generator share the machine's cores on loopback; reports say so.
 
 mod latency;
+mod pauses;
 mod producer;
 mod send_times;
 mod server_metrics;
@@ -27,6 +28,7 @@ use crate::mask::Mask;
 use crate::server::process::cpu_seconds;
 use crate::stream::{syllables, JsonlWriter};
 use latency::Latencies;
+use pauses::{explained_by_host, MachineTime, Pause, PauseWatch};
 use producer::{produce, ProducerPlan};
 use send_times::SendTimes;
 use server_metrics::ServerSample;
@@ -131,9 +133,16 @@ pub struct LoadReport {
     /// Those of `stalls` where the producer's sends of the two frames were as far apart:
     /// the generator fell behind, not the server.
     pub producer_stalls: u64,
+    /// Those of `stalls` that a pause of the whole machine by its host explains: without
+    /// the pause the gap would have stayed under the stall limit (checked for each viewer's
+    /// first 64 stalls).
+    pub host_pause_stalls: u64,
     /// The seconds of the run with the most stalls (at most 10, most first): a burst shows
     /// as one second with many.
     pub stall_seconds: Vec<StallSecond>,
+    /// Pauses of this machine seen by the generator (a thread late to wake by more than
+    /// 20 ms), with the steal the kernel counted in them.
+    pub pauses: PauseSummary,
     /// Viewers that received no frame at all.
     pub viewers_without_frames: usize,
     /// Producer-to-viewer latency, milliseconds.
@@ -155,6 +164,17 @@ pub struct StallSecond {
     /// Whole seconds since the producers started.
     pub second: u64,
     pub stalls: u64,
+    /// CPU time the host took from this machine (all CPUs) in that second and the next, ms.
+    pub steal_ms: f64,
+}
+
+#[derive(Debug, Serialize)]
+pub struct PauseSummary {
+    pub count: usize,
+    /// Those where the host took the time (steal of at least half the pause).
+    pub host: usize,
+    /// The longest, most first (at most 5).
+    pub longest: Vec<Pause>,
 }
 
 #[derive(Debug, Serialize)]
@@ -321,6 +341,7 @@ async fn load(
     eprintln!(", {} connected", connected.len());
     let start = Instant::now() + Duration::from_millis(200);
     let generator_cpu_before = cpu_seconds();
+    let pause_watch = PauseWatch::start(start.into_std())?;
     let deadline = start + run_length + Duration::from_secs(3);
     let viewers: Vec<_> = connected
         .into_iter()
@@ -371,6 +392,13 @@ async fn load(
     }
     progress.abort();
     eprintln!();
+    let machine = pause_watch.finish();
+    let stall_after_us = period.mul_f64(STALL_PERIODS).as_micros() as u64;
+    let host_pause_stalls = outcomes
+        .iter()
+        .flat_map(|o| &o.stall_windows)
+        .filter(|&&(from, to)| explained_by_host(from, to, stall_after_us, &machine.pauses))
+        .count() as u64;
     let after = server_metrics::sample_nodes(&http, &nodes, &with_token).await;
     let elapsed = start.elapsed().as_secs_f64();
     if registered {
@@ -409,7 +437,9 @@ async fn load(
         regressions: outcomes.iter().map(|o| o.regressions).sum(),
         stalls: outcomes.iter().map(|o| o.stalls).sum(),
         producer_stalls: outcomes.iter().map(|o| o.producer_stalls).sum(),
-        stall_seconds: busiest_seconds(&outcomes),
+        host_pause_stalls,
+        stall_seconds: busiest_seconds(&outcomes, &machine),
+        pauses: summarize(&machine.pauses),
         viewers_without_frames: outcomes.iter().filter(|o| o.frames == 0).count() + args.viewers
             - outcomes.len(),
         latency_ms: LatencySummary {
@@ -515,8 +545,9 @@ async fn progress_line(start: Instant, length: Duration, sent: Arc<AtomicU64>, r
     }
 }
 
-/// The seconds with the most stalls over every viewer, at most 10, most first.
-fn busiest_seconds(outcomes: &[ViewerOutcome]) -> Vec<StallSecond> {
+/// The seconds with the most stalls over every viewer, at most 10, most first, with the
+/// steal around each.
+fn busiest_seconds(outcomes: &[ViewerOutcome], machine: &MachineTime) -> Vec<StallSecond> {
     let mut by_second = std::collections::BTreeMap::<u64, u64>::new();
     for outcome in outcomes {
         for (&second, &stalls) in &outcome.stall_seconds {
@@ -525,11 +556,26 @@ fn busiest_seconds(outcomes: &[ViewerOutcome]) -> Vec<StallSecond> {
     }
     let mut seconds: Vec<StallSecond> = by_second
         .into_iter()
-        .map(|(second, stalls)| StallSecond { second, stalls })
+        .map(|(second, stalls)| StallSecond {
+            second,
+            stalls,
+            steal_ms: machine.steal_around(second),
+        })
         .collect();
     seconds.sort_by_key(|s| (std::cmp::Reverse(s.stalls), s.second));
     seconds.truncate(10);
     seconds
+}
+
+fn summarize(pauses: &[Pause]) -> PauseSummary {
+    let mut longest = pauses.to_vec();
+    longest.sort_by(|a, b| b.length_ms().total_cmp(&a.length_ms()));
+    longest.truncate(5);
+    PauseSummary {
+        count: pauses.len(),
+        host: pauses.iter().filter(|p| p.is_host()).count(),
+        longest,
+    }
 }
 
 /// Distinct messages with their counts, most frequent first, at most 20.
@@ -560,7 +606,7 @@ fn print(r: &LoadReport) {
         r.head
     );
     println!(
-        "  frames: sent {}, received {} of {} expected ({:.1} %), skipped {}, stalls {} ({} with the producer paused), older than shown {}, viewers with none {}",
+        "  frames: sent {}, received {} of {} expected ({:.1} %), skipped {}, stalls {} ({} with the producer paused, {} explained by the host pausing the machine), older than shown {}, viewers with none {}",
         r.frames_sent,
         r.frames_received,
         r.frames_expected,
@@ -568,6 +614,7 @@ fn print(r: &LoadReport) {
         r.frames_skipped,
         r.stalls,
         r.producer_stalls,
+        r.host_pause_stalls,
         r.regressions,
         r.viewers_without_frames
     );
@@ -575,11 +622,32 @@ fn print(r: &LoadReport) {
         let seconds: Vec<String> = r
             .stall_seconds
             .iter()
-            .map(|s| format!("{} s: {}", s.second, s.stalls))
+            .map(|s| format!("{} s: {} (steal {:.0} ms)", s.second, s.stalls, s.steal_ms))
             .collect();
         println!(
             "  stalls by second of the run (busiest first): {}",
             seconds.join(", ")
+        );
+    }
+    if r.pauses.count > 0 {
+        let longest: Vec<String> = r
+            .pauses
+            .longest
+            .iter()
+            .map(|p| {
+                format!(
+                    "{:.0} ms at {:.1} s (steal {:.0} ms)",
+                    p.length_ms(),
+                    p.from_us as f64 / 1e6,
+                    p.steal_ms
+                )
+            })
+            .collect();
+        println!(
+            "  machine pauses: {} ({} by the host), longest {}",
+            r.pauses.count,
+            r.pauses.host,
+            longest.join(", ")
         );
     }
     println!(

@@ -17,6 +17,10 @@ use super::send_times::SendTimes;
 use facewire_proto::frame::decode_header;
 use facewire_proto::messages::ServerMessage;
 
+/// Most stall gaps one viewer keeps for [`super::pauses`]; later stalls are counted but
+/// not set against the machine's pauses.
+pub const MAX_STALL_WINDOWS: usize = 64;
+
 /// What one viewer saw.
 #[derive(Debug, Default)]
 pub struct ViewerOutcome {
@@ -35,6 +39,9 @@ pub struct ViewerOutcome {
     /// Stalls by the second of the run they began in (whole seconds since the producers
     /// started): a burst shows as one second with many.
     pub stall_seconds: BTreeMap<u64, u64>,
+    /// The first [`MAX_STALL_WINDOWS`] stalls' gaps, µs since the producers started (to
+    /// set against the machine's pauses).
+    pub stall_windows: Vec<(u64, u64)>,
     pub latencies: Latencies,
     /// The refusal or failure that ended it early, if any.
     pub failure: Option<String>,
@@ -63,8 +70,12 @@ impl ViewerOutcome {
                         .send_gap_us(previous, seq)
                         .is_some_and(|gap| gap > stall_us);
                     self.producer_stalls += u64::from(producer_paused);
-                    let second = at.saturating_duration_since(plan.start).as_secs();
-                    *self.stall_seconds.entry(second).or_default() += 1;
+                    let since = |t: Instant| t.saturating_duration_since(plan.start);
+                    *self.stall_seconds.entry(since(at).as_secs()).or_default() += 1;
+                    if self.stall_windows.len() < MAX_STALL_WINDOWS {
+                        let us = |t: Instant| since(t).as_micros() as u64;
+                        self.stall_windows.push((us(at), us(now)));
+                    }
                 }
             }
             None => {}
@@ -192,5 +203,6 @@ mod tests {
         outcome.record(77, 100, &mut last, &plan);
         assert_eq!((outcome.frames, outcome.stalls, outcome.skipped), (78, 1, 0));
         assert_eq!(outcome.stall_seconds, BTreeMap::from([(2, 1)]));
+        assert_eq!(outcome.stall_windows, [(2_508_000, 2_708_000)]);
     }
 }
