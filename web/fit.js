@@ -51,6 +51,20 @@ function regionRow(r) {
 }
 
 /**
+ * The inner-lip gap at rest as shown: "0.0 mm", or for a head registration closed (its
+ * lips were apart at rest) "0.0 mm (was 5.8 mm; closed at registration, the lower lip
+ * raised 6.1 mm)".
+ */
+function lipGap(report) {
+  const gap = millimetres(report.inner_lip_gap_mm);
+  const closed = report.mouth_closed;
+  if (closed === null || typeof closed !== "object") {
+    return gap;
+  }
+  return `${gap} (was ${millimetres(closed.open_mm)}; closed at registration, the lower lip raised ${millimetres(closed.raised_mm)})`;
+}
+
+/**
  * The report as the page shows it: { overall, regions: [{ name, mean, max }] (mm, one
  * decimal, the server's order), lipGap, warnings: [message] }, or null when `report` is not
  * a report at all. A warning without a message shows its kind, so none is lost.
@@ -65,7 +79,7 @@ export function formatFit(report) {
   return {
     overall: `mean ${millimetres(surface.mean_mm)}, max ${millimetres(surface.max_mm)}`,
     regions: regions.map(regionRow),
-    lipGap: millimetres(report.inner_lip_gap_mm),
+    lipGap: lipGap(report),
     warnings: warnings.map((w) => w?.message || w?.kind || "").filter((text) => typeof text === "string" && text),
   };
 }

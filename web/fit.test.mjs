@@ -26,7 +26,7 @@ const report = {
   ],
   inner_lip_gap_mm: 0.81,
   warnings: [
-    { kind: "lips_apart_at_rest", gap_mm: 5.8, message: "the inner lips are 5.8 mm apart at rest: p, b and m may not close them" },
+    { kind: "lips_apart_at_rest", gap_mm: 5.8, message: "the inner lips are 5.8 mm apart at rest: registering the head closes them (raising the jaw until they meet) so that p, b and m can" },
     { kind: "no_head_under", region: "jaw", mask_vertices: [1, 2] },
     { kind: "far_from_surface", message: "" },
     "not a warning",
@@ -53,7 +53,7 @@ same(
       { name: "jaw", mean: "–", max: "–" },
     ],
     lipGap: "0.8 mm",
-    warnings: ["the inner lips are 5.8 mm apart at rest: p, b and m may not close them", "no_head_under", "far_from_surface"],
+    warnings: ["the inner lips are 5.8 mm apart at rest: registering the head closes them (raising the jaw until they meet) so that p, b and m can", "no_head_under", "far_from_surface"],
   },
   "report",
 );
@@ -64,6 +64,13 @@ same(
   { overall: "mean 2.0 mm, max –", regions: [{ name: "?", mean: "–", max: "–" }, { name: "nose", mean: "–", max: "–" }], lipGap: "–", warnings: [] },
   "partial report",
 );
+// A head whose lips were apart at rest, closed by registration.
+same(
+  formatFit({ ...report, inner_lip_gap_mm: 0, mouth_closed: { open_mm: 5.84, raised_mm: 6.07 } }).lipGap,
+  "0.0 mm (was 5.8 mm; closed at registration, the lower lip raised 6.1 mm)",
+  "mouth closed",
+);
+same(formatFit({ ...report, mouth_closed: null }).lipGap, "0.8 mm", "mouth not closed");
 same(formatFit({}), { overall: "mean –, max –", regions: [], lipGap: "–", warnings: [] }, "empty object");
 same([null, undefined, 3, "x", []].map(formatFit), [null, null, null, null, null], "not reports");
 

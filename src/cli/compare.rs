@@ -9,7 +9,6 @@ use super::fitted_head::FittedHeadArgs;
 use super::part_arg::load_parts;
 use super::{print_json, CliResult, FilePath};
 use crate::animate::AnimatedHead;
-use crate::deform::Registration;
 use crate::report::{
     compare, every_preset, parse_algorithms, write_report, AlgorithmSummary, Column, CompareInput,
     Comparison, Progress, ReportContext, Stage, ALGORITHM_COLUMNS,
@@ -63,7 +62,7 @@ pub fn run(args: Args) -> CliResult {
     // Fail before the slow part when the stream cannot be opened.
     drop(open_stream(&args.stream, &fitted.mask)?);
     let targets = load_targets(&args, head.positions.len())?;
-    let animated = AnimatedHead::with_parts(Registration::try_new(head, fitted)?, parts)
+    let animated = AnimatedHead::with_parts(args.fitted.register(head, fitted)?, parts)
         .map_err(|e| format!("{}: {e}", args.fitted.head.display()))?;
 
     let basis = ArkitBasis::shipped();

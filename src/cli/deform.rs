@@ -13,7 +13,7 @@ use super::fitted_head::FittedHeadArgs;
 use super::part_arg::load_parts;
 use super::{CliResult, FilePath};
 use crate::animate::{AnimatedHead, FrameJob, Heat};
-use crate::deform::{bind, AlgoSpec, Registration};
+use crate::deform::{bind, AlgoSpec};
 use crate::head::obj;
 use crate::metrics::{FaceVertices, FoldMeter, LipRoughness, RoughnessTsvWriter, FOLDS_TSV_HEADER};
 use crate::stream::{open_stream, ArkitBasis};
@@ -78,7 +78,7 @@ pub fn run(args: Args) -> CliResult {
     let (head, fitted) = args.fitted.load()?;
     let mask = fitted.mask.clone();
     let started = Instant::now();
-    let registration = Registration::try_new(head, fitted)?;
+    let registration = args.fitted.register(head, fitted)?;
     let registered = started.elapsed();
     let binding = bind(&registration, &spec);
     eprintln!(

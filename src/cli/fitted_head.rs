@@ -2,6 +2,7 @@
 //! `compare`, `arkit-basis`), parsed and loaded in one place.
 
 use super::{load_fit, load_head, load_mask, FilePath};
+use crate::deform::{Registration, RegistrationError};
 use crate::fit::FittedMask;
 use crate::head::Head;
 
@@ -25,6 +26,21 @@ impl FittedHeadArgs {
         let fit = load_fit(&self.fit, &mask)?;
         let head = load_head(&self.head)?;
         Ok((head, FittedMask::new(mask, fit)))
+    }
+
+    /// Registers the loaded head ([`Registration::try_new`]), saying on stderr when its
+    /// mouth, open at rest, was closed for animation.
+    pub fn register(&self, head: Head, fitted: FittedMask) -> Result<Registration, RegistrationError> {
+        let registration = Registration::try_new(head, fitted)?;
+        if let Some(closed) = registration.mouth_calibration {
+            eprintln!(
+                "{}: the inner lips are {:.1} mm apart at rest; closed for animation (the lower lip raised {:.1} mm)",
+                self.head.display(),
+                closed.open_mm,
+                closed.raised_mm
+            );
+        }
+        Ok(registration)
     }
 
     /// The arguments as typed: `--head H --fit F [--mask M]`, for commands written into

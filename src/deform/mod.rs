@@ -13,6 +13,7 @@ mod binding;
 mod bones;
 mod geometric;
 mod kshirsagar;
+mod mouth_calibration;
 mod normalize;
 pub mod planar_bones;
 mod point_distance;
@@ -26,6 +27,7 @@ pub mod spec;
 mod weights;
 
 pub use binding::{Binding, Csr, DeformScratch, LinearTerm, SourceMap, TriangleBasis, TriangleTerm};
+pub use mouth_calibration::{close_rest_mouth, MouthCalibrationError};
 pub use projection::Projection;
 pub use registration::{Registration, RegistrationError, HEAD_SIZE_MM, MASK_TO_HEAD_SIZE};
 pub use spec::{AlgoSpec, Kernel, Metric, RbfParams, SpecError, Weights};

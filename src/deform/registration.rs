@@ -12,8 +12,9 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::mouth_calibration::{close_rest_mouth, MouthCalibrationError};
 use super::projection::{project, Projection};
-use crate::fit::{anchor_mask, Anchors, FittedMask, RangeError};
+use crate::fit::{anchor_mask, Anchors, FittedMask, MouthCalibration, RangeError};
 use crate::head::{check_animatable, AnimatableError, Bounds, Head, SurfaceDistance};
 
 /// Bounding-box diagonal of a head in mm (the shipped ones: 400 and 643), a doll's head to a
@@ -32,6 +33,8 @@ pub enum RegistrationError {
     Head(#[from] AnimatableError),
     #[error("fit: {0}")]
     Fit(#[from] RangeError),
+    #[error("closing the mouth open at rest: {0}")]
+    MouthCalibration(#[from] MouthCalibrationError),
     #[error("fit: the fitted mask has a non-finite vertex ({vertex})")]
     MaskNotFinite { vertex: usize },
     #[error(
@@ -78,6 +81,9 @@ pub struct Registration {
     pub projections: Vec<Projection>,
     /// Longest edge of each mask triangle on the fitted neutral mask, mm.
     pub longest_edge_mm: Vec<f32>,
+    /// How the head's rest mouth was closed, for a head given with its lips apart
+    /// ([`Registration::try_new`]); `head` is then the closed head.
+    pub mouth_calibration: Option<MouthCalibration>,
 }
 
 impl Registration {
@@ -86,9 +92,18 @@ impl Registration {
     /// [`check_animatable`] refuses, fit numbers out of range, a head whose size in mm is
     /// outside [`HEAD_SIZE_MM`], and a fitted mask that misses the head's bounding box or
     /// whose size relative to the head is outside [`MASK_TO_HEAD_SIZE`].
+    ///
+    /// A head whose lips are apart at rest is closed first ([`close_rest_mouth`]):
+    /// [`Registration::mouth_calibration`] says by how much.
     pub fn try_new(head: Head, fitted: FittedMask) -> Result<Registration, RegistrationError> {
         Registration::check(&head, &fitted)?;
-        Ok(Registration::new(head, fitted))
+        Ok(match close_rest_mouth(&head, &fitted)? {
+            Some((closed, fitted, calibration)) => Registration {
+                mouth_calibration: Some(calibration),
+                ..Registration::new(closed, fitted)
+            },
+            None => Registration::new(head, fitted),
+        })
     }
 
     /// The checks of [`Registration::try_new`] alone (milliseconds; registering takes
@@ -174,6 +189,7 @@ impl Registration {
             distance,
             projections: Vec::new(),
             longest_edge_mm,
+            mouth_calibration: None,
         };
         registration.projections = (0..n as u32)
             .into_par_iter()

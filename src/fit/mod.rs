@@ -11,6 +11,7 @@ mod file;
 mod from_landmarks;
 mod landmarks;
 pub mod limits;
+mod mouth_opening;
 pub mod report;
 pub mod residuals;
 mod solve;
@@ -26,7 +27,8 @@ pub use file::{FitFile, FitFileError, Nudge};
 pub use from_landmarks::{fit_from_landmarks, FitError, LandmarkFit};
 pub use landmarks::{Landmark, LandmarkError, Landmarks};
 pub use limits::RangeError;
-pub use report::{report, FaceRegion, FitReport, FitWarning};
+pub use mouth_opening::{mouth_opening, MouthCalibration, MouthOpening};
+pub use report::{report, FaceRegion, FitReport, FitWarning, LIPS_APART_MM};
 pub use residuals::{DistanceStats, Residuals};
 pub use solve::{solve_fit, FitSolution, SolveError, SolveOptions};
 

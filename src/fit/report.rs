@@ -9,13 +9,10 @@
 use glam::Vec3;
 use serde::Serialize;
 
-use super::automatic::depth_map::outward_winding;
-use super::automatic::front_image::FrontImage;
+use super::mouth_opening::{mouth_opening, MouthCalibration};
 use super::residuals::DistanceStats;
-use super::umeyama::Similarity;
 use super::FittedMask;
 use crate::head::Head;
-use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
 
 /// A mask vertex further than this from the surface (mm) is far off it.
 pub const FAR_FROM_SURFACE_MM: f32 = 8.0;
@@ -24,19 +21,6 @@ pub const LIPS_APART_MM: f32 = 2.0;
 /// A mask vertex whose nearest surface point is at the mesh's edge and further than this
 /// (mm) has no head under it.
 const PAST_EDGE_MM: f32 = 2.0;
-/// CANDIDE-3's subnasale (FP 9.15): the top of the mouth's window.
-const MASK_SUBNASALE: usize = 6;
-/// The lips' gap is looked for up to this far above and below the mask's mouth (mask
-/// units) ...
-const MOUTH_WINDOW: f64 = 0.25;
-/// ... in steps of this ...
-const GAP_STEP: f64 = 0.002;
-/// ... as the run, through the mouth's height (within this band), where the surface seen
-/// from the front lies this far behind the
-/// lips (mask units, about 20 mm: lips that meet inside the mouth, as the ICT head's do,
-/// leave a notch more than 12 mm deep), or is not there: the mouth's opening.
-const OPENING_DEPTH: f64 = 0.2;
-const MOUTH_BAND: f64 = 0.05;
 
 /// A part of the face, by CANDIDE-3 vertices.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -140,7 +124,7 @@ impl FitWarning {
                 mask_vertices.len()
             ),
             FitWarning::LipsApartAtRest { gap_mm } => {
-                format!("the inner lips are {gap_mm:.1} mm apart at rest: p, b and m may not close them")
+                format!("the inner lips are {gap_mm:.1} mm apart at rest: registering the head closes them (raising the jaw until they meet) so that p, b and m can")
             }
         }
     }
@@ -163,6 +147,9 @@ pub struct FitReport {
     /// The mouth's opening at rest on the midline, mm: how far apart the inner lips are.
     pub inner_lip_gap_mm: f32,
     pub warnings: Vec<Warning>,
+    /// For a registered head given with its lips apart: how registration closed them (the
+    /// rest of the report is then about the closed head). `None` from [`report`].
+    pub mouth_closed: Option<MouthCalibration>,
 }
 
 /// The report of `fitted` on `head`.
@@ -199,7 +186,8 @@ pub fn report(head: &Head, fitted: &FittedMask) -> FitReport {
             ),
         })
         .collect();
-    let inner_lip_gap_mm = mouth_opening(head, fitted) * fitted.mm_per_mask_unit() as f64;
+    let inner_lip_gap_mm =
+        mouth_opening(&head.positions, &head.triangles, fitted).height() * fitted.mm_per_mask_unit() as f64;
     let inner_lip_gap_mm = inner_lip_gap_mm as f32;
 
     let mut warnings = Vec::new();
@@ -248,50 +236,8 @@ pub fn report(head: &Head, fitted: &FittedMask) -> FitReport {
                 warning,
             })
             .collect(),
+        mouth_closed: None,
     }
-}
-
-/// The height of the mouth's opening on the midline (mask units): seen straight along the
-/// fitted mask's z axis, the run of heights through the mouth where the surface lies
-/// [`OPENING_DEPTH`] behind the lips or is missing. Zero for closed lips, however deep the
-/// notch between them.
-fn mouth_opening(head: &Head, fitted: &FittedMask) -> f64 {
-    let pose = &fitted.fit.pose;
-    let similarity = Similarity {
-        rotation: pose.rotation().as_dmat3(),
-        scale: f64::from(pose.scale.x),
-        translation: pose.translation.as_dvec3(),
-    };
-    let winding = outward_winding(&head.positions, &head.triangles);
-    let image = FrontImage::render(head, &similarity, winding);
-    let mouth = f64::from(fitted.base[INNER_LIP_MID_UPPER].y + fitted.base[INNER_LIP_MID_LOWER].y) / 2.0;
-    // From below the mouth up to the nose's base, which stands further forward than lips.
-    let top = f64::from(fitted.base[MASK_SUBNASALE].y).min(mouth + MOUTH_WINDOW);
-    let bottom = mouth - MOUTH_WINDOW;
-    let samples = ((top - bottom) / GAP_STEP).max(0.0) as usize + 1;
-    let depths: Vec<Option<f64>> = (0..samples)
-        .map(|k| image.z_at(0.0, bottom + k as f64 * GAP_STEP))
-        .collect();
-    let lips = depths.iter().flatten().copied().fold(f64::NEG_INFINITY, f64::max);
-    let open = |k: usize| depths[k].is_none_or(|z| z < lips - OPENING_DEPTH);
-    // The run through the mouth's own height (under the chin the surface falls away too).
-    let at_mouth = (((mouth - bottom) / GAP_STEP).round().max(0.0) as usize).min(samples - 1);
-    let band = (MOUTH_BAND / GAP_STEP) as usize;
-    let Some(inside) =
-        (at_mouth.saturating_sub(band)..=(at_mouth + band).min(samples - 1)).find(|&k| open(k))
-    else {
-        return 0.0;
-    };
-    let first = (0..=inside)
-        .rev()
-        .take_while(|&k| open(k))
-        .last()
-        .unwrap_or(inside);
-    let last = (inside..samples)
-        .take_while(|&k| open(k))
-        .last()
-        .unwrap_or(inside);
-    (last - first + 1) as f64 * GAP_STEP
 }
 
 /// Per head vertex: on an edge used by one triangle.
@@ -333,7 +279,7 @@ mod tests {
         let lips = FitWarning::LipsApartAtRest { gap_mm: 5.84 };
         assert_eq!(
             lips.message(),
-            "the inner lips are 5.8 mm apart at rest: p, b and m may not close them"
+            "the inner lips are 5.8 mm apart at rest: registering the head closes them (raising the jaw until they meet) so that p, b and m can"
         );
         let edge = FitWarning::NoHeadUnder {
             region: FaceRegion::ForeheadAndCheeks,

@@ -14,7 +14,7 @@ use super::head::ReadyHead;
 use super::store::PartRecord;
 use crate::animate::{AnimatedHead, AnimatedHeadError, PartInput};
 use crate::deform::Registration;
-use crate::fit::{AutomaticFitError, FitError, FitFile, FitFileError, FittedMask, Landmarks};
+use crate::fit::{AutomaticFitError, FitError, FitFile, FitFileError, FitReport, FittedMask, Landmarks};
 use crate::head::{Head, ObjError};
 use crate::mask::Mask;
 use facewire_proto::mesh::RestMesh;
@@ -133,12 +133,24 @@ pub fn register(
         &reg.head.triangles,
     )
     .expect("writing to memory cannot fail");
-    let fit_report = crate::fit::report(&reg.head, &reg.fitted);
+    let fit_report = FitReport {
+        mouth_closed: reg.mouth_calibration,
+        ..crate::fit::report(&reg.head, &reg.fitted)
+    };
+    let closed = reg.mouth_calibration.map(|c| {
+        format!(
+            "the inner lips were {:.1} mm apart at rest: registration closed them, raising the lower lip {:.1} mm",
+            c.open_mm, c.raised_mm
+        )
+    });
     let fit = FitSummary {
         surface_mean_mm: fit_report.surface.mean_mm,
         surface_max_mm: fit_report.surface.max_mm,
         worst_mask_vertex: fit_report.surface.worst_mask_vertex,
-        warnings: fit_report.warnings.iter().map(|w| w.message.clone()).collect(),
+        warnings: closed
+            .into_iter()
+            .chain(fit_report.warnings.iter().map(|w| w.message.clone()))
+            .collect(),
     };
     stage(1.0)?;
     Ok(ReadyHead {
