@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::data;
+use common::{data, part_open_head};
 
 use std::sync::Arc;
 
@@ -18,23 +18,9 @@ use facewire::head::Head;
 use facewire::mask::Mask;
 use facewire::stream::syllables::{KEYFRAMES, SYLLABLE_S};
 use facewire::stream::{open_stream, ArkitBasis};
-use facewire::targets::ExpressionTarget;
 
 /// Lips this far apart or less meet (mm).
 const MEET_MM: f64 = 0.5;
-
-/// Shipped head `name` with `share` of its jawOpen target (`target`, under data/heads).
-fn part_open_head(name: &str, target: &str, share: f32) -> Head {
-    let neutral = Head::load(&data(&format!("heads/{name}.obj"))).unwrap();
-    let open = ExpressionTarget::load(&data(&format!("heads/{target}")), neutral.positions.len()).unwrap();
-    let positions = neutral
-        .positions
-        .iter()
-        .zip(&open.displacements)
-        .map(|(n, d)| *n + *d * share)
-        .collect();
-    Head::new(&format!("{name}_part_open"), positions, neutral.triangles.clone())
-}
 
 /// The open heads: (head, its jawOpen target, the share that opens it about 6 mm).
 const OPEN_HEADS: [(&str, &str, f32); 2] = [

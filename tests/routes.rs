@@ -215,6 +215,48 @@ async fn register_and_wait(
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_head_with_its_lips_apart_is_closed_at_registration() {
+    let router = app(AppState::new(memory_config()).unwrap());
+    // The MakeHuman head with its mouth 6 mm open, and the neutral head's landmarks.
+    let head = common::part_open_head("makehuman_head", "makehuman_arkit/jawOpen.target", 0.16);
+    let mut obj = Vec::new();
+    facewire::head::obj::write(&mut obj, &[], &head.positions, &head.triangles).unwrap();
+    let landmarks = std::fs::read_to_string(data("heads/makehuman_head.landmarks.toml")).unwrap();
+    let body =
+        serde_json::json!({"id": "open", "obj": String::from_utf8(obj).unwrap(), "landmarks": landmarks});
+    let info = register_and_wait(&router, body, None).await;
+    assert_eq!(info["status"], "ready", "{info}");
+    let said = info["fit"]["warnings"][0].as_str().unwrap();
+    assert!(
+        said.starts_with("the inner lips were 6.1 mm apart at rest: registration closed them"),
+        "{info}"
+    );
+    let (status, report) = call_json(&router, Method::GET, "/v1/heads/open/fit", Body::empty()).await;
+    assert_eq!(status, StatusCode::OK, "{report}");
+    let open_mm = report["mouth_closed"]["open_mm"].as_f64().unwrap();
+    assert!((open_mm - 6.06).abs() < 0.01, "{report}");
+    assert!(report["inner_lip_gap_mm"].as_f64().unwrap() <= 0.5, "{report}");
+    // The rest mesh viewers get is the closed head.
+    let (status, mesh) = call(
+        &router,
+        Method::GET,
+        "/v1/heads/open/mesh.obj",
+        None,
+        Body::empty(),
+    )
+    .await;
+    assert_eq!(status, StatusCode::OK);
+    let served = facewire::head::Head::from_obj_bytes("mesh.obj", &mesh).unwrap();
+    let moved = served
+        .positions
+        .iter()
+        .zip(&head.positions)
+        .filter(|(a, b)| a.distance(**b) > 1e-4)
+        .count();
+    assert!(moved > 100, "{moved} vertices moved");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_head_with_neither_fit_nor_landmarks_is_fitted_automatically() {
     let router = app(AppState::new(memory_config()).unwrap());
     let obj = std::fs::read_to_string(data("heads/ict_head.obj")).unwrap();

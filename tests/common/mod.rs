@@ -207,3 +207,18 @@ pub fn cut_face(
         .collect();
     facewire::head::Head::new("face.obj", positions, triangles)
 }
+
+/// Shipped head `name` with `share` of its jawOpen target (`target`, under data/heads).
+pub fn part_open_head(name: &str, target: &str, share: f32) -> Head {
+    let neutral = Head::load(&data(&format!("heads/{name}.obj"))).unwrap();
+    let open =
+        facewire::targets::ExpressionTarget::load(&data(&format!("heads/{target}")), neutral.positions.len())
+            .unwrap();
+    let positions = neutral
+        .positions
+        .iter()
+        .zip(&open.displacements)
+        .map(|(n, d)| *n + *d * share)
+        .collect();
+    Head::new(&format!("{name}_part_open"), positions, neutral.triangles.clone())
+}
