@@ -9,13 +9,12 @@
 
 use glam::Vec3;
 
+use super::spec::DEFAULT_ALGORITHM;
 use super::{bind, AlgoSpec, Registration};
 use crate::fit::{mouth_opening, FittedMask, MouthCalibration, LIPS_APART_MM};
 use crate::head::Head;
 use crate::mask::INNER_LIP_MID_LOWER;
 
-/// The deformer that closes the mouth: the default algorithm (U).
-const CLOSING_ALGORITHM: &str = "U";
 /// Times the first guess of the jaw raise may grow by half before the mouth must close.
 const WIDENINGS: usize = 6;
 /// Halvings of the raise between open and closed: a 2^-20 share of it.
@@ -68,9 +67,7 @@ pub fn close_rest_mouth(
         FittedMask::new(mask.clone(), fit)
     };
     let open = Registration::new(head.clone(), with_jaw(dropped));
-    let spec: AlgoSpec = CLOSING_ALGORITHM
-        .parse()
-        .expect("the closing algorithm's spec is valid");
+    let spec: AlgoSpec = DEFAULT_ALGORITHM.parse().expect("the default spec is valid");
     let binding = bind(&open, &spec);
     let mut scratch = binding.scratch(open.mask_rest().len(), open.mask_triangles().len());
     let mut animation = vec![0.0; mask.animation_units.len()];

@@ -115,6 +115,11 @@ pub enum SpecError {
     },
 }
 
+/// The algorithm facewire recommends (preset U, the thesis's G made exact at the anchors):
+/// smooth lips, almost no new creases, every control reproduced, about 31 µs per frame on
+/// the scan. See the README's "Which algorithm" and docs/reports/.
+pub const DEFAULT_ALGORITHM: &str = "point_distance";
+
 /// Most weights a `biharmonic` vertex may keep.
 pub const MAX_BIHARMONIC_K: u32 = 128;
 

@@ -42,7 +42,7 @@ pub struct MouthCalibration {
 /// The mouth's opening on the midline, mask units.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MouthOpening {
-    /// The lower lip's top (where the opening starts); 0 with `top` for closed lips.
+    /// The lower lip's top (where the opening starts); equal to `top` for closed lips.
     pub bottom: f64,
     /// The upper lip's lowest point.
     pub top: f64,

@@ -12,10 +12,9 @@ use serde::Deserialize;
 use crate::deform::AlgoSpec;
 use crate::input::{read_text, ReadError, MAX_TEXT_BYTES};
 
-/// The algorithm facewire recommends (preset U, the thesis's G made exact at the anchors):
-/// smooth lips, almost no new creases, every control reproduced, about 31 µs per frame on
-/// the scan. See the README's "Which algorithm" and docs/reports/.
-pub const DEFAULT_ALGORITHM: &str = "point_distance";
+/// The algorithm viewers get by default: the core's recommendation
+/// ([`crate::deform::spec::DEFAULT_ALGORITHM`]).
+pub const DEFAULT_ALGORITHM: &str = crate::deform::spec::DEFAULT_ALGORITHM;
 
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]

@@ -18,7 +18,7 @@ use serde::Serialize;
 pub const TICK: Duration = Duration::from_millis(5);
 /// A wake-up this late is a pause.
 pub const LATE: Duration = Duration::from_millis(20);
-/// Most pauses one run keeps (the rest are counted in none).
+/// Most pauses one run keeps (later ones are not recorded).
 const MAX_PAUSES: usize = 100_000;
 
 /// A stretch of time in which the watching thread did not run.
@@ -38,7 +38,8 @@ impl Pause {
         self.to_us.saturating_sub(self.from_us) as f64 / 1e3
     }
 
-    /// The host stopped the machine: steal of at least half the pause on every CPU. A
+    /// The host stopped the machine: steal of at least half the pause, on average over the
+    /// CPUs. A
     /// pause without steal is this machine's own CPU starvation, which explains nothing.
     pub fn is_host(&self) -> bool {
         self.steal_ms >= 0.5 * self.length_ms()
