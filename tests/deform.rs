@@ -31,7 +31,8 @@ fn heads() -> [(&'static str, &'static Registration); 3] {
     [("scan", scan()), ("makehuman", makehuman()), ("ict", ict())]
 }
 
-/// Every preset (A-U) plus a few non-preset variants, biharmonic among them.
+/// Every preset (A-V, biharmonic as V) plus a few non-preset variants, biharmonic held at
+/// 40 mm everywhere among them.
 fn variants() -> Vec<AlgoSpec> {
     let mut specs: Vec<AlgoSpec> = AlgoSpec::presets().into_iter().map(|(_, s, _)| s).collect();
     for extra in [
@@ -40,7 +41,7 @@ fn variants() -> Vec<AlgoSpec> {
         "rbf:kernel=wendland,distance=surface,r_mm=25,poly=none",
         "rbf:kernel=thin_plate,distance=euclidean,r_mm=50",
         "point_distance:k=all",
-        "biharmonic",
+        "biharmonic:hold_mm=40,eyes_hold_mm=40,k=16",
     ] {
         specs.push(extra.parse().unwrap());
     }

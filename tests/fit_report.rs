@@ -3,11 +3,9 @@
 
 mod common;
 
-use facewire::fit::{
-    fit_from_landmarks, report, FaceRegion, FitFile, FitReport, FitWarning, FittedMask, Landmarks,
-};
+use facewire::fit::{fit_from_landmarks, report, FitFile, FitReport, FitWarning, FittedMask, Landmarks};
 use facewire::head::Head;
-use facewire::mask::Mask;
+use facewire::mask::{FaceRegion, Mask};
 
 fn shipped_report(name: &str) -> FitReport {
     let mask = Mask::candide3();

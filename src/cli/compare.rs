@@ -34,7 +34,7 @@ pub struct Args {
     #[arg(long)]
     out: FilePath,
     /// Comma-separated specs or preset letters (`A,C,T`, `G,rbf:kernel=gaussian,r_mm=30`);
-    /// default: every preset A-U. Specs that are not presets are labelled X1, X2, ...
+    /// default: every preset A-V. Specs that are not presets are labelled X1, X2, ...
     #[arg(long)]
     algos: Option<String>,
     /// Folder of the head's expression targets (*.target) for the ground-truth error;
@@ -228,7 +228,7 @@ fn print_table(comparison: &Comparison) {
     );
 }
 
-/// `[########........] 7/21 algorithms (G), frame 120/487` on a terminal, redrawn in
+/// `[########........] 7/22 algorithms (G), frame 120/487` on a terminal, redrawn in
 /// place; one line per finished algorithm otherwise (logs, pipes).
 struct ProgressBar {
     terminal: bool,

@@ -62,7 +62,7 @@ pub enum Command {
     Syllables(syllables::Args),
     /// Derive the ARKit retarget basis from a head's expression targets and its fit.
     ArkitBasis(arkit_basis::Args),
-    /// List every interpolation variant (preset letters A-U) with its spec.
+    /// List every interpolation variant (preset letters A-V) with its spec.
     Algos(algos::Args),
     /// Deform a head with one algorithm over a stream, writing OBJ frames and control.tsv.
     Deform(deform::Args),

@@ -1,8 +1,10 @@
 //! `biharmonic` (not in the thesis: the standard smooth deformation a default must beat,
 //! docs/ALGORITHMS.md, "Biharmonic"): the displacement field `d` of least bi-Laplacian
 //! energy `d^T L M^-1 L d` over the head at rest ([`CotanLaplacian`]) that equals each
-//! control's displacement at its anchor and zero on the held region: the vertices farther
-//! than `hold_mm` along the surface from every anchor, and those no anchor reaches.
+//! control's displacement at its anchor and zero on the held region: the vertices beyond
+//! the reach of their nearest anchor along the surface, and those no anchor reaches. An
+//! eye control's anchor reaches `eyes_hold_mm`, every other one `hold_mm` (the part of
+//! the face is the control's [`FaceRegion`]).
 //!
 //! The field is linear in the control displacements, so binding solves once for one weight
 //! field per anchor, `W = -Q_ff^-1 Q_fc` with `Q = L M^-1 L` over the free vertices f and
@@ -13,7 +15,9 @@
 //! their displacements.
 //!
 //! With nothing held the method overshoots where the surface folds (the upper eyelid);
-//! holding the far head still fixes that and keeps every weight field local.
+//! holding the far head still fixes that and keeps every weight field local. The eyelids
+//! want a short reach and the mouth and jaw a long one; the nearest anchor decides, so
+//! that the mouth's long reach does not free the eyelids again.
 
 use faer::prelude::Solve;
 use faer::sparse::{SparseColMat, Triplet};
@@ -25,6 +29,26 @@ use super::binding::{Binding, LinearTerm};
 use super::spec::AlgoSpec;
 use super::Registration;
 use crate::head::CotanLaplacian;
+use crate::mask::FaceRegion;
+
+/// How far along the surface the anchors reach, mm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reach {
+    /// The eye controls' anchors' reach.
+    pub eyes_mm: f32,
+    /// Every other anchor's.
+    pub other_mm: f32,
+}
+
+impl Reach {
+    /// The reach of control `j`'s anchor, mm.
+    fn of(&self, reg: &Registration, j: u32) -> f32 {
+        match FaceRegion::of(reg.fitted.mask.vertices[j as usize]) {
+            FaceRegion::Eyes => self.eyes_mm,
+            _ => self.other_mm,
+        }
+    }
+}
 
 /// Added to `Q_ff`'s diagonal, relative to its largest entry: keeps the factorization
 /// positive definite where rounding alone would not, far below any effect on the weights.
@@ -41,9 +65,9 @@ enum Role {
     Held,
 }
 
-pub fn bind(reg: &Registration, spec: AlgoSpec, hold_mm: f32, k: u32) -> Binding {
+pub fn bind(reg: &Registration, spec: AlgoSpec, reach: Reach, k: u32) -> Binding {
     let centres = centres(reg);
-    let roles = roles(reg, &centres, hold_mm);
+    let roles = roles(reg, &centres, reach);
     let free_count = roles.iter().filter(|r| matches!(r, Role::Free(_))).count();
     // A head whose operator cannot be factored (never seen on a checked head) is held still
     // rather than moved wrongly; its anchors still move exactly.
@@ -62,9 +86,10 @@ pub fn bind(reg: &Registration, spec: AlgoSpec, hold_mm: f32, k: u32) -> Binding
     Binding::linear(spec, rows)
 }
 
-/// Every vertex's role: anchors first, then the vertices within `hold_mm` of some anchor
-/// are free, numbered in vertex order; the rest are held.
-fn roles(reg: &Registration, centres: &[Centre], hold_mm: f32) -> Vec<Role> {
+/// Every vertex's role: anchors first, then the vertices within reach of their nearest
+/// anchor (along the surface) are free, numbered in vertex order; the rest are held.
+fn roles(reg: &Registration, centres: &[Centre], reach: Reach) -> Vec<Role> {
+    let reach_mm: Vec<f32> = reg.controls.iter().map(|&j| reach.of(reg, j)).collect();
     let mut roles = vec![Role::Held; reg.vertex_count()];
     for (c, centre) in centres.iter().enumerate() {
         roles[centre.vertex as usize] = Role::Anchor(c as u32);
@@ -74,7 +99,10 @@ fn roles(reg: &Registration, centres: &[Centre], hold_mm: f32) -> Vec<Role> {
         let near = reg
             .controls
             .iter()
-            .any(|&j| reg.distance_to_control(j, v as u32) <= hold_mm);
+            .zip(&reach_mm)
+            .map(|(&j, &reach)| (reg.distance_to_control(j, v as u32), reach))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .is_some_and(|(distance, reach)| distance <= reach);
         if *role == Role::Held && near {
             *role = Role::Free(free);
             free += 1;

@@ -50,7 +50,17 @@ pub fn bind(reg: &Registration, spec: &AlgoSpec) -> Binding {
         AlgoSpec::Renato3 { weights } => renato3::bind(reg, *spec, &weights),
         AlgoSpec::Kshirsagar => kshirsagar::bind(reg, *spec),
         AlgoSpec::Rbf(params) => rbf::bind(reg, *spec, &params),
-        AlgoSpec::Biharmonic { hold_mm, k } => biharmonic::bind(reg, *spec, hold_mm, k),
+        AlgoSpec::Biharmonic {
+            hold_mm,
+            eyes_hold_mm,
+            k,
+        } => {
+            let reach = biharmonic::Reach {
+                eyes_mm: eyes_hold_mm,
+                other_mm: hold_mm,
+            };
+            biharmonic::bind(reg, *spec, reach, k)
+        }
     }
 }
 

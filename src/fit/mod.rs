@@ -28,7 +28,7 @@ pub use from_landmarks::{fit_from_landmarks, FitError, LandmarkFit};
 pub use landmarks::{Landmark, LandmarkError, Landmarks};
 pub use limits::RangeError;
 pub use mouth_opening::{mouth_opening, MouthCalibration, MouthOpening};
-pub use report::{report, FaceRegion, FitReport, FitWarning, LIPS_APART_MM};
+pub use report::{report, FitReport, FitWarning, LIPS_APART_MM};
 pub use residuals::{DistanceStats, Residuals};
 pub use solve::{solve_fit, FitSolution, SolveError, SolveOptions};
 

@@ -7,6 +7,7 @@
 
 pub mod fap;
 mod pose;
+mod region;
 mod wfm;
 
 use std::path::Path;
@@ -17,6 +18,7 @@ use crate::input::{read_file, ReadError, MAX_TEXT_BYTES};
 
 pub use fap::{Fapu, FapuValues};
 pub use pose::MaskPose;
+pub use region::FaceRegion;
 pub use wfm::WfmError;
 
 /// The CANDIDE-3.1.6 model shipped with facewire (`data/candide3/candide3.wfm`).

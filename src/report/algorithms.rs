@@ -13,8 +13,8 @@ pub struct Candidate {
     pub spec: AlgoSpec,
 }
 
-/// Every preset, A-R from the thesis plus S (`kshirsagar`), T (`rbf`) and U (interpolating
-/// `point_distance`).
+/// Every preset, A-R from the thesis plus S (`kshirsagar`), T (`rbf`), U (interpolating
+/// `point_distance`) and V (`biharmonic`).
 pub fn every_preset() -> Vec<Candidate> {
     AlgoSpec::presets()
         .into_iter()
@@ -96,7 +96,7 @@ mod tests {
             labels("rbf:kernel=gaussian,r_mm=30,bary1:alpha=0.5"),
             ["X1", "X2"]
         );
-        assert_eq!(every_preset().len(), 21);
+        assert_eq!(every_preset().len(), 22);
     }
 
     #[test]

@@ -18,7 +18,7 @@ pub enum CompareError {
         first: String,
         second: String,
     },
-    #[error("--algos: the list is empty; give specs or letters A-U separated by commas")]
+    #[error("--algos: the list is empty; give specs or letters A-V separated by commas")]
     NoAlgorithms,
     #[error(transparent)]
     Stream(#[from] StreamError),
