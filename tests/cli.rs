@@ -183,6 +183,38 @@ fn render_writes_a_png() {
     assert_eq!(&bytes[16..24], &[0, 0, 0, 64, 0, 0, 0, 64]);
 }
 
+#[test]
+fn render_frames_the_mouth_and_leaves_the_mask_out_when_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    let head = data("heads/makehuman_head.obj");
+    let fit = data("heads/makehuman_head.fit.toml");
+    let render = |name: &str, flags: &[&str]| {
+        let png = dir.path().join(name);
+        let mut args = vec!["render", "--head", head.to_str().unwrap(), "--size", "96"];
+        args.extend_from_slice(flags);
+        args.extend_from_slice(&["--out", png.to_str().unwrap()]);
+        let out = facewire(&args);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        std::fs::read(&png).unwrap()
+    };
+    let fit = fit.to_str().unwrap();
+    let face = render("face.png", &["--fit", fit, "--face"]);
+    let bare_face = render("bare_face.png", &["--fit", fit, "--face", "--no-mask"]);
+    let mouth = render("mouth.png", &["--fit", fit, "--mouth", "--no-mask"]);
+    assert_ne!(face, bare_face, "--no-mask drew the mask");
+    assert_ne!(bare_face, mouth, "--mouth framed the face");
+    let out = facewire(&[
+        "render",
+        "--head",
+        head.to_str().unwrap(),
+        "--mouth",
+        "--out",
+        "x.png",
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--fit"));
+}
+
 /// `facewire deform` on the MakeHuman head with algorithm G over frames `A..B` of a stream file.
 fn deform(stream: &Path, frames: &str, dir: &Path) -> Output {
     let extra = ["--algo", "G", "--frames", frames].map(std::ffi::OsStr::new);
@@ -263,7 +295,7 @@ fn every_preset_deforms_both_heads_from_both_shipped_streams() {
         .iter()
         .map(|a| a["letter"].as_str().unwrap())
         .collect();
-    assert_eq!(letters.len(), 21);
+    assert_eq!(letters.len(), 22);
     for head in ["makehuman_head", "lee_perry_smith_head"] {
         let obj = data(&format!("heads/{head}.obj"));
         let fit = data(&format!("heads/{head}.fit.toml"));

@@ -24,8 +24,14 @@ pub struct Args {
     #[arg(long, default_value_t = 800)]
     size: usize,
     /// Frame the face (the fitted mask) rather than the whole head.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "mouth")]
     face: bool,
+    /// Frame the mouth (the fitted mask's lip vertices), for close-ups of the lips.
+    #[arg(long, requires = "fit")]
+    mouth: bool,
+    /// Draw the head alone: the fit then only frames the picture.
+    #[arg(long, requires = "fit", conflicts_with = "anchors")]
+    no_mask: bool,
     /// Also mark the anchors (nearest head vertices) of the lip vertices.
     #[arg(long)]
     anchors: bool,
@@ -40,13 +46,14 @@ pub fn run(args: Args) -> CliResult {
         Some(path) => Some(FittedMask::new(mask.clone(), load_fit(path, &mask)?)),
         None => None,
     };
-    let frame_points = match (&fitted, args.face) {
-        (Some(f), true) => f.neutral.clone(),
+    let frame_points = match &fitted {
+        Some(f) if args.mouth => crate::mask::LIP_VERTICES.iter().map(|&j| f.neutral[j]).collect(),
+        Some(f) if args.face => f.neutral.clone(),
         _ => head.positions.clone(),
     };
     let mut canvas = Canvas::framing(&frame_points, args.view, args.size, args.size);
     canvas.draw_mesh(&head.positions, &head.triangles, |_| [0.86, 0.76, 0.68]);
-    if let Some(fitted) = &fitted {
+    if let Some(fitted) = fitted.as_ref().filter(|_| !args.no_mask) {
         let slack = 0.004 * head.bounds().size().length();
         crate::render::draw_fitted_mask(&mut canvas, fitted, &fitted.neutral, slack);
         if args.anchors {
