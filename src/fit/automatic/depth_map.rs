@@ -176,15 +176,18 @@ impl DepthMap {
         d.is_finite().then_some(d)
     }
 
-    /// The cell within `radius` (head units) of the most forward one that stands out most
-    /// from the surface `radius` to its left, right, above and below: a nose tip seen from
-    /// the front. `None` when no such cell has surface on all four sides.
-    pub fn nose(&self, radius: f32) -> Option<NoseCandidate> {
+    /// Up to `count` places that could be a nose tip seen from the front, the one that
+    /// stands out most first, each at least `radius` (head units) across the view from those
+    /// before it: cells within `radius` of the most forward one, standing out from the
+    /// surface `radius` to their left, right, above and below (empty when no cell has
+    /// surface on all four sides). The nose of a face whose jaw is open at rest can stand
+    /// out less than its chin, so the caller tries more than one.
+    pub fn noses(&self, radius: f32, count: usize) -> Vec<NoseCandidate> {
         let reach = ((radius / self.cell).round() as isize).max(1);
         // A nose tip is the front of the face: no more than `radius` behind the most forward
         // point (a chin lowered by an open jaw stands out of its surroundings, further back).
         let front = self.depth.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-        let mut best: Option<(f32, isize, isize, f32)> = None;
+        let mut bumps: Vec<(f32, isize, isize, f32)> = Vec::new();
         for row in 0..self.rows as isize {
             for column in 0..self.columns as isize {
                 // A nose has surface all round it: cheeks beside, the bridge above, the lip
@@ -201,19 +204,34 @@ impl DepthMap {
                 if d < front - radius {
                     continue;
                 }
-                let prominence = d - left.max(right).max(above).max(below);
-                if best.is_none_or(|(p, ..)| prominence > p) {
-                    best = Some((prominence, column, row, d));
-                }
+                bumps.push((d - left.max(right).max(above).max(below), column, row, d));
             }
         }
-        let (prominence, column, row, depth) = best?;
-        let across = self.origin + Vec2::new(column as f32, row as f32) * self.cell;
-        Some(NoseCandidate {
-            tip: self.view.point(across, depth),
-            prominence: prominence / radius,
-            width_at_tip: self.width_of_row(row),
-        })
+        // Most prominent first; ties in scan order, as the single best was always taken.
+        bumps.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let mut kept: Vec<(f32, isize, isize, f32)> = Vec::with_capacity(count);
+        for bump in bumps {
+            if kept.len() == count {
+                break;
+            }
+            let apart = |k: &(f32, isize, isize, f32)| {
+                let (dc, dr) = (k.1 - bump.1, k.2 - bump.2);
+                dc * dc + dr * dr >= reach * reach
+            };
+            if kept.iter().all(apart) {
+                kept.push(bump);
+            }
+        }
+        kept.into_iter()
+            .map(|(prominence, column, row, depth)| {
+                let across = self.origin + Vec2::new(column as f32, row as f32) * self.cell;
+                NoseCandidate {
+                    tip: self.view.point(across, depth),
+                    prominence: prominence / radius,
+                    width_at_tip: self.width_of_row(row),
+                }
+            })
+            .collect()
     }
 
     /// Distance between the first and the last covered cell of `row`, head units.
@@ -281,7 +299,7 @@ mod tests {
     fn the_peak_is_the_nose_seen_from_its_side() {
         let (positions, triangles) = plate_with_a_peak();
         let map = DepthMap::render(&positions, &triangles, View::horizontal(0.0), 100, 1.0);
-        let nose = map.nose(2.0).expect("a peak");
+        let nose = map.noses(2.0, 1)[0];
         assert!(
             nose.tip.distance(Vec3::new(0.0, 0.0, 1.0)) < 0.11,
             "{:?}",
@@ -290,6 +308,51 @@ mod tests {
         assert!((nose.prominence - 0.5).abs() < 0.06, "{}", nose.prominence);
         assert!((nose.width_at_tip - 10.0).abs() < 0.11, "{}", nose.width_at_tip);
         assert!((map.extent() - 10.0).abs() < 0.2);
+    }
+
+    /// A 20 x 20 plate facing +z, raised by `height(x, y)`, as a 41 x 41 grid.
+    fn raised_plate(height: impl Fn(f32, f32) -> f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let n = 41u32;
+        let positions = (0..n * n)
+            .map(|k| {
+                let (x, y) = ((k % n) as f32 * 0.5 - 10.0, (k / n) as f32 * 0.5 - 10.0);
+                Vec3::new(x, y, height(x, y))
+            })
+            .collect();
+        let mut triangles = Vec::new();
+        for row in 0..n - 1 {
+            for column in 0..n - 1 {
+                let k = row * n + column;
+                triangles.push([k, k + 1, k + n + 1]);
+                triangles.push([k, k + n + 1, k + n]);
+            }
+        }
+        (positions, triangles)
+    }
+
+    #[test]
+    fn a_second_bump_is_the_second_nose_and_the_first_ones_slopes_are_not() {
+        let cone = |x: f32, y: f32, cx: f32, cy: f32| (1.0 - (x - cx).hypot(y - cy) / 1.5).max(0.0);
+        let (positions, triangles) = raised_plate(|x, y| cone(x, y, 0.0, -4.0) + 0.8 * cone(x, y, 0.0, 4.0));
+        let map = DepthMap::render(&positions, &triangles, View::horizontal(0.0), 100, 1.0);
+        let noses = map.noses(2.0, 3);
+        assert!(noses.len() >= 2, "{noses:?}");
+        assert!(
+            noses[0].tip.distance(Vec3::new(0.0, -4.0, 1.0)) < 0.3,
+            "{:?}",
+            noses[0].tip
+        );
+        assert!(
+            noses[1].tip.distance(Vec3::new(0.0, 4.0, 0.8)) < 0.3,
+            "{:?}",
+            noses[1].tip
+        );
+        assert!(noses[0].prominence > noses[1].prominence);
+        // The third is neither bump, and stands out less than both.
+        for other in &noses[2..] {
+            assert!(other.prominence < noses[1].prominence, "{other:?}");
+        }
+        assert_eq!(map.noses(2.0, 1), noses[..1]);
     }
 
     #[test]
@@ -302,7 +365,7 @@ mod tests {
             100,
             1.0,
         );
-        let nose = map.nose(2.0);
+        let nose = map.noses(2.0, 1).first().copied();
         assert!(nose.is_none_or(|n| n.prominence < 0.05), "{nose:?}");
     }
 }

@@ -1,8 +1,9 @@
 //! A fit with no landmarks, for heads nobody has marked up: find which way the face looks
-//! and where its nose is on range images of the head from every horizontal direction,
-//! place the mask there at a few scales guessed from the face's width, lay it on the surface
-//! by iterated closest points (pose, then shape units), keep the start that lies closest,
-//! then pin its nose, mouth and pupils to what the face shows there and lay it again.
+//! and where its nose may be on range images of the head from every horizontal direction,
+//! place the mask on each of the few likeliest noses at a few scales guessed from the
+//! face's width there, lay it on the surface by iterated closest points (pose, then shape
+//! units), keep the start that lies closest, then pin its nose, mouth and pupils to what
+//! the face shows there and lay it again.
 //!
 //! Assumes +y of the head is up (within 35 degrees) and that the face is not hidden
 //! (one nose, in front). Works in head units; the physical scale comes from the caller or,
@@ -37,6 +38,9 @@ const DEPTH_MAP_CELLS: usize = 96;
 const NOSE_RADIUS: f32 = 0.1;
 /// A nose must stand out of the surface beside it by at least this fraction of that radius.
 const MIN_NOSE_PROMINENCE: f32 = 0.15;
+/// Places tried as the nose tip in the chosen view, the most prominent first: a chin
+/// lowered by a mouth open at rest can stand out more than the nose.
+const NOSE_CANDIDATES: usize = 3;
 /// The width of the head across the nose tip, in mask units (1.65 to 1.97 on the shipped
 /// heads' landmark fits); the starting scale is the measured width over this, and
 /// [`START_SCALES`] cover the spread.
@@ -135,7 +139,8 @@ pub fn fit_automatically(
 ) -> Result<AutomaticFit, AutomaticFitError> {
     let name = || head.name.clone();
     let winding = depth_map::outward_winding(&head.positions, &head.triangles);
-    let (view, nose) = find_nose(head, winding);
+    let (view, noses) = find_nose(head, winding);
+    let nose = noses[0];
     if nose.prominence < MIN_NOSE_PROMINENCE {
         return Err(AutomaticFitError::NoNose {
             head: name(),
@@ -165,27 +170,27 @@ pub fn fit_automatically(
         view.up.as_dvec3(),
         view.forward.as_dvec3(),
     );
-    let tip = nose.tip.as_dvec3();
     let mask_tip = mask.vertices[MASK_NOSE_TIP as usize].as_dvec3();
-    let guessed_scale = f64::from(nose.width_at_tip) / HEAD_WIDTH_AT_NOSE;
     let solve_error = |source| AutomaticFitError::Solve { head: name(), source };
-    let mut best = None;
-    for factor in START_SCALES {
-        let scale = guessed_scale * factor;
-        let start = Similarity {
-            rotation,
-            scale,
-            translation: tip - scale * (rotation * mask_tip),
-        };
-        let laid = lay_mask(head, mask, &used, start, &[(MASK_NOSE_TIP, tip)]).map_err(solve_error)?;
-        if best
-            .as_ref()
-            .is_none_or(|b: &closest_points::Laid| laid.score < b.score)
-        {
-            best = Some(laid);
+    // Every candidate nose at every starting scale; the start that lies closest wins.
+    let mut best: Option<(closest_points::Laid, NoseCandidate)> = None;
+    for candidate in noses.iter().filter(|n| n.prominence >= MIN_NOSE_PROMINENCE) {
+        let tip = candidate.tip.as_dvec3();
+        let guessed_scale = f64::from(candidate.width_at_tip) / HEAD_WIDTH_AT_NOSE;
+        for factor in START_SCALES {
+            let scale = guessed_scale * factor;
+            let start = Similarity {
+                rotation,
+                scale,
+                translation: tip - scale * (rotation * mask_tip),
+            };
+            let laid = lay_mask(head, mask, &used, start, &[(MASK_NOSE_TIP, tip)]).map_err(solve_error)?;
+            if best.as_ref().is_none_or(|(b, _)| laid.score < b.score) {
+                best = Some((laid, *candidate));
+            }
         }
     }
-    let mut best = best.expect("at least one start");
+    let (mut best, nose) = best.expect("the most prominent candidate stands out enough");
     // Pin the mask's nose tip to the profile's, its mouth to the profile's mouth height and
     // its pupils to the eyes (when they are found), and lay it again.
     let first = best.solution.clone();
@@ -264,11 +269,12 @@ pub fn fit_automatically(
     })
 }
 
-/// The view whose nose lies on the head's plane of mirror symmetry, and that nose. An ear
-/// or a brow seen from the side can stand out as much as a nose, but the head is not
-/// symmetric about a plane through it.
-fn find_nose(head: &Head, winding: f32) -> (View, NoseCandidate) {
-    let mut best: Option<(f32, View, NoseCandidate)> = None;
+/// The view whose nose lies on the head's plane of mirror symmetry, and the places in it
+/// that could be the nose tip, the one chosen by first ([`DepthMap::noses`]; never empty).
+/// An ear or a brow seen from the side can stand out as much as a nose, but the head is
+/// not symmetric about a plane through it.
+fn find_nose(head: &Head, winding: f32) -> (View, Vec<NoseCandidate>) {
+    let mut best: Option<(f32, View, Vec<NoseCandidate>)> = None;
     let mut most_prominent = NoseCandidate {
         tip: Vec3::ZERO,
         prominence: 0.0,
@@ -278,7 +284,8 @@ fn find_nose(head: &Head, winding: f32) -> (View, NoseCandidate) {
         let view = View::horizontal(k as f32 * std::f32::consts::TAU / VIEWS as f32);
         let map = DepthMap::render(&head.positions, &head.triangles, view, DEPTH_MAP_CELLS, winding);
         let radius = NOSE_RADIUS * map.extent();
-        let Some(nose) = map.nose(radius) else { continue };
+        let noses = map.noses(radius, NOSE_CANDIDATES);
+        let Some(&nose) = noses.first() else { continue };
         if nose.prominence > most_prominent.prominence {
             most_prominent = nose;
         }
@@ -289,10 +296,11 @@ fn find_nose(head: &Head, winding: f32) -> (View, NoseCandidate) {
         // same plane as the nose; the nose stands out more.
         let badness = symmetry::asymmetry(head, nose.tip, view.lateral) / radius / nose.prominence;
         if best.as_ref().is_none_or(|(b, ..)| badness < *b) {
-            best = Some((badness, view, nose));
+            best = Some((badness, view, noses));
         }
     }
-    best.map_or((View::horizontal(0.0), most_prominent), |(_, view, nose)| {
-        (view, nose)
-    })
+    best.map_or(
+        (View::horizontal(0.0), vec![most_prominent]),
+        |(_, view, noses)| (view, noses),
+    )
 }
