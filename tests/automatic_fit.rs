@@ -6,13 +6,14 @@
 //! What is held (docs/FITTING.md, "The automatic fit"): on whole heads the mask within 2 mm
 //! of the surface on average; the ten landmark mask vertices within 6 mm of the landmark
 //! fit's on average and 10 mm at most (the goal is 3 mm, not reached yet: these bounds keep
-//! what is); face-only meshes within looser bounds (`FACE_BOUNDS`).
+//! what is); face-only meshes within 2 mm over the mask vertices with face under them, and
+//! within looser bounds (`FACE_BOUNDS`) counting the mask's outline past the mesh's edge.
 
 mod common;
 
 use facewire::fit::{
-    fit_automatically, fit_from_landmarks, mouth_opening, residuals, AutomaticFit, AutomaticFitError, Fit,
-    FittedMask, Landmarks,
+    fit_automatically, fit_from_landmarks, mouth_opening, report, residuals, AutomaticFit, AutomaticFitError,
+    Fit, FitWarning, FittedMask, Landmarks,
 };
 use facewire::head::Head;
 use facewire::mask::Mask;
@@ -151,10 +152,47 @@ fn a_face_cut_out_of_a_head_is_fitted_like_the_head() {
         );
         let automatic = fit_automatically(&face, &mask, None).unwrap();
         let c = compare(&face, &automatic, &reference, &mask_vertices(&landmarks));
-        eprintln!("face of {obj} ({} vertices): {c:?}", face.positions.len());
+        // The issue's 2 mm, over the mask vertices with face under them: those the fit
+        // report finds past the mesh's edge (the mask's outline) have no surface to lie on.
+        let (under_mm, past_edge) = surface_mean_with_face_under_mm(&face, &automatic, reference.mm_per_unit);
+        eprintln!(
+            "face of {obj} ({} vertices): {c:?}; {under_mm:.2} mm over the mask vertices with face \
+             under them ({past_edge} past the edge)",
+            face.positions.len()
+        );
         failures.extend(holds(obj, &c, &FACE_BOUNDS).err());
+        if under_mm >= 2.0 || past_edge > 20 {
+            failures.push(format!(
+                "{obj}: {under_mm} mm with face under, {past_edge} past the edge"
+            ));
+        }
     }
     assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// The mean distance (mm) to the surface of the fitted mask's vertices that have face under
+/// them, and how many have none (the fit report's "no head under" vertices).
+fn surface_mean_with_face_under_mm(face: &Head, automatic: &AutomaticFit, mm_per_unit: f32) -> (f32, usize) {
+    let mask = Mask::candide3();
+    let fitted = FittedMask::new(mask.clone(), automatic.fit.clone());
+    let past_edge: Vec<u32> = report(face, &fitted)
+        .warnings
+        .iter()
+        .filter_map(|w| match &w.warning {
+            FitWarning::NoHeadUnder { mask_vertices, .. } => Some(mask_vertices.clone()),
+            _ => None,
+        })
+        .flatten()
+        .collect();
+    let used = mask.used_vertices();
+    let distances: Vec<f32> = (0..mask.vertices.len())
+        .filter(|&j| used[j] && !past_edge.contains(&(j as u32)))
+        .map(|j| face.surface.closest_point(fitted.neutral[j]).unwrap().distance * mm_per_unit)
+        .collect();
+    (
+        distances.iter().sum::<f32>() / distances.len() as f32,
+        past_edge.len(),
+    )
 }
 
 fn transformed(head: &Head, f: impl Fn(Vec3) -> Vec3) -> Head {
