@@ -1,6 +1,6 @@
-//! `biharmonic` (not in the thesis: the standard smooth deformation a default must beat,
-//! docs/ALGORITHMS.md, "Biharmonic"): the displacement field `d` of least bi-Laplacian
-//! energy `d^T L M^-1 L d` over the head at rest ([`CotanLaplacian`]) that equals each
+//! `biharmonic` (not in the thesis; preset V and the default, docs/ALGORITHMS.md,
+//! "Biharmonic"): the displacement field `d` of least bi-Laplacian energy `d^T L M^-1 L d`
+//! over the head at rest ([`CotanLaplacian`]) that equals each
 //! control's displacement at its anchor and zero on the held region: the vertices beyond
 //! the reach of their nearest anchor along the surface, and those no anchor reaches. An
 //! eye control's anchor reaches `eyes_hold_mm`, every other one `hold_mm` (the part of
