@@ -215,24 +215,50 @@ async fn batches_are_bounded_and_can_be_cancelled() {
     let (seqs, reason) = until_end(&mut viewer).await;
     assert_eq!(reason, "producer_cancelled");
     assert!(seqs.len() < 100, "{seqs:?}");
-    // The end reaches viewers as the producer retires; within a second it is gone.
-    let mut again = 0;
-    for _ in 0..100 {
-        again = client
-            .delete(server.http("/v1/heads/mh/streams/b/producer"))
-            .send()
-            .await
-            .unwrap()
-            .status()
-            .as_u16();
-        if again == 404 {
-            break;
-        }
-        tokio::time::sleep(Duration::from_millis(10)).await;
-    }
-    assert_eq!(again, 404);
+    // The cancel answers once the producer has let go: a second finds none, and the
+    // stream takes a new batch at once.
+    let again = client
+        .delete(server.http("/v1/heads/mh/streams/b/producer"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(again.status(), 404);
     let (status, body) = post(&server, path, batch_body(2, 0.01), "application/x-ndjson").await;
     assert_eq!(status, 202, "the stream is free again: {body}");
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_cancelled_producer_that_never_answers_the_close_frees_its_stream_at_once() {
+    let server = Server::start(memory_config()).await;
+    server.register("mh", "makehuman_head", "").await;
+    let produce = server.ws("/v1/heads/mh/streams/c/produce");
+    let mut producer = connect(&produce).await;
+    producer
+        .send(Message::Text(jaw_line(0, 0.0).into()))
+        .await
+        .unwrap();
+    next_json(&mut producer).await;
+    // The client stops reading: it will not answer the server's close frame.
+    let started = Instant::now();
+    let cancelled = reqwest::Client::new()
+        .delete(server.http("/v1/heads/mh/streams/c/producer"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(cancelled.status(), 204);
+    assert!(
+        started.elapsed() < Duration::from_secs(1),
+        "{:?}",
+        started.elapsed()
+    );
+    let mut next = connect(&produce).await;
+    next.send(Message::Text(jaw_line(0, 0.0).into())).await.unwrap();
+    assert!(
+        matches!(next_json(&mut next).await, ServerMessage::Ack { seq: 0, .. }),
+        "the stream takes a new producer at once"
+    );
+    drop(producer);
     server.stop().await;
 }
 

@@ -125,7 +125,12 @@ async fn play(
     state.telemetry.producers.dec();
 }
 
-/// `DELETE /v1/heads/{id}/streams/{stream}/producer`: cancels the stream's producer.
+/// How long a cancel waits for the producer to give the stream back before answering.
+const CANCEL_PATIENCE: Duration = Duration::from_secs(1);
+
+/// `DELETE /v1/heads/{id}/streams/{stream}/producer`: cancels the stream's producer and
+/// answers once it has given the stream back (or after [`CANCEL_PATIENCE`]), so that a
+/// new producer or batch can start as soon as the answer arrives.
 pub async fn cancel_producer(
     State(state): State<AppState>,
     Path((id, name)): Path<(String, String)>,
@@ -136,7 +141,7 @@ pub async fn cancel_producer(
         stream: name.clone(),
     };
     let stream: Arc<_> = head.existing_stream(&name).ok_or_else(no_producer)?;
-    if stream.cancel_producer() {
+    if stream.cancel_producer(CANCEL_PATIENCE).await {
         Ok(StatusCode::NO_CONTENT)
     } else {
         Err(no_producer())
@@ -211,7 +216,7 @@ mod tests {
             frames,
         ));
         tokio::time::sleep(Duration::from_millis(2500)).await;
-        assert!(stream.cancel_producer());
+        assert!(stream.cancel_producer(Duration::from_secs(1)).await);
         playing.await.unwrap();
         assert_eq!(seen(&params), (Some(2), Some(EndReason::ProducerCancelled)));
     }

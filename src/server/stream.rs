@@ -6,8 +6,9 @@
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
-use tokio::sync::watch;
+use tokio::sync::{watch, Notify};
 use tokio::time::Instant;
 use tokio_util::sync::CancellationToken;
 
@@ -39,6 +40,8 @@ pub struct Stream {
     params: watch::Sender<ParamTimeline>,
     /// Cancels the current producer (`DELETE .../producer`); a new token per producer.
     producer: Mutex<Option<CancellationToken>>,
+    /// Told when a producer gives the slot back.
+    released: Notify,
     pipelines: Mutex<HashMap<PipelineKey, Arc<Pipeline>>>,
     viewers: AtomicUsize,
     last_activity: Mutex<Instant>,
@@ -50,6 +53,7 @@ impl Stream {
             name: name.to_string(),
             params: watch::Sender::new(Timeline::default()),
             producer: Mutex::new(None),
+            released: Notify::new(),
             pipelines: Mutex::new(HashMap::new()),
             viewers: AtomicUsize::new(0),
             last_activity: Mutex::new(Instant::now()),
@@ -74,15 +78,37 @@ impl Stream {
         })
     }
 
-    /// Cancels the current producer; false when there is none.
-    pub fn cancel_producer(&self) -> bool {
+    /// Cancels the current producer and waits until it has given the slot back, or for
+    /// `patience` at most; false when there is none. A producer cancelled in the middle of
+    /// a frame or a close handshake retires on its own task; waiting for it means that the
+    /// stream takes a new producer as soon as the cancel is answered.
+    pub async fn cancel_producer(&self, patience: Duration) -> bool {
         match self.producer.lock().expect("producer lock").as_ref() {
-            Some(token) => {
-                token.cancel();
-                true
-            }
-            None => false,
+            Some(token) => token.cancel(),
+            None => return false,
         }
+        let _ = tokio::time::timeout(patience, async {
+            loop {
+                let released = self.released.notified();
+                tokio::pin!(released);
+                released.as_mut().enable();
+                if !self.retiring() {
+                    return;
+                }
+                released.await;
+            }
+        })
+        .await;
+        true
+    }
+
+    /// The slot is held by a producer that has been cancelled.
+    fn retiring(&self) -> bool {
+        self.producer
+            .lock()
+            .expect("producer lock")
+            .as_ref()
+            .is_some_and(CancellationToken::is_cancelled)
     }
 
     pub fn has_producer(&self) -> bool {
@@ -217,6 +243,7 @@ impl Drop for ProducerPermit {
             self.end_everywhere(EndReason::ProducerDisconnected);
         }
         *self.stream.producer.lock().expect("producer lock") = None;
+        self.stream.released.notify_waiters();
         self.stream.touch();
     }
 }
@@ -230,5 +257,39 @@ impl Drop for ViewerHold {
     fn drop(&mut self) {
         self.stream.viewers.fetch_sub(1, Ordering::AcqRel);
         self.stream.touch();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[tokio::test(start_paused = true)]
+    async fn a_cancel_returns_once_the_producer_has_let_go() {
+        let stream = Arc::new(Stream::new("s"));
+        let permit = stream.claim_producer().unwrap();
+        let retiring = tokio::spawn(async move {
+            permit.cancelled().await;
+            tokio::time::sleep(Duration::from_millis(50)).await;
+            permit.end(EndReason::ProducerCancelled);
+        });
+        assert!(stream.cancel_producer(Duration::from_secs(1)).await);
+        assert!(!stream.has_producer(), "the slot is free when the cancel returns");
+        assert!(stream.claim_producer().is_some());
+        retiring.await.unwrap();
+        assert!(
+            !stream.cancel_producer(Duration::from_secs(1)).await,
+            "none left to cancel"
+        );
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_producer_that_does_not_let_go_is_waited_for_a_bounded_time() {
+        let stream = Arc::new(Stream::new("s"));
+        let _stuck = stream.claim_producer().unwrap();
+        let started = Instant::now();
+        assert!(stream.cancel_producer(Duration::from_secs(1)).await);
+        assert_eq!(started.elapsed(), Duration::from_secs(1));
+        assert!(stream.has_producer());
     }
 }
