@@ -4,19 +4,23 @@
 //! with no face.
 //!
 //! What is held (docs/FITTING.md, "The automatic fit"): on whole heads the mask within 2 mm
-//! of the surface on average; the ten landmark mask vertices within 6 mm of the landmark
+//! of the surface on average, and closer to it than the landmark fit; the ten landmark mask vertices within 6 mm of the landmark
 //! fit's on average and 10 mm at most (the goal is 3 mm, not reached yet: these bounds keep
 //! what is); face-only meshes within 2 mm over the mask vertices with face under them, and
-//! within looser bounds (`FACE_BOUNDS`) counting the mask's outline past the mesh's edge.
+//! within looser bounds (`FACE_BOUNDS`) counting the mask's outline past the mesh's edge;
+//! and MakeHuman and ICT animated as close to their expression targets as on the landmark
+//! fit.
 
 mod common;
 
+use facewire::deform::Registration;
 use facewire::fit::{
     fit_automatically, fit_from_landmarks, mouth_opening, report, residuals, AutomaticFit, AutomaticFitError,
     Fit, FitWarning, FittedMask, Landmarks,
 };
 use facewire::head::Head;
 use facewire::mask::Mask;
+use facewire::targets::ExpressionTarget;
 use glam::{Mat3, Vec3};
 
 const HEADS: [(&str, &str); 5] = [
@@ -125,8 +129,26 @@ fn every_shipped_head_is_fitted_close_to_its_landmark_fit() {
             "{obj}: {forward}"
         );
         let c = compare(&head, &automatic, &reference, &mask_vertices(&landmarks));
-        eprintln!("{obj}: {c:?}");
+        let fitted = FittedMask::new(mask.clone(), reference.clone());
+        let landmark_fit_surface_mm = residuals::measure(
+            &head,
+            &fitted.neutral,
+            &mask.used_vertices(),
+            &[],
+            reference.mm_per_unit,
+        )
+        .surface
+        .mean_mm;
+        eprintln!("{obj}: {c:?}; the landmark fit lies {landmark_fit_surface_mm:.2} mm from the surface");
         failures.extend(holds(obj, &c, &HEAD_BOUNDS).err());
+        // Measured 1.76 against 3.21 mm (MakeHuman), 1.31 / 2.97 (scan), 1.34 / 1.50 (ICT),
+        // 1.50 / 2.22 and 1.35 / 2.30 (the identities).
+        if c.surface_mean_mm >= landmark_fit_surface_mm {
+            failures.push(format!(
+                "{obj}: {} mm from the surface, the landmark fit {landmark_fit_surface_mm} mm",
+                c.surface_mean_mm
+            ));
+        }
     }
     assert!(failures.is_empty(), "{failures:#?}");
 }
@@ -313,6 +335,41 @@ fn a_head_with_its_mouth_open_at_rest_is_fitted_and_registered_closed() {
         assert!(
             gap_mm <= 0.5,
             "{name}: the lips are {gap_mm} mm apart after closing"
+        );
+    }
+}
+
+/// What a fit is for: animating the head. Driven by their own expression targets (sampled at
+/// the anchors, as `facewire compare` does), MakeHuman and ICT deformed with the default V
+/// follow the targets as closely on the automatic fit as on the landmark fit. The physical
+/// scale is the landmark file's for both, so that the reach in mm and the error in mm mean
+/// the same. Measured: MakeHuman 0.518 mm automatic against 0.536 landmark (4 % better),
+/// ICT 0.534 against 0.512 (4 % worse).
+#[test]
+fn the_automatic_fit_animates_the_heads_as_well_as_the_landmark_fit() {
+    let mask = Mask::candide3();
+    for (name, targets) in [
+        ("makehuman_head", "heads/makehuman_arkit"),
+        ("ict_head", "heads/ict_targets/skin"),
+    ] {
+        let (head, _, reference) = shipped(
+            &format!("heads/{name}.obj"),
+            &format!("heads/{name}.landmarks.toml"),
+        );
+        let automatic = fit_automatically(&head, &mask, Some(reference.mm_per_unit)).unwrap();
+        let targets = ExpressionTarget::load_dir(&common::data(targets), head.positions.len()).unwrap();
+        let error_mm = |fit: Fit| {
+            let registration = Registration::new(head.clone(), FittedMask::new(mask.clone(), fit));
+            common::ground_truth_mm(&registration, &targets, "V")
+        };
+        let on_landmarks = error_mm(reference);
+        let on_automatic = error_mm(automatic.fit);
+        eprintln!(
+            "{name}: ground truth with V, landmark fit {on_landmarks:.4} mm, automatic {on_automatic:.4} mm"
+        );
+        assert!(
+            on_automatic < 1.05 * on_landmarks,
+            "{name}: automatic {on_automatic} mm against landmark {on_landmarks} mm"
         );
     }
 }

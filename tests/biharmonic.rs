@@ -10,10 +10,9 @@ mod common;
 
 use std::sync::OnceLock;
 
-use common::{anchor_target, data, deform_with, register};
+use common::{anchor_target, data, deform_with, ground_truth_mm, register};
 use facewire::deform::{bind, AlgoSpec, Registration};
 use facewire::mask::FaceRegion;
-use facewire::metrics::{ground_truth_error, FaceVertices};
 use facewire::targets::ExpressionTarget;
 use glam::Vec3;
 
@@ -140,34 +139,6 @@ fn weights_are_cut_to_k_per_vertex() {
         assert!(longest <= k * most_sharing, "k={k}: a row of {longest} terms");
         assert!(longest >= k, "k={k}: rows of at most {longest} terms");
     }
-}
-
-/// Mean over a head's expression targets of the RMS error (mm) over the face when the
-/// target, sampled at the anchors, drives `spec`: what `facewire compare` reports as
-/// `ground_truth_rms_mm`.
-fn ground_truth_mm(reg: &Registration, targets: &[ExpressionTarget], spec: &str) -> f64 {
-    let mm = reg.mm_per_unit();
-    let face = FaceVertices::new(&reg.head, &reg.fitted.mask, &reg.anchors, mm).unwrap();
-    let binding = bind(reg, &spec.parse().unwrap());
-    let rest = &reg.head.positions;
-    let mut controls = vec![Vec3::ZERO; reg.mask_rest().len()];
-    let mut target_positions = vec![Vec3::ZERO; rest.len()];
-    let mut sum = 0.0;
-    for target in targets {
-        target.controls_into(&reg.anchors, 1.0, &mut controls).unwrap();
-        let mask_now: Vec<Vec3> = reg
-            .mask_rest()
-            .iter()
-            .zip(&controls)
-            .map(|(r, c)| *r + *c)
-            .collect();
-        let deformed = deform_with(reg, &binding, &mask_now);
-        target.apply_into(rest, 1.0, &mut target_positions).unwrap();
-        sum += ground_truth_error(&deformed, &target_positions, &face, mm)
-            .unwrap()
-            .rms_mm;
-    }
-    sum / targets.len() as f64
 }
 
 #[test]

@@ -8,10 +8,12 @@ pub mod streams;
 
 use std::path::{Path, PathBuf};
 
-use facewire::deform::{Binding, Registration};
+use facewire::deform::{bind, Binding, Registration};
 use facewire::fit::{FitFile, FittedMask};
 use facewire::head::Head;
 use facewire::mask::Mask;
+use facewire::metrics::{ground_truth_error, FaceVertices};
+use facewire::targets::ExpressionTarget;
 use glam::Vec3;
 
 /// The ICT head's shipped parts: (name, file under data/heads/, role to give or `None`
@@ -221,4 +223,32 @@ pub fn part_open_head(name: &str, target: &str, share: f32) -> Head {
         .map(|(n, d)| *n + *d * share)
         .collect();
     Head::new(&format!("{name}_part_open"), positions, neutral.triangles.clone())
+}
+
+/// Mean over a head's expression targets of the RMS error (mm) over the face when the
+/// target, sampled at the anchors, drives `spec`: what `facewire compare` reports as
+/// `ground_truth_rms_mm`.
+pub fn ground_truth_mm(reg: &Registration, targets: &[ExpressionTarget], spec: &str) -> f64 {
+    let mm = reg.mm_per_unit();
+    let face = FaceVertices::new(&reg.head, &reg.fitted.mask, &reg.anchors, mm).unwrap();
+    let binding = bind(reg, &spec.parse().unwrap());
+    let rest = &reg.head.positions;
+    let mut controls = vec![Vec3::ZERO; reg.mask_rest().len()];
+    let mut target_positions = vec![Vec3::ZERO; rest.len()];
+    let mut sum = 0.0;
+    for target in targets {
+        target.controls_into(&reg.anchors, 1.0, &mut controls).unwrap();
+        let mask_now: Vec<Vec3> = reg
+            .mask_rest()
+            .iter()
+            .zip(&controls)
+            .map(|(r, c)| *r + *c)
+            .collect();
+        let deformed = deform_with(reg, &binding, &mask_now);
+        target.apply_into(rest, 1.0, &mut target_positions).unwrap();
+        sum += ground_truth_error(&deformed, &target_positions, &face, mm)
+            .unwrap()
+            .rms_mm;
+    }
+    sum / targets.len() as f64
 }
