@@ -133,6 +133,11 @@ pub struct LoadReport {
     /// Those of `stalls` where the producer's sends of the two frames were as far apart:
     /// the generator fell behind, not the server.
     pub producer_stalls: u64,
+    /// Those of `stalls` where the server published the two frames as far apart: its
+    /// pipeline was late. The rest were published in time and delivered late (fan-out,
+    /// kernel, or this generator). Binary frames only (the JSON baseline's frames do not
+    /// carry the time).
+    pub publish_stalls: u64,
     /// Those of `stalls` that a pause of the whole machine by its host explains: without
     /// the pause the gap would have stayed under the stall limit (checked for each viewer's
     /// first 64 stalls).
@@ -437,6 +442,7 @@ async fn load(
         regressions: outcomes.iter().map(|o| o.regressions).sum(),
         stalls: outcomes.iter().map(|o| o.stalls).sum(),
         producer_stalls: outcomes.iter().map(|o| o.producer_stalls).sum(),
+        publish_stalls: outcomes.iter().map(|o| o.publish_stalls).sum(),
         host_pause_stalls,
         stall_seconds: busiest_seconds(&outcomes, &machine),
         pauses: summarize(&machine.pauses),
@@ -606,7 +612,7 @@ fn print(r: &LoadReport) {
         r.head
     );
     println!(
-        "  frames: sent {}, received {} of {} expected ({:.1} %), skipped {}, stalls {} ({} with the producer paused, {} explained by the host pausing the machine), older than shown {}, viewers with none {}",
+        "  frames: sent {}, received {} of {} expected ({:.1} %), skipped {}, stalls {} ({} with the producer paused, {} published late by the server, {} explained by the host pausing the machine), older than shown {}, viewers with none {}",
         r.frames_sent,
         r.frames_received,
         r.frames_expected,
@@ -614,6 +620,7 @@ fn print(r: &LoadReport) {
         r.frames_skipped,
         r.stalls,
         r.producer_stalls,
+        r.publish_stalls,
         r.host_pause_stalls,
         r.regressions,
         r.viewers_without_frames

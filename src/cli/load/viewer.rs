@@ -36,6 +36,11 @@ pub struct ViewerOutcome {
     /// Those of `stalls` where the producer's own sends were as far apart: the generator
     /// paused, not the server.
     pub producer_stalls: u64,
+    /// Those of `stalls` where the server published the two frames as far apart (the
+    /// frames' `server_send_us`): its pipeline was late (deform, encode, or a task waiting
+    /// for a core). The others were published in time and delivered late: the fan-out to
+    /// the sockets, the kernel, or this generator reading them.
+    pub publish_stalls: u64,
     /// Stalls by the second of the run they began in (whole seconds since the producers
     /// started): a burst shows as one second with many.
     pub stall_seconds: BTreeMap<u64, u64>,
@@ -48,9 +53,11 @@ pub struct ViewerOutcome {
 }
 
 impl ViewerOutcome {
-    /// Counts frame `seq` of `length` bytes, received now; `last` is the newest frame so
-    /// far and when it came.
-    fn record(&mut self, seq: u64, length: usize, last: &mut Option<(u64, Instant)>, plan: &ViewerPlan) {
+    /// Counts frame `seq` of `length` bytes, published by the server at `published_us` (µs,
+    /// Unix epoch; `None` for the JSON baseline) and received now; `last` is the newest
+    /// frame so far, when it was published and when it came.
+    fn record(&mut self, frame: ReceivedFrame, last: &mut Option<(ReceivedFrame, Instant)>, plan: &ViewerPlan) {
+        let ReceivedFrame { seq, length, .. } = frame;
         let now = Instant::now();
         self.frames += 1;
         self.bytes += length as u64;
@@ -59,17 +66,22 @@ impl ViewerOutcome {
             self.latencies.record(age);
         }
         match *last {
-            Some((previous, _)) if seq <= previous => self.regressions += 1,
+            Some((previous, _)) if seq <= previous.seq => self.regressions += 1,
             Some((previous, at)) => {
-                self.skipped += seq - previous - 1;
+                self.skipped += seq - previous.seq - 1;
                 if now - at > plan.stall_after {
                     self.stalls += 1;
                     let stall_us = plan.stall_after.as_micros() as u64;
                     let producer_paused = plan
                         .times
-                        .send_gap_us(previous, seq)
+                        .send_gap_us(previous.seq, seq)
                         .is_some_and(|gap| gap > stall_us);
                     self.producer_stalls += u64::from(producer_paused);
+                    let published_late = previous
+                        .published_us
+                        .zip(frame.published_us)
+                        .is_some_and(|(before, after)| after.saturating_sub(before) > stall_us);
+                    self.publish_stalls += u64::from(published_late);
                     let since = |t: Instant| t.saturating_duration_since(plan.start);
                     *self.stall_seconds.entry(since(at).as_secs()).or_default() += 1;
                     if self.stall_windows.len() < MAX_STALL_WINDOWS {
@@ -80,10 +92,19 @@ impl ViewerOutcome {
             }
             None => {}
         }
-        if last.is_none_or(|(previous, _)| seq > previous) {
-            *last = Some((seq, now));
+        if last.is_none_or(|(previous, _)| seq > previous.seq) {
+            *last = Some((frame, now));
         }
     }
+}
+
+/// What the generator reads of a frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct ReceivedFrame {
+    seq: u64,
+    length: usize,
+    /// When the server published it (µs, Unix epoch); the JSON baseline does not say.
+    published_us: Option<u64>,
 }
 
 pub struct ViewerPlan {
@@ -137,7 +158,7 @@ pub async fn watch(plan: ViewerPlan, mut socket: Socket, algorithm: String) -> V
         algorithm: Some(algorithm),
         ..ViewerOutcome::default()
     };
-    let mut last: Option<(u64, Instant)> = None;
+    let mut last: Option<(ReceivedFrame, Instant)> = None;
     loop {
         let message = match tokio::time::timeout_at(plan.deadline, socket.next()).await {
             Err(_) | Ok(None) => break,
@@ -148,16 +169,24 @@ pub async fn watch(plan: ViewerPlan, mut socket: Socket, algorithm: String) -> V
             Ok(Some(Ok(message))) => message,
         };
         // Only the sequence number: the generator measures the server, not its own decoding.
-        let (seq, length) = match message {
+        let frame = match message {
             Message::Binary(bytes) => match decode_header(&bytes) {
-                Ok(header) => (header.seq, bytes.len()),
+                Ok(header) => ReceivedFrame {
+                    seq: header.seq,
+                    length: bytes.len(),
+                    published_us: Some(header.server_send_us),
+                },
                 Err(_) => {
                     outcome.failure = Some("a frame header did not decode".into());
                     break;
                 }
             },
             Message::Text(text) => match json_frame_seq(text.as_str()) {
-                Some(seq) => (seq, text.len()),
+                Some(seq) => ReceivedFrame {
+                    seq,
+                    length: text.len(),
+                    published_us: None,
+                },
                 None => match serde_json::from_str::<ServerMessage>(text.as_str()) {
                     Ok(ServerMessage::End { .. }) => break,
                     Ok(ServerMessage::Error { code, message, .. }) => {
@@ -170,7 +199,7 @@ pub async fn watch(plan: ViewerPlan, mut socket: Socket, algorithm: String) -> V
             Message::Close(_) => break,
             _ => continue,
         };
-        outcome.record(seq, length, &mut last, &plan);
+        outcome.record(frame, &mut last, &plan);
     }
     let _ = socket.close(None).await;
     outcome
@@ -192,17 +221,29 @@ mod tests {
         };
         let mut outcome = ViewerOutcome::default();
         let mut last = None;
-        // A frame every 33 ms for 2.5 s (the last at 2.508 s), then 200 ms with none.
+        // Published every 33 ms, except the 200 ms before `late_publish`.
+        let frame = |seq: u64, late_publish: u64| ReceivedFrame {
+            seq,
+            length: 100,
+            published_us: Some(seq * 33_000 + if seq >= late_publish { 167_000 } else { 0 }),
+        };
+        // A frame every 33 ms for 2.5 s (the last at 2.508 s), then 200 ms with none:
+        // published in time, delivered late.
         for seq in 0..76 {
             tokio::time::advance(Duration::from_millis(33)).await;
-            outcome.record(seq, 100, &mut last, &plan);
+            outcome.record(frame(seq, u64::MAX), &mut last, &plan);
         }
         tokio::time::advance(Duration::from_millis(200)).await;
-        outcome.record(76, 100, &mut last, &plan);
+        outcome.record(frame(76, u64::MAX), &mut last, &plan);
         tokio::time::advance(Duration::from_millis(33)).await;
-        outcome.record(77, 100, &mut last, &plan);
+        outcome.record(frame(77, u64::MAX), &mut last, &plan);
         assert_eq!((outcome.frames, outcome.stalls, outcome.skipped), (78, 1, 0));
+        assert_eq!(outcome.publish_stalls, 0);
         assert_eq!(outcome.stall_seconds, BTreeMap::from([(2, 1)]));
         assert_eq!(outcome.stall_windows, [(2_508_000, 2_708_000)]);
+        // Then the server publishes one frame 200 ms after the one before.
+        tokio::time::advance(Duration::from_millis(200)).await;
+        outcome.record(frame(78, 78), &mut last, &plan);
+        assert_eq!((outcome.stalls, outcome.publish_stalls), (2, 1));
     }
 }
