@@ -53,10 +53,13 @@ pub struct ViewerOutcome {
 }
 
 impl ViewerOutcome {
-    /// Counts frame `seq` of `length` bytes, published by the server at `published_us` (µs,
-    /// Unix epoch; `None` for the JSON baseline) and received now; `last` is the newest
-    /// frame so far, when it was published and when it came.
-    fn record(&mut self, frame: ReceivedFrame, last: &mut Option<(ReceivedFrame, Instant)>, plan: &ViewerPlan) {
+    /// Counts `frame`, received now; `last` is the newest frame so far and when it came.
+    fn record(
+        &mut self,
+        frame: ReceivedFrame,
+        last: &mut Option<(ReceivedFrame, Instant)>,
+        plan: &ViewerPlan,
+    ) {
         let ReceivedFrame { seq, length, .. } = frame;
         let now = Instant::now();
         self.frames += 1;
