@@ -87,7 +87,7 @@ def sweep(binary, url, title, points, seconds, algo, folder):
 
 def baseline(binary, url, points, seconds, folder):
     """The same loads as FWF1 and as the naive JSON baseline, alternating."""
-    print("\n**FWF1 against the JSON baseline, default algorithm (U)**\n")
+    print("\n**FWF1 against the JSON baseline, default algorithm (V)**\n")
     print("| streams | viewers | format | bytes per frame | p50 ms | p99 ms | stalls | server CPU % of a core | bytes ratio | CPU ratio |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     pairs = []
@@ -160,7 +160,7 @@ def main():
         results = {}
         try:
             load(binary, url, 10, 40, 3, "", folder)
-            for algo, name, short in [("", "U (default)", "U"), ("H", "H, point_distance:k=all", "H")]:
+            for algo, name, short in [("", "V (default)", "V"), ("H", "H, point_distance:k=all", "H")]:
                 results[f"{short}, 50 streams"] = sweep(binary, url, f"Viewers at 50 streams, {name}", [(50, v) for v in (100, 200, 400, 600, 800, 1000, 1200, 1500, 2000)], seconds, algo, folder)
                 results[f"{short}, 4 viewers a stream"] = sweep(binary, url, f"Streams at 4 viewers each, {name}", [(s, 4 * s) for s in (10, 25, 50, 100, 150, 200, 300)], seconds, algo, folder)
             results["baseline"] = baseline(binary, url, [(10, 40), (50, 200)], seconds, folder)
