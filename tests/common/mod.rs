@@ -1,5 +1,6 @@
 //! Shared by the integration tests that deform the shipped heads: data paths, registering
-//! a shipped head with its fit, posing the mask, deforming with a binding.
+//! a shipped head with its fit, posing the mask, deforming with a binding, and the error
+//! against a head's own expression targets.
 #![allow(dead_code)] // each test file uses its own subset
 
 pub mod nats;
