@@ -84,7 +84,8 @@ pub fn close_rest_mouth(
             &mut scratch,
             closed,
         );
-        mouth_opening(closed, &head.triangles, &open.fitted).is_closed()
+        // Read under the mask as it will lie on the closed head, as the registration is.
+        mouth_opening(closed, &head.triangles, &with_jaw(dropped - raise)).is_closed()
     };
     // A raise that closes the mouth, then the least one that does.
     let mut high = (opening.height() / drop_per_unit) as f32;

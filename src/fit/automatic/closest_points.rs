@@ -22,10 +22,47 @@ const OUTLIER_FACTOR: f64 = 2.5;
 /// Ridge weight on the shape units (mask units squared): the surface constrains most
 /// units, but only loosely; this keeps a unit at zero unless the surface asks for it.
 const SHAPE_RIDGE: f64 = 2e-3;
-/// An anchor counts as this many vertices.
-const ANCHOR_WEIGHT: usize = 10;
+/// A pin counts as this many vertices.
+const PIN_WEIGHT: usize = 10;
 /// Distances above this (mask units, about 5 mm) count as this much in the score.
 const SCORE_CAP: f64 = 0.05;
+
+/// A mask vertex held to a point (head units) in every round: wholly, or only along one
+/// direction (to the plane through the point across it), leaving the surface to place it
+/// in the other two.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pin {
+    pub vertex: u32,
+    pub point: DVec3,
+    /// The unit direction (head frame) the pin holds along; `None`: every direction.
+    pub along: Option<DVec3>,
+}
+
+impl Pin {
+    pub fn at(vertex: u32, point: DVec3) -> Pin {
+        Pin {
+            vertex,
+            point,
+            along: None,
+        }
+    }
+
+    pub fn along(vertex: u32, point: DVec3, direction: DVec3) -> Pin {
+        Pin {
+            vertex,
+            point,
+            along: Some(direction.normalize()),
+        }
+    }
+
+    /// Where the vertex, now at `posed`, is pulled to.
+    fn target(&self, posed: DVec3) -> DVec3 {
+        match self.along {
+            None => self.point,
+            Some(direction) => posed + direction * (self.point - posed).dot(direction),
+        }
+    }
+}
 
 /// The result of one start.
 #[derive(Debug, Clone)]
@@ -37,24 +74,25 @@ pub struct Laid {
 }
 
 /// Lays `mask` on `head` from the similarity `start` (mask units to head units), pulling
-/// each anchor's mask vertex toward its point (head units) in every round.
+/// each pinned mask vertex toward its pin in every round.
 pub fn lay_mask(
     head: &Head,
     mask: &Mask,
     used: &[u32],
     start: Similarity,
-    anchors: &[(u32, DVec3)],
+    pins: &[Pin],
 ) -> Result<Laid, SolveError> {
     let neutral: Vec<DVec3> = mask.vertices.iter().map(|v| v.as_dvec3()).collect();
     let mut posed: Vec<DVec3> = neutral.iter().map(|&p| start.apply(p)).collect();
-    let mut pairs: Vec<(u32, DVec3)> = Vec::with_capacity(used.len() + 4);
+    let mut pairs: Vec<(u32, DVec3)> = Vec::with_capacity(used.len() + PIN_WEIGHT * pins.len());
     let mut distances: Vec<f64> = Vec::with_capacity(used.len());
     let mut solution = None;
     for round in 0..SIMILARITY_ROUNDS + SHAPE_ROUNDS {
         let with_shape = round >= SIMILARITY_ROUNDS;
         closest_pairs(head, used, &posed, &mut pairs, &mut distances);
-        for &anchor in anchors {
-            pairs.extend(std::iter::repeat_n(anchor, ANCHOR_WEIGHT));
+        for pin in pins {
+            let target = pin.target(posed[pin.vertex as usize]);
+            pairs.extend(std::iter::repeat_n((pin.vertex, target), PIN_WEIGHT));
         }
         let options = SolveOptions {
             solve_shape: with_shape,
@@ -126,4 +164,20 @@ fn closest_pairs(
         }
     }
     pairs.truncate(kept);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_pin_along_a_direction_moves_its_vertex_only_along_it() {
+        let pin = Pin::along(3, DVec3::new(2.0, 5.0, -1.0), DVec3::new(0.0, 0.0, 4.0));
+        assert_eq!(pin.target(DVec3::new(1.0, 1.0, 1.0)), DVec3::new(1.0, 1.0, -1.0));
+        let whole = Pin::at(3, DVec3::new(2.0, 5.0, -1.0));
+        assert_eq!(
+            whole.target(DVec3::new(1.0, 1.0, 1.0)),
+            DVec3::new(2.0, 5.0, -1.0)
+        );
+    }
 }

@@ -2,8 +2,8 @@
 //! and where its nose may be on range images of the head from every horizontal direction,
 //! place the mask on each of the few likeliest noses at a few scales guessed from the
 //! face's width there, lay it on the surface by iterated closest points (pose, then shape
-//! units), keep the start that lies closest, then pin its nose, mouth and pupils to what
-//! the face shows there and lay it again.
+//! units), keep the start that lies closest, then pin its nose, mouth, pupils and eye
+//! corners to what the face shows there and lay it again.
 //!
 //! Assumes +y of the head is up (within 35 degrees) and that the face is not hidden
 //! (one nose, in front). Works in head units; the physical scale comes from the caller or,
@@ -20,16 +20,27 @@ use glam::{DMat3, DVec3, Vec3};
 
 use super::limits::{in_range, RangeError, MM_PER_UNIT_RANGE};
 use super::umeyama::Similarity;
-use super::{Fit, SolveError};
+use super::{Fit, FitSolution, SolveError};
 use crate::head::Head;
 use crate::mask::{fap, Mask};
-use closest_points::lay_mask;
+use closest_points::{lay_mask, Pin};
 use depth_map::{DepthMap, NoseCandidate, View};
 
 /// CANDIDE-3's nose tip (FP 9.3).
 const MASK_NOSE_TIP: u32 = 5;
 /// CANDIDE-3's mouth middle: the inner lips, upper and lower, which meet at rest.
 const MASK_MOUTH_MIDDLE: [u32; 2] = [40, 87];
+/// The eye corners are pinned only when the two openings between the lids are as wide
+/// within this factor (1.04 at most on the shipped heads); a first fit that sat aside reads
+/// them askew (a head with its mouth open, 1.47).
+const EYE_WIDTHS_RATIO: f64 = 1.15;
+/// CANDIDE-3's eye corners, inner then outer: left (FP 3.11, 3.7) and right (FP 3.8, 3.12).
+const MASK_LEFT_EYE_CORNERS: [u32; 2] = [23, 20];
+const MASK_RIGHT_EYE_CORNERS: [u32; 2] = [56, 53];
+/// The inner eye corner (the medial canthus) lies this far toward the nose from where the
+/// opening between the lids ends: the caruncle, the pink mound in the corner, fills the
+/// gap (mask units, about 3 mm; 2.7-3.0 on the shipped ICT heads).
+const CARUNCLE_WIDTH: f64 = 0.03;
 /// Directions the head is looked at from, evenly around +y.
 const VIEWS: usize = 24;
 /// Cells along the longer side of each range image.
@@ -184,41 +195,22 @@ pub fn fit_automatically(
                 scale,
                 translation: tip - scale * (rotation * mask_tip),
             };
-            let laid = lay_mask(head, mask, &used, start, &[(MASK_NOSE_TIP, tip)]).map_err(solve_error)?;
+            let laid =
+                lay_mask(head, mask, &used, start, &[Pin::at(MASK_NOSE_TIP, tip)]).map_err(solve_error)?;
             if best.as_ref().is_none_or(|(b, _)| laid.score < b.score) {
                 best = Some((laid, *candidate));
             }
         }
     }
     let (mut best, nose) = best.expect("the most prominent candidate stands out enough");
-    // Pin the mask's nose tip to the profile's, its mouth to the profile's mouth height and
-    // its pupils to the eyes (when they are found), and lay it again.
+    // Pin the mask's nose tip, mouth, pupils and eye corners to what the face shows in
+    // front of it, and lay it again.
     let first = best.solution.clone();
-    let image = front_image::FrontImage::render(head, &first.similarity, winding);
-    let shaped = mask.shaped(&first.shape);
-    let features = profile::midline_features(&image).ok_or_else(|| AutomaticFitError::NoMouth {
+    let pins = face_pins(head, mask, &first, winding).ok_or_else(|| AutomaticFitError::NoMouth {
         head: name(),
         nose_tip: nose.tip,
     })?;
-    let mut anchors = vec![(MASK_NOSE_TIP, features.nose_tip)];
-    for vertex in MASK_MOUTH_MIDDLE {
-        let lips = shaped[vertex as usize].as_dvec3();
-        anchors.push((
-            vertex,
-            image.head_point(DVec3::new(lips.x, features.mouth_height, lips.z)),
-        ));
-    }
-    if let Some(centres) = eyes::eye_centres(&image) {
-        for (centre, pupil) in centres.iter().zip([&fap::LEFT_PUPIL, &fap::RIGHT_PUPIL]) {
-            let middle = fap::centroid(&shaped, pupil).as_dvec3();
-            for &vertex in pupil {
-                let offset = shaped[vertex].as_dvec3() - middle;
-                let target = DVec3::new(centre.x + offset.x, centre.y + offset.y, middle.z + offset.z);
-                anchors.push((vertex as u32, image.head_point(target)));
-            }
-        }
-    }
-    best = lay_mask(head, mask, &used, first.similarity, &anchors).map_err(solve_error)?;
+    best = lay_mask(head, mask, &used, first.similarity, &pins).map_err(solve_error)?;
     let up = best.solution.similarity.rotation * DVec3::Y;
     let lean_deg = up.dot(DVec3::Y).clamp(-1.0, 1.0).acos().to_degrees();
     if lean_deg > MAX_LEAN_DEG {
@@ -267,6 +259,74 @@ pub fn fit_automatically(
         score: best.score,
         mm_per_unit_from_pupils: from_pupils,
     })
+}
+
+/// Pins for what the face shows in front of a fit: the nose tip at the profile's, the
+/// mouth's middle at the profile's mouth height, and the pupils and eye corners on the eyes
+/// (when they are found, and the corners when both eyes agree). `None` when the profile
+/// shows no mouth.
+fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Option<Vec<Pin>> {
+    let image = front_image::FrontImage::render(head, &fit.similarity, winding);
+    let shaped = mask.shaped(&fit.shape);
+    let features = profile::midline_features(&image)?;
+    let mut pins = vec![Pin::at(MASK_NOSE_TIP, features.nose_tip)];
+    for vertex in MASK_MOUTH_MIDDLE {
+        let lips = shaped[vertex as usize].as_dvec3();
+        pins.push(Pin::at(
+            vertex,
+            image.head_point(DVec3::new(lips.x, features.mouth_height, lips.z)),
+        ));
+    }
+    if let Some(centres) = eyes::eye_centres(&image) {
+        if eyes::opening_widths_agree(&centres, EYE_WIDTHS_RATIO) {
+            for (centre, corners) in centres
+                .iter()
+                .zip([MASK_LEFT_EYE_CORNERS, MASK_RIGHT_EYE_CORNERS])
+            {
+                pins.extend(eye_corner_pins(&image, centre, corners, &fit.similarity));
+            }
+        }
+        for (centre, pupil) in centres.iter().zip([&fap::LEFT_PUPIL, &fap::RIGHT_PUPIL]) {
+            let middle = fap::centroid(&shaped, pupil).as_dvec3();
+            for &vertex in pupil {
+                let offset = shaped[vertex].as_dvec3() - middle;
+                let target = DVec3::new(centre.x + offset.x, centre.y + offset.y, middle.z + offset.z);
+                pins.push(Pin::at(vertex as u32, image.head_point(target)));
+            }
+        }
+    }
+    Some(pins)
+}
+
+/// Pins for an eye's corners when it is an opening whose ends are seen: the outer corner
+/// to the surface just past the opening's outer end, the inner one (sideways only) a
+/// caruncle's width past its inner end. The lids around an opening are nearly flat across,
+/// so the surface alone hardly sets the eye's width.
+fn eye_corner_pins(
+    image: &front_image::FrontImage,
+    eye: &eyes::EyeCentre,
+    [inner_vertex, outer_vertex]: [u32; 2],
+    first: &Similarity,
+) -> Vec<Pin> {
+    let Some([inner, outer]) = eye.corners else {
+        return Vec::new();
+    };
+    let outward = outer.0.signum();
+    let mut pins = Vec::with_capacity(2);
+    let past_outer = outer.0 + outward * eyes::STEP;
+    if let Some(z) = image.z_at(past_outer, outer.1) {
+        pins.push(Pin::at(
+            outer_vertex,
+            image.head_point(DVec3::new(past_outer, outer.1, z)),
+        ));
+    }
+    let canthus = DVec3::new(inner.0 - outward * CARUNCLE_WIDTH, inner.1, 0.0);
+    pins.push(Pin::along(
+        inner_vertex,
+        image.head_point(canthus),
+        first.rotation * DVec3::X,
+    ));
+    pins
 }
 
 /// The view whose nose lies on the head's plane of mirror symmetry, and the places in it
