@@ -2,8 +2,8 @@
 //! and where its nose may be on range images of the head from every horizontal direction,
 //! place the mask on each of the few likeliest noses at a few scales guessed from the
 //! face's width there, lay it on the surface by iterated closest points (pose, then shape
-//! units), keep the start that lies closest, then pin its nose, mouth, pupils and eye
-//! corners to what the face shows there and lay it again.
+//! units), keep the start that lies closest, then pin its nose, mouth and its corners,
+//! pupils and eye corners to what the face shows there and lay it again.
 //!
 //! Assumes +y of the head is up (within 35 degrees) and that the face is not hidden
 //! (one nose, in front). Works in head units; the physical scale comes from the caller or,
@@ -12,6 +12,7 @@
 mod closest_points;
 pub(crate) mod depth_map;
 mod eyes;
+mod fissure;
 pub(crate) mod front_image;
 mod profile;
 mod symmetry;
@@ -34,6 +35,20 @@ const MASK_MOUTH_MIDDLE: [u32; 2] = [40, 87];
 /// within this factor (1.04 at most on the shipped heads); a first fit that sat aside reads
 /// them askew (a head with its mouth open, 1.47).
 const EYE_WIDTHS_RATIO: f64 = 1.15;
+/// CANDIDE-3's mouth corners, left (FP 8.3) and right (FP 8.4).
+const MASK_MOUTH_CORNERS: [u32; 2] = [31, 64];
+/// The lips' fissure is looked for this far above and below the mouth's height (mask
+/// units) ...
+const MOUTH_CREASE_WINDOW: f64 = 0.03;
+/// ... and followed at most this far to each side.
+const MOUTH_CREASE_REACH: f64 = 0.45;
+/// The mouth's corners are pinned only when they are at least this far from the midline
+/// (CANDIDE's are 0.246 from it) ...
+const MIN_MOUTH_HALF_WIDTH: f64 = 0.1;
+/// ... and their distances from it agree within this factor (1.19 at most on the shipped
+/// heads where they are found, whose first fits sit up to 2 mm aside; 1.33 on the scan,
+/// whose crease fades before its right corner).
+const MOUTH_SIDES_RATIO: f64 = 1.25;
 /// CANDIDE-3's eye corners, inner then outer: left (FP 3.11, 3.7) and right (FP 3.8, 3.12).
 const MASK_LEFT_EYE_CORNERS: [u32; 2] = [23, 20];
 const MASK_RIGHT_EYE_CORNERS: [u32; 2] = [56, 53];
@@ -262,9 +277,9 @@ pub fn fit_automatically(
 }
 
 /// Pins for what the face shows in front of a fit: the nose tip at the profile's, the
-/// mouth's middle at the profile's mouth height, and the pupils and eye corners on the eyes
-/// (when they are found, and the corners when both eyes agree). `None` when the profile
-/// shows no mouth.
+/// mouth's middle at the profile's mouth height and its corners at the ends of the lips'
+/// fissure, and the pupils and eye corners on the eyes (the corners when both sides
+/// agree). `None` when the profile shows no mouth.
 fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Option<Vec<Pin>> {
     let image = front_image::FrontImage::render(head, &fit.similarity, winding);
     let shaped = mask.shaped(&fit.shape);
@@ -277,6 +292,7 @@ fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Optio
             image.head_point(DVec3::new(lips.x, features.mouth_height, lips.z)),
         ));
     }
+    pins.extend(mouth_corner_pins(&image, features.mouth_height, &fit.similarity));
     if let Some(centres) = eyes::eye_centres(&image) {
         if eyes::opening_widths_agree(&centres, EYE_WIDTHS_RATIO) {
             for (centre, corners) in centres
@@ -296,6 +312,25 @@ fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Optio
         }
     }
     Some(pins)
+}
+
+/// Pins (sideways only) for the mouth's corners at the ends of the lips' fissure, when it
+/// is found at the mouth's height and its ends are about as far from the midline.
+fn mouth_corner_pins(image: &front_image::FrontImage, mouth_height: f64, first: &Similarity) -> Vec<Pin> {
+    let Some(y) = fissure::crease_height(image, 0.0, mouth_height, MOUTH_CREASE_WINDOW) else {
+        return Vec::new();
+    };
+    let left = fissure::fissure_end(image, (0.0, y), 1.0, MOUTH_CREASE_REACH);
+    let right = fissure::fissure_end(image, (0.0, y), -1.0, MOUTH_CREASE_REACH);
+    let (long, short) = (left.0.max(-right.0), left.0.min(-right.0));
+    if short < MIN_MOUTH_HALF_WIDTH || long / short > MOUTH_SIDES_RATIO {
+        return Vec::new();
+    }
+    let across = first.rotation * DVec3::X;
+    [(MASK_MOUTH_CORNERS[0], left), (MASK_MOUTH_CORNERS[1], right)]
+        .into_iter()
+        .map(|(vertex, (x, y))| Pin::along(vertex, image.head_point(DVec3::new(x, y, 0.0)), across))
+        .collect()
 }
 
 /// Pins for an eye's corners when it is an opening whose ends are seen: the outer corner
