@@ -252,7 +252,7 @@ impl DepthMap {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// A flat square at depth 0 facing +z with a pyramid of height 1 rising from its middle.
@@ -312,19 +312,30 @@ mod tests {
 
     /// A 20 x 20 plate facing +z, raised by `height(x, y)`, as a 41 x 41 grid.
     fn raised_plate(height: impl Fn(f32, f32) -> f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-        let n = 41u32;
-        let positions = (0..n * n)
+        grid_plate([41, 41], Vec2::new(-10.0, -10.0), 0.5, height)
+    }
+
+    /// A plate facing +z: a grid of `columns x rows` vertices `spacing` apart from `corner`,
+    /// raised by `height(x, y)`, two triangles a cell, counter-clockwise seen from +z.
+    pub(crate) fn grid_plate(
+        [columns, rows]: [u32; 2],
+        corner: Vec2,
+        spacing: f32,
+        height: impl Fn(f32, f32) -> f32,
+    ) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let positions = (0..columns * rows)
             .map(|k| {
-                let (x, y) = ((k % n) as f32 * 0.5 - 10.0, (k / n) as f32 * 0.5 - 10.0);
+                let x = corner.x + (k % columns) as f32 * spacing;
+                let y = corner.y + (k / columns) as f32 * spacing;
                 Vec3::new(x, y, height(x, y))
             })
             .collect();
         let mut triangles = Vec::new();
-        for row in 0..n - 1 {
-            for column in 0..n - 1 {
-                let k = row * n + column;
-                triangles.push([k, k + 1, k + n + 1]);
-                triangles.push([k, k + n + 1, k + n]);
+        for row in 0..rows - 1 {
+            for column in 0..columns - 1 {
+                let k = row * columns + column;
+                triangles.push([k, k + 1, k + columns + 1]);
+                triangles.push([k, k + columns + 1, k + columns]);
             }
         }
         (positions, triangles)

@@ -84,36 +84,22 @@ pub fn fissure_end(image: &FrontImage, (x, y): (f64, f64), direction: f64, max_l
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fit::automatic::depth_map::tests::grid_plate;
     use crate::fit::umeyama::Similarity;
     use crate::head::Head;
-    use glam::{DMat3, DVec3, Vec3};
+    use glam::{DMat3, DVec3, Vec2};
 
     /// A plate facing +z, in mask units, with a crease 0.02 deep and 0.03 wide along y = 0
     /// from x = -0.2 to 0.2.
     fn creased_plate() -> Head {
-        const SPACING: f32 = 0.005;
-        let (columns, rows) = (201u32, 121u32);
-        let mut positions = Vec::new();
-        for row in 0..rows {
-            for column in 0..columns {
-                let x = -0.5 + column as f32 * SPACING;
-                let y = -0.3 + row as f32 * SPACING;
-                let z = if x.abs() <= 0.2 {
-                    -0.02 * (1.0 - y.abs() / 0.015).max(0.0)
-                } else {
-                    0.0
-                };
-                positions.push(Vec3::new(x, y, z));
+        let crease = |x: f32, y: f32| {
+            if x.abs() <= 0.2 {
+                -0.02 * (1.0 - y.abs() / 0.015).max(0.0)
+            } else {
+                0.0
             }
-        }
-        let mut triangles = Vec::new();
-        for row in 0..rows - 1 {
-            for column in 0..columns - 1 {
-                let k = row * columns + column;
-                triangles.push([k, k + 1, k + columns + 1]);
-                triangles.push([k, k + columns + 1, k + columns]);
-            }
-        }
+        };
+        let (positions, triangles) = grid_plate([201, 121], Vec2::new(-0.5, -0.3), 0.005, crease);
         Head::new("creased plate", positions, triangles)
     }
 
