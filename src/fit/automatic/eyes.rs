@@ -13,8 +13,7 @@ use super::front_image::FrontImage;
 /// window (x from the midline outwards, y), mask units.
 const WINDOW_X: [f64; 2] = [0.12, 0.5];
 const WINDOW_Y: [f64; 2] = [-0.05, 0.35];
-/// Samples are this far apart (mask units).
-pub const STEP: f64 = 0.008;
+const STEP: f64 = 0.008;
 /// A sample this far behind the window's median surface is seen through an opening.
 const OPENING_BEHIND: f64 = 0.25;
 /// An opening counts when it covers at least this many samples (about 8 mm^2).
