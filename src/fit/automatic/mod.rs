@@ -338,7 +338,7 @@ fn mouth_corner_pins(image: &front_image::FrontImage, mouth_height: f64, first: 
 /// inner end. The lids around an opening are nearly flat across, so the surface alone
 /// hardly sets the eye's width. Held sideways only, the surface sets their height and
 /// depth: held to the surface point past the end instead, MakeHuman's landmark vertices
-/// came 0.7 mm closer to the landmark fit's but its lips folded (40 triangle-frames over
+/// came 0.6 mm closer to the landmark fit's but its lips folded (40 triangle-frames over
 /// 60 degrees on the syllable stream with V, against none).
 fn eye_corner_pins(
     image: &front_image::FrontImage,
