@@ -42,12 +42,13 @@ const MASK_MOUTH_CORNERS: [u32; 2] = [31, 64];
 const MOUTH_CREASE_WINDOW: f64 = 0.03;
 /// ... and followed at most this far to each side.
 const MOUTH_CREASE_REACH: f64 = 0.45;
-/// The mouth's corners are pinned only when they are at least this far from the midline
-/// (CANDIDE's are 0.246 from it) ...
+/// The mouth's corners are pinned only when the fissure reaches at least this far from
+/// the midline (CANDIDE's corners are 0.246 from it) ...
 const MIN_MOUTH_HALF_WIDTH: f64 = 0.1;
-/// ... and their distances from it agree within this factor (1.19 at most on the shipped
-/// heads where they are found, whose first fits sit up to 2 mm aside; 1.33 on the scan,
-/// whose crease fades before its right corner).
+/// ... each at its own end when the two ends' distances from it agree within this factor
+/// (1.19 at most on the shipped heads where both are found, whose first fits sit up to
+/// 2 mm aside), and otherwise both at the farther end, mirrored: a crease fades early
+/// rather than late (the scan's, 1.33, fades 6 mm before its right corner).
 const MOUTH_SIDES_RATIO: f64 = 1.25;
 /// CANDIDE-3's eye corners, inner then outer: left (FP 3.11, 3.7) and right (FP 3.8, 3.12).
 const MASK_LEFT_EYE_CORNERS: [u32; 2] = [23, 20];
@@ -315,7 +316,9 @@ fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Optio
 }
 
 /// Pins (sideways only) for the mouth's corners at the ends of the lips' fissure, when it
-/// is found at the mouth's height and its ends are about as far from the midline.
+/// is found at the mouth's height: at its ends when they are about as far from the
+/// midline, else both at the farther one, mirrored. Left to the surface, the scan's
+/// corners sat 3.8 and 5.1 mm from its marked ones and V folded its lips.
 fn mouth_corner_pins(image: &front_image::FrontImage, mouth_height: f64, first: &Similarity) -> Vec<Pin> {
     let Some(y) = fissure::crease_height(image, 0.0, mouth_height, MOUTH_CREASE_WINDOW) else {
         return Vec::new();
@@ -323,9 +326,15 @@ fn mouth_corner_pins(image: &front_image::FrontImage, mouth_height: f64, first: 
     let left = fissure::fissure_end(image, (0.0, y), 1.0, MOUTH_CREASE_REACH);
     let right = fissure::fissure_end(image, (0.0, y), -1.0, MOUTH_CREASE_REACH);
     let (long, short) = (left.0.max(-right.0), left.0.min(-right.0));
-    if short < MIN_MOUTH_HALF_WIDTH || long / short > MOUTH_SIDES_RATIO {
+    if long < MIN_MOUTH_HALF_WIDTH {
         return Vec::new();
     }
+    let (left, right) = if long / short > MOUTH_SIDES_RATIO {
+        let y = if left.0 >= -right.0 { left.1 } else { right.1 };
+        ((long, y), (-long, y))
+    } else {
+        (left, right)
+    };
     let across = first.rotation * DVec3::X;
     [(MASK_MOUTH_CORNERS[0], left), (MASK_MOUTH_CORNERS[1], right)]
         .into_iter()
