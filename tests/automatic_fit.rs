@@ -5,8 +5,8 @@
 //!
 //! What is held (docs/FITTING.md, "The automatic fit"): on whole heads the mask within 2 mm
 //! of the surface on average, and closer to it than the landmark fit; the ten landmark mask
-//! vertices within 4.7 mm of the landmark fit's on average and 8 mm at most (the goal is
-//! 3 mm on average, reached on three heads: these bounds keep what is); face-only meshes
+//! vertices within 3 mm of the landmark fit's on average (the goal) on every head but
+//! MakeHuman, within 4.7 mm on it, and 8 mm at most on every head; face-only meshes
 //! within 2 mm over the mask vertices with face under them, and within looser bounds
 //! (`FACE_BOUNDS`) counting the mask's outline past the mesh's edge; and MakeHuman and ICT
 //! animated as close to their expression targets as on the landmark fit, with no lip folded
@@ -86,12 +86,19 @@ struct Bounds {
     landmark_vertices_max_mm: f32,
 }
 
-/// Whole heads: the 2 mm to the surface; the landmark vertices where they are today
-/// (means 2.62-4.37 mm, maxima 4.7-7.4 mm).
+/// Whole heads: the 2 mm to the surface and 3 mm for the landmark vertices on
+/// average (measured 2.51-2.99 mm; maxima 4.7-6.9 mm) ...
 const HEAD_BOUNDS: Bounds = Bounds {
     surface_mean_mm: 2.0,
-    landmark_vertices_mean_mm: 4.7,
+    landmark_vertices_mean_mm: 3.0,
     landmark_vertices_max_mm: 8.0,
+};
+
+/// ... but on MakeHuman, whose eye corners the fit lays 5-7 mm deeper than the landmark fit
+/// does, the landmark vertices where they are today (4.37 mm; maximum 7.4 mm).
+const MAKEHUMAN_BOUNDS: Bounds = Bounds {
+    landmark_vertices_mean_mm: 4.7,
+    ..HEAD_BOUNDS
 };
 
 /// Face-only meshes: the mask's outline (forehead top, temples) lies past the mesh's edge
@@ -144,8 +151,13 @@ fn every_shipped_head_is_fitted_close_to_its_landmark_fit() {
         .surface
         .mean_mm;
         eprintln!("{obj}: {c:?}; the landmark fit lies {landmark_fit_surface_mm:.2} mm from the surface");
-        failures.extend(holds(obj, &c, &HEAD_BOUNDS).err());
-        // Measured 1.75 against 3.21 mm (MakeHuman), 1.31 / 2.97 (scan), 1.37 / 1.50 (ICT),
+        let bounds = if obj.contains("makehuman") {
+            &MAKEHUMAN_BOUNDS
+        } else {
+            &HEAD_BOUNDS
+        };
+        failures.extend(holds(obj, &c, bounds).err());
+        // Measured 1.75 against 3.21 mm (MakeHuman), 1.90 / 2.97 (scan), 1.37 / 1.50 (ICT),
         // 1.72 / 2.22 and 1.39 / 2.30 (the identities).
         if c.surface_mean_mm >= landmark_fit_surface_mm {
             failures.push(format!(

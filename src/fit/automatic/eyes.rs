@@ -1,11 +1,14 @@
-//! The centres of the eyes, read under a first fit, which set the mask's scale and width
-//! (the pupils are what `mm_per_unit` is measured by). An eye is either an opening in the
-//! mesh (seen through to the far inside of the head) or a closed lid, a dome that stands out
-//! of the orbit around it. Looked for on each side where CANDIDE puts the eye, in mask units.
+//! The centres and corners of the eyes, read under a first fit, which set the mask's scale
+//! and width (the pupils are what `mm_per_unit` is measured by). An eye is an opening in
+//! the mesh (seen through to the far inside of the head), closed lids (the upper lid's
+//! margin stands in front of the lower lid: a step down across the eye) or, when neither
+//! shows, a dome that stands out of the orbit around it. Looked for on each side where
+//! CANDIDE puts the eye, in mask units.
 //!
-//! An opening also shows where the eye's corners are: the ends of the opening, which set
-//! the mask's eye width (the surface alone hardly does: the lids around an opening are
-//! nearly flat across).
+//! An opening, and closed lids, also show where the eye's corners are (the surface alone
+//! hardly does: the lids around an eye are nearly flat across). An opening's ends are
+//! where the lids part; the inner corner lies a caruncle's width further in. Closed lids'
+//! step fades at the corners themselves.
 
 use super::front_image::FrontImage;
 
@@ -23,24 +26,41 @@ const LID_REACH: f64 = 0.07;
 /// An opening's ends are followed this far out of the window, sideways (mask units); an
 /// opening that reaches further is not an eye's alone, and shows no corners.
 const CORNER_MARGIN: f64 = 0.1;
+/// The inner eye corner (the medial canthus) lies this far toward the nose from where the
+/// opening between the lids ends: the caruncle, the pink mound in the corner, fills the
+/// gap (mask units, about 3 mm; 2.7-3.0 on the shipped ICT heads).
+const CARUNCLE_WIDTH: f64 = 0.03;
+/// CANDIDE's pupil, from the midline, and above the line through its eye corners.
+const PUPIL_X: f64 = 0.3065;
+const PUPIL_ABOVE_CORNERS: f64 = 0.009;
+/// Closed lids: the surface this far (about 1.6 mm) above a sample of the lids' line lies
+/// in front of it by at least this much (about 2 mm; 2.8 on the scan, whose brow and the
+/// fold under it step as much but higher up) ...
+const LID_STEP_SPAN: f64 = 0.016;
+const MIN_LID_STEP: f64 = 0.02;
+/// ... and the line is followed sideways, a sample up or down per sample across, while it
+/// steps at least half as much, and, toward the outer corner, at least half its steepest
+/// step so far (past the corner the orbit's rim steps on, but less).
+const LID_DRIFT: isize = 1;
 
 /// Where an eye was found, mask frame of the first fit (mask units).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EyeCentre {
     pub x: f64,
     pub y: f64,
-    /// The ends of the opening, inner then outer (x, y), when the eye is an opening whose
-    /// ends are seen.
+    /// The eye's corners, inner then outer (x, y), when they are seen: an opening's ends
+    /// or closed lids'.
     pub corners: Option<[(f64, f64); 2]>,
 }
 
 /// The left (+x) and right eye centres, or `None` when either side shows neither an
-/// opening nor a lid.
-pub fn eye_centres(image: &FrontImage) -> Option<[EyeCentre; 2]> {
-    Some([eye(image, 1.0)?, eye(image, -1.0)?])
+/// opening nor lids. Openings and domes are read on `image`, closed lids on the finer
+/// `lids_image`: their step is a millimetre or two high.
+pub fn eye_centres(image: &FrontImage, lids_image: &FrontImage) -> Option<[EyeCentre; 2]> {
+    Some([eye(image, lids_image, 1.0)?, eye(image, lids_image, -1.0)?])
 }
 
-/// Both eyes are openings whose ends are seen, as wide as each other within `ratio`.
+/// Both eyes' corners are seen, as far apart on one side as on the other within `ratio`.
 pub fn opening_widths_agree(eyes: &[EyeCentre; 2], ratio: f64) -> bool {
     let width = |eye: &EyeCentre| eye.corners.map(|[inner, outer]| (outer.0 - inner.0).abs());
     match (width(&eyes[0]), width(&eyes[1])) {
@@ -49,7 +69,7 @@ pub fn opening_widths_agree(eyes: &[EyeCentre; 2], ratio: f64) -> bool {
     }
 }
 
-fn eye(image: &FrontImage, side: f64) -> Option<EyeCentre> {
+fn eye(image: &FrontImage, lids_image: &FrontImage, side: f64) -> Option<EyeCentre> {
     let columns = ((WINDOW_X[1] - WINDOW_X[0]) / STEP) as usize + 1;
     let rows = ((WINDOW_Y[1] - WINDOW_Y[0]) / STEP) as usize + 1;
     let mut samples = Vec::with_capacity(columns * rows);
@@ -75,8 +95,12 @@ fn eye(image: &FrontImage, side: f64) -> Option<EyeCentre> {
         let n = opening.len() as f64;
         let x = opening.iter().map(|p| p.0).sum::<f64>() / n;
         let y = opening.iter().map(|p| p.1).sum::<f64>() / n;
-        let corners = opening_ends(image, side, median - OPENING_BEHIND, (x, y));
+        let corners = opening_ends(image, side, median - OPENING_BEHIND, (x, y))
+            .map(|[inner, outer]| [(inner.0 - side * CARUNCLE_WIDTH, inner.1), outer]);
         return Some(EyeCentre { x, y, corners });
+    }
+    if let Some(closed) = closed_lids(lids_image, side) {
+        return Some(closed);
     }
     let mut best: Option<(f64, EyeCentre)> = None;
     for &(x, y, z) in &samples {
@@ -99,6 +123,59 @@ fn eye(image: &FrontImage, side: f64) -> Option<EyeCentre> {
         }
     }
     best.map(|(_, centre)| centre)
+}
+
+/// How far the surface at (`x`, `y`) lies behind the surface [`LID_STEP_SPAN`] above it.
+fn step_down(image: &FrontImage, x: f64, y: f64) -> Option<f64> {
+    Some(image.z_at(x, y + LID_STEP_SPAN)? - image.z_at(x, y)?)
+}
+
+/// Of the samples `y + k STEP` for `k` in `-rows..=rows`, the one that steps down most,
+/// with that step.
+fn steepest_near(image: &FrontImage, x: f64, y: f64, rows: isize) -> Option<(f64, f64)> {
+    (-rows..=rows)
+        .filter_map(|k| {
+            let at = y + k as f64 * STEP;
+            step_down(image, x, at).map(|step| (at, step))
+        })
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+/// Closed lids: below CANDIDE's pupil, the lowest place in the window that steps down
+/// [`MIN_LID_STEP`] (the brow and the fold under it step as much higher up), its steepest
+/// sample there, and the line followed from it to both corners. `None` when nothing steps
+/// that much, or the line runs off the grid of [`opening_ends`].
+fn closed_lids(image: &FrontImage, side: f64) -> Option<EyeCentre> {
+    let x = side * PUPIL_X;
+    let rows = ((WINDOW_Y[1] - WINDOW_Y[0]) / STEP) as usize;
+    let lowest = (0..=rows)
+        .map(|k| WINDOW_Y[0] + k as f64 * STEP)
+        .find(|&y| step_down(image, x, y).is_some_and(|step| step >= MIN_LID_STEP))?;
+    let (y, step) = steepest_near(image, x, lowest + 2.0 * STEP, 2)?;
+    let follow = |direction: f64| {
+        let outward = direction == side;
+        let (mut end, mut steepest) = ((x, y), step);
+        for k in 1.. {
+            let across = x + direction * k as f64 * STEP;
+            if !(WINDOW_X[0] - CORNER_MARGIN..=WINDOW_X[1] + CORNER_MARGIN).contains(&(side * across)) {
+                return None;
+            }
+            match steepest_near(image, across, end.1, LID_DRIFT) {
+                Some((at, step)) if step >= MIN_LID_STEP / 2.0 && (!outward || step >= steepest / 2.0) => {
+                    steepest = steepest.max(step);
+                    end = (across, at);
+                }
+                _ => return Some(end),
+            }
+        }
+        unreachable!("the grid is finite")
+    };
+    let (outer, inner) = (follow(side)?, follow(-side)?);
+    Some(EyeCentre {
+        x: (inner.0 + outer.0) / 2.0,
+        y: (inner.1 + outer.1) / 2.0 + PUPIL_ABOVE_CORNERS,
+        corners: Some([inner, outer]),
+    })
 }
 
 /// The inner and outer ends (x, y) of the opening around `centre`: the samples seen through
@@ -158,6 +235,71 @@ fn opening_ends(image: &FrontImage, side: f64, behind: f64, centre: (f64, f64)) 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fit::automatic::depth_map::tests::grid_plate;
+    use crate::fit::umeyama::Similarity;
+    use crate::head::Head;
+    use glam::{DMat3, DVec3, Vec2};
+
+    /// The left eye's closed lids on a plate facing +z, in mask units: the upper lid 0.03
+    /// in front of the lower one from x = 0.13 to 0.47 above y = 0.08 (up to 0.16), a step
+    /// a third as high going on from the outer corner (the orbit's rim), and a brow stepping
+    /// 0.06 at y = 0.25.
+    fn closed_left_eye() -> FrontImage {
+        let height = |x: f32, y: f32| {
+            let upper_lid = if (0.08..0.16).contains(&y) {
+                match x {
+                    x if (0.13..=0.47).contains(&x) => 0.03,
+                    x if (0.47..=0.62).contains(&x) => 0.01,
+                    _ => 0.0,
+                }
+            } else {
+                0.0
+            };
+            let brow = if y > 0.25 { 0.06 } else { 0.0 };
+            upper_lid + brow
+        };
+        let (positions, triangles) = grid_plate([176, 126], Vec2::new(0.0, -0.1), 0.004, height);
+        let head = Head::new("closed eye", positions, triangles);
+        let seen_from_the_front = Similarity {
+            rotation: DMat3::IDENTITY,
+            scale: 1.0,
+            translation: DVec3::ZERO,
+        };
+        FrontImage::render(&head, &seen_from_the_front, 1.0, 512)
+    }
+
+    #[test]
+    fn closed_lids_are_found_below_the_brow_and_followed_to_their_corners() {
+        let eye = closed_lids(&closed_left_eye(), 1.0).expect("the lids step");
+        let [inner, outer] = eye.corners.expect("both corners");
+        // Each end within a sample (0.008) and the step's span (0.016) of the lids' line.
+        assert!((inner.0 - 0.13).abs() <= 0.009, "{inner:?}");
+        assert!((outer.0 - 0.47).abs() <= 0.009, "{outer:?}");
+        for (_, y) in [inner, outer] {
+            assert!((0.06..=0.085).contains(&y), "{y}");
+        }
+        assert!((eye.x - 0.3).abs() <= 0.009 && (eye.y - inner.1 - PUPIL_ABOVE_CORNERS).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_plate_with_no_step_below_the_brow_shows_no_closed_lids() {
+        let (positions, triangles) = grid_plate([176, 126], Vec2::new(0.0, -0.1), 0.004, |_, y| {
+            if y > 0.25 {
+                0.06
+            } else {
+                0.0
+            }
+        });
+        let head = Head::new("brow only", positions, triangles);
+        let seen_from_the_front = Similarity {
+            rotation: DMat3::IDENTITY,
+            scale: 1.0,
+            translation: DVec3::ZERO,
+        };
+        let image = FrontImage::render(&head, &seen_from_the_front, 1.0, 512);
+        // The brow's step is the lowest, and is followed until it runs off the grid.
+        assert_eq!(closed_lids(&image, 1.0), None);
+    }
 
     fn eye(corners: Option<[(f64, f64); 2]>) -> EyeCentre {
         EyeCentre {

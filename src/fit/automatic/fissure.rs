@@ -111,7 +111,7 @@ mod tests {
             scale: 1.0,
             translation: DVec3::ZERO,
         };
-        let image = FrontImage::render(&head, &seen_from_the_front, 1.0);
+        let image = FrontImage::render(&head, &seen_from_the_front, 1.0, 256);
         let y = crease_height(&image, 0.0, 0.02, 0.03).expect("the crease is there");
         assert!(y.abs() <= 0.004, "{y}");
         let (left, at) = fissure_end(&image, (0.0, y), 1.0, 0.45);

@@ -8,9 +8,6 @@ use super::depth_map::{DepthMap, View};
 use crate::fit::umeyama::Similarity;
 use crate::head::Head;
 
-/// Cells along the longer side of the range image.
-const CELLS: usize = 256;
-
 pub struct FrontImage {
     similarity: Similarity,
     view: View,
@@ -20,13 +17,13 @@ pub struct FrontImage {
 }
 
 impl FrontImage {
-    /// `winding` as for [`DepthMap::render`].
-    pub fn render(head: &Head, similarity: &Similarity, winding: f32) -> FrontImage {
+    /// `winding` as for [`DepthMap::render`]; `cells` along the image's longer side.
+    pub fn render(head: &Head, similarity: &Similarity, winding: f32, cells: usize) -> FrontImage {
         let view = View::of_rotation(similarity.rotation.as_mat3());
         FrontImage {
             similarity: *similarity,
             view,
-            map: DepthMap::render(&head.positions, &head.triangles, view, CELLS, winding),
+            map: DepthMap::render(&head.positions, &head.triangles, view, cells, winding),
             forward_offset: similarity.translation.dot(view.forward.as_dvec3()),
         }
     }

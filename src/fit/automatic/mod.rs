@@ -53,10 +53,10 @@ const MOUTH_SIDES_RATIO: f64 = 1.25;
 /// CANDIDE-3's eye corners, inner then outer: left (FP 3.11, 3.7) and right (FP 3.8, 3.12).
 const MASK_LEFT_EYE_CORNERS: [u32; 2] = [23, 20];
 const MASK_RIGHT_EYE_CORNERS: [u32; 2] = [56, 53];
-/// The inner eye corner (the medial canthus) lies this far toward the nose from where the
-/// opening between the lids ends: the caruncle, the pink mound in the corner, fills the
-/// gap (mask units, about 3 mm; 2.7-3.0 on the shipped ICT heads).
-const CARUNCLE_WIDTH: f64 = 0.03;
+/// Cells along the longer side of the range image in front of the first fit ...
+const FRONT_IMAGE_CELLS: usize = 256;
+/// ... and of the finer one closed lids are read on.
+const LIDS_IMAGE_CELLS: usize = 512;
 /// Directions the head is looked at from, evenly around +y.
 const VIEWS: usize = 24;
 /// Cells along the longer side of each range image.
@@ -282,7 +282,8 @@ pub fn fit_automatically(
 /// fissure, and the pupils and eye corners on the eyes (the corners when both sides
 /// agree). `None` when the profile shows no mouth.
 fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Option<Vec<Pin>> {
-    let image = front_image::FrontImage::render(head, &fit.similarity, winding);
+    let image = front_image::FrontImage::render(head, &fit.similarity, winding, FRONT_IMAGE_CELLS);
+    let lids_image = front_image::FrontImage::render(head, &fit.similarity, winding, LIDS_IMAGE_CELLS);
     let shaped = mask.shaped(&fit.shape);
     let features = profile::midline_features(&image)?;
     let mut pins = vec![Pin::at(MASK_NOSE_TIP, features.nose_tip)];
@@ -294,7 +295,7 @@ fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Optio
         ));
     }
     pins.extend(mouth_corner_pins(&image, features.mouth_height, &fit.similarity));
-    if let Some(centres) = eyes::eye_centres(&image) {
+    if let Some(centres) = eyes::eye_centres(&image, &lids_image) {
         if eyes::opening_widths_agree(&centres, EYE_WIDTHS_RATIO) {
             for (centre, corners) in centres
                 .iter()
@@ -342,33 +343,27 @@ fn mouth_corner_pins(image: &front_image::FrontImage, mouth_height: f64, first: 
         .collect()
 }
 
-/// Pins (sideways only) for an eye's corners when it is an opening whose ends are seen: the
-/// outer corner at the opening's outer end, the inner one a caruncle's width past its
-/// inner end. The lids around an opening are nearly flat across, so the surface alone
-/// hardly sets the eye's width. Held sideways only, the surface sets their height and
-/// depth: held to the surface point past the end instead, MakeHuman's landmark vertices
-/// came 0.6 mm closer to the landmark fit's but its lips folded (40 triangle-frames over
-/// 60 degrees on the syllable stream with V, against none).
+/// Pins (sideways only) for an eye's corners, when they are seen ([`eyes`]). The lids
+/// around an eye are nearly flat across, so the surface alone hardly sets the eye's width.
+/// Held sideways only, the surface sets their height and depth: held to the surface point
+/// past an opening's outer end instead, MakeHuman's landmark vertices came 0.6 mm closer
+/// to the landmark fit's but its lips folded (40 triangle-frames over 60 degrees on the
+/// syllable stream with V, against none).
 fn eye_corner_pins(
     image: &front_image::FrontImage,
     eye: &eyes::EyeCentre,
     [inner_vertex, outer_vertex]: [u32; 2],
     first: &Similarity,
 ) -> Vec<Pin> {
-    let Some([inner, outer]) = eye.corners else {
+    let Some(corners) = eye.corners else {
         return Vec::new();
     };
-    let outward = outer.0.signum();
     let across = first.rotation * DVec3::X;
-    let canthus = DVec3::new(inner.0 - outward * CARUNCLE_WIDTH, inner.1, 0.0);
-    vec![
-        Pin::along(
-            outer_vertex,
-            image.head_point(DVec3::new(outer.0, outer.1, 0.0)),
-            across,
-        ),
-        Pin::along(inner_vertex, image.head_point(canthus), across),
-    ]
+    [inner_vertex, outer_vertex]
+        .into_iter()
+        .zip(corners)
+        .map(|(vertex, (x, y))| Pin::along(vertex, image.head_point(DVec3::new(x, y, 0.0)), across))
+        .collect()
 }
 
 /// The view whose nose lies on the head's plane of mirror symmetry, and the places in it
