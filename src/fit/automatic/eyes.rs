@@ -152,14 +152,12 @@ fn closed_lids(image: &FrontImage, side: f64) -> Option<EyeCentre> {
         .map(|k| WINDOW_Y[0] + k as f64 * STEP)
         .find(|&y| step_down(image, x, y).is_some_and(|step| step >= MIN_LID_STEP))?;
     let (y, step) = steepest_near(image, x, lowest + 2.0 * STEP, 2)?;
+    let grid = WINDOW_X[0] - CORNER_MARGIN..=WINDOW_X[1] + CORNER_MARGIN;
     let follow = |direction: f64| {
         let outward = direction == side;
         let (mut end, mut steepest) = ((x, y), step);
-        for k in 1.. {
-            let across = x + direction * k as f64 * STEP;
-            if !(WINDOW_X[0] - CORNER_MARGIN..=WINDOW_X[1] + CORNER_MARGIN).contains(&(side * across)) {
-                return None;
-            }
+        let mut across = x + direction * STEP;
+        while grid.contains(&(side * across)) {
             match steepest_near(image, across, end.1, LID_DRIFT) {
                 Some((at, step)) if step >= MIN_LID_STEP / 2.0 && (!outward || step >= steepest / 2.0) => {
                     steepest = steepest.max(step);
@@ -167,8 +165,9 @@ fn closed_lids(image: &FrontImage, side: f64) -> Option<EyeCentre> {
                 }
                 _ => return Some(end),
             }
+            across += direction * STEP;
         }
-        unreachable!("the grid is finite")
+        None
     };
     let (outer, inner) = (follow(side)?, follow(-side)?);
     Some(EyeCentre {
@@ -258,14 +257,23 @@ mod tests {
             let brow = if y > 0.25 { 0.06 } else { 0.0 };
             upper_lid + brow
         };
+        front_of_plate("closed eye", height)
+    }
+
+    /// A plate (mask units) raised by `height`, seen from the front as the lids are.
+    fn front_of_plate(name: &str, height: impl Fn(f32, f32) -> f32) -> FrontImage {
         let (positions, triangles) = grid_plate([176, 126], Vec2::new(0.0, -0.1), 0.004, height);
-        let head = Head::new("closed eye", positions, triangles);
         let seen_from_the_front = Similarity {
             rotation: DMat3::IDENTITY,
             scale: 1.0,
             translation: DVec3::ZERO,
         };
-        FrontImage::render(&head, &seen_from_the_front, 1.0, 512)
+        FrontImage::render(
+            &Head::new(name, positions, triangles),
+            &seen_from_the_front,
+            1.0,
+            512,
+        )
     }
 
     #[test]
@@ -278,25 +286,13 @@ mod tests {
         for (_, y) in [inner, outer] {
             assert!((0.06..=0.085).contains(&y), "{y}");
         }
-        assert!((eye.x - 0.3).abs() <= 0.009 && (eye.y - inner.1 - PUPIL_ABOVE_CORNERS).abs() < 1e-9);
+        let corners_y = (inner.1 + outer.1) / 2.0;
+        assert!((eye.x - 0.3).abs() <= 0.009 && (eye.y - corners_y - PUPIL_ABOVE_CORNERS).abs() < 1e-9);
     }
 
     #[test]
     fn a_plate_with_no_step_below_the_brow_shows_no_closed_lids() {
-        let (positions, triangles) = grid_plate([176, 126], Vec2::new(0.0, -0.1), 0.004, |_, y| {
-            if y > 0.25 {
-                0.06
-            } else {
-                0.0
-            }
-        });
-        let head = Head::new("brow only", positions, triangles);
-        let seen_from_the_front = Similarity {
-            rotation: DMat3::IDENTITY,
-            scale: 1.0,
-            translation: DVec3::ZERO,
-        };
-        let image = FrontImage::render(&head, &seen_from_the_front, 1.0, 512);
+        let image = front_of_plate("brow only", |_, y| if y > 0.25 { 0.06 } else { 0.0 });
         // The brow's step is the lowest, and is followed until it runs off the grid.
         assert_eq!(closed_lids(&image, 1.0), None);
     }
