@@ -102,7 +102,7 @@ const MAKEHUMAN_BOUNDS: Bounds = Bounds {
 };
 
 /// Face-only meshes: the mask's outline (forehead top, temples) lies past the mesh's edge
-/// and counts in the surface distance; measured 3.7 and 3.5 mm.
+/// and counts in the surface distance; measured 3.7, 3.7 and 3.5 mm (MakeHuman, scan, ICT).
 const FACE_BOUNDS: Bounds = Bounds {
     surface_mean_mm: 4.5,
     landmark_vertices_mean_mm: 8.0,
@@ -173,7 +173,7 @@ fn every_shipped_head_is_fitted_close_to_its_landmark_fit() {
 fn a_face_cut_out_of_a_head_is_fitted_like_the_head() {
     let mask = Mask::candide3();
     let mut failures = Vec::new();
-    for (obj, landmarks) in [HEADS[0], HEADS[2]] {
+    for (obj, landmarks) in [HEADS[0], HEADS[1], HEADS[2]] {
         let (head, landmarks, reference) = shipped(obj, landmarks);
         let nose = head.positions[landmarks
             .landmarks
