@@ -1,7 +1,7 @@
 //! The automatic fit (no landmarks) against the shipped landmark fits, head by head, on
-//! face-only meshes cut out of the heads, on a head turned to look along +x and on heads in
-//! other units; and refused, with the reason, on a head lying on its side and on a mesh
-//! with no face.
+//! face-only meshes cut out of the heads, on heads with eyeballs, on a head turned to look
+//! along +x and on heads in other units; and refused, with the reason, on a head lying on
+//! its side and on a mesh with no face.
 //!
 //! What is held (docs/FITTING.md, "The automatic fit"): on whole heads the mask within 2 mm
 //! of the surface on average, and closer to it than the landmark fit; the ten landmark mask
@@ -420,4 +420,96 @@ fn the_scan_s_lips_do_not_fold_on_its_automatic_fit() {
     let (lip_folds, fold_deg) = folds_with_v(&Registration::new(head, FittedMask::new(mask, automatic.fit)));
     eprintln!("scan: {lip_folds} lip folds on the automatic fit, sharpest fold {fold_deg:.1} deg");
     assert_eq!(lip_folds, 0);
+}
+
+/// `head` with an eyeball (a sphere of `radius_mm`) behind each pupil of `fit`, its front
+/// `gap_mm` behind the pupil, wound as the head is.
+fn with_eyeballs(head: &Head, fit: &Fit, radius_mm: f32, gap_mm: f32) -> Head {
+    let fitted = FittedMask::new(Mask::candide3(), fit.clone());
+    let forward = fit.pose.rotation() * Vec3::Z;
+    let signed_volume: f32 = head
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|k| head.positions[k as usize]);
+            a.dot(b.cross(c))
+        })
+        .sum();
+    let (radius, gap) = (radius_mm / fit.mm_per_unit, gap_mm / fit.mm_per_unit);
+    let mut positions = head.positions.clone();
+    let mut triangles = head.triangles.clone();
+    const RINGS: u32 = 16;
+    const SEGMENTS: u32 = 24;
+    for pupil in [[67, 68, 71, 72], [69, 70, 73, 74]] {
+        let front = pupil.iter().map(|&j| fitted.neutral[j]).sum::<Vec3>() / 4.0;
+        let centre = front - forward * (radius + gap);
+        let first = positions.len() as u32;
+        for ring in 0..=RINGS {
+            let polar = std::f32::consts::PI * ring as f32 / RINGS as f32;
+            for segment in 0..SEGMENTS {
+                let azimuth = std::f32::consts::TAU * segment as f32 / SEGMENTS as f32;
+                let direction = Vec3::new(
+                    polar.sin() * azimuth.cos(),
+                    polar.cos(),
+                    polar.sin() * azimuth.sin(),
+                );
+                positions.push(centre + direction * radius);
+            }
+        }
+        for ring in 0..RINGS {
+            for segment in 0..SEGMENTS {
+                let k = |r: u32, s: u32| first + r * SEGMENTS + s % SEGMENTS;
+                let quad = [
+                    k(ring, segment),
+                    k(ring, segment + 1),
+                    k(ring + 1, segment + 1),
+                    k(ring + 1, segment),
+                ];
+                for mut t in [[quad[0], quad[1], quad[2]], [quad[0], quad[2], quad[3]]] {
+                    let [a, b, c] = t.map(|v| positions[v as usize] - centre);
+                    if (a.dot(b.cross(c)) > 0.0) != (signed_volume > 0.0) {
+                        t.swap(1, 2);
+                    }
+                    triangles.push(t);
+                }
+            }
+        }
+    }
+    Head::new(&head.name, positions, triangles)
+}
+
+/// Game heads often carry their eyeballs: behind the lids there is then no opening to see
+/// through. ICT's lids then step onto the eyeball and are read as closed lids (their
+/// corners found); MakeHuman's step too little, and its eyes are found as domes, without
+/// corners. Measured: MakeHuman 4.48 mm from the landmark fit's landmark vertices (4.37
+/// without eyeballs), ICT 2.81 (2.85); 1.87 and 1.44 mm from the surface.
+#[test]
+fn a_head_with_eyeballs_behind_its_lids_is_fitted_as_without() {
+    let mask = Mask::candide3();
+    let mut failures = Vec::new();
+    for (obj, landmarks) in [HEADS[0], HEADS[2]] {
+        let (head, landmarks, reference) = shipped(obj, landmarks);
+        let without = compare(
+            &head,
+            &fit_automatically(&head, &mask, None).unwrap(),
+            &reference,
+            &mask_vertices(&landmarks),
+        );
+        let eyed = with_eyeballs(&head, &reference, 12.0, 1.0);
+        // Measured against the head without its eyeballs: they are not face.
+        let with = compare(
+            &head,
+            &fit_automatically(&eyed, &mask, None).unwrap(),
+            &reference,
+            &mask_vertices(&landmarks),
+        );
+        eprintln!("{obj} with eyeballs: {with:?}");
+        if with.surface_mean_mm >= 2.0
+            || with.landmark_vertices_mean_mm > without.landmark_vertices_mean_mm + 0.3
+            || !(0.92..1.05).contains(&with.mm_per_unit_ratio)
+        {
+            failures.push(format!("{obj}: with eyeballs {with:?}, without {without:?}"));
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
 }
