@@ -61,7 +61,7 @@ pub fn eye_centres(image: &FrontImage, lids_image: &FrontImage) -> Option<[EyeCe
 }
 
 /// Both eyes' corners are seen, as far apart on one side as on the other within `ratio`.
-pub fn opening_widths_agree(eyes: &[EyeCentre; 2], ratio: f64) -> bool {
+pub fn eye_widths_agree(eyes: &[EyeCentre; 2], ratio: f64) -> bool {
     let width = |eye: &EyeCentre| eye.corners.map(|[inner, outer]| (outer.0 - inner.0).abs());
     match (width(&eyes[0]), width(&eyes[1])) {
         (Some(left), Some(right)) if left > 0.0 && right > 0.0 => left.max(right) / left.min(right) <= ratio,
@@ -310,9 +310,9 @@ mod tests {
         let left = eye(Some([(0.2, 0.1), (0.42, 0.1)]));
         let right = |outer: f64| eye(Some([(-0.2, 0.1), (outer, 0.1)]));
         // 0.22 against 0.2: 1.1 apart.
-        assert!(opening_widths_agree(&[left, right(-0.4)], 1.15));
+        assert!(eye_widths_agree(&[left, right(-0.4)], 1.15));
         // 0.22 against 0.15: 1.47 apart, as on a first fit that sat aside.
-        assert!(!opening_widths_agree(&[left, right(-0.35)], 1.15));
-        assert!(!opening_widths_agree(&[left, eye(None)], 1.15));
+        assert!(!eye_widths_agree(&[left, right(-0.35)], 1.15));
+        assert!(!eye_widths_agree(&[left, eye(None)], 1.15));
     }
 }

@@ -31,9 +31,10 @@ use depth_map::{DepthMap, NoseCandidate, View};
 const MASK_NOSE_TIP: u32 = 5;
 /// CANDIDE-3's mouth middle: the inner lips, upper and lower, which meet at rest.
 const MASK_MOUTH_MIDDLE: [u32; 2] = [40, 87];
-/// The eye corners are pinned only when the two openings between the lids are as wide
-/// within this factor (1.04 at most on the shipped heads); a first fit that sat aside reads
-/// them askew (a head with its mouth open, 1.47).
+/// The eye corners are pinned only when the two eyes are as wide, corner to corner,
+/// within this factor (1.04 at most on the shipped heads' openings, 1.08 on the scan's
+/// closed lids); a first fit that sat aside reads them askew (a head with its mouth open,
+/// 1.39).
 const EYE_WIDTHS_RATIO: f64 = 1.15;
 /// CANDIDE-3's mouth corners, left (FP 8.3) and right (FP 8.4).
 const MASK_MOUTH_CORNERS: [u32; 2] = [31, 64];
@@ -296,7 +297,7 @@ fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Optio
     }
     pins.extend(mouth_corner_pins(&image, features.mouth_height, &fit.similarity));
     if let Some(centres) = eyes::eye_centres(&image, &lids_image) {
-        if eyes::opening_widths_agree(&centres, EYE_WIDTHS_RATIO) {
+        if eyes::eye_widths_agree(&centres, EYE_WIDTHS_RATIO) {
             for (centre, corners) in centres
                 .iter()
                 .zip([MASK_LEFT_EYE_CORNERS, MASK_RIGHT_EYE_CORNERS])
