@@ -109,6 +109,12 @@ fn fit_without_landmarks_finds_the_face_and_guesses_the_units() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("with no landmarks"), "{stdout}");
     assert!(stdout.contains("probably in centimetres"), "{stdout}");
+    assert!(
+        stdout.contains(
+            "found: both eyes as openings, their corners pinned; mouth corners at the ends of the lips' fissure"
+        ),
+        "{stdout}"
+    );
     // The fit report: the regions' table and the mouth at rest.
     assert!(
         stdout.contains("forehead and cheeks") && stdout.contains("inner lips apart at rest"),
@@ -129,6 +135,10 @@ fn fit_without_landmarks_finds_the_face_and_guesses_the_units() {
     json_args.push("--json");
     let report = json(&json_args);
     assert_eq!(report["unit_guess"], "centimetres");
+    assert_eq!(
+        report["found"],
+        serde_json::json!({"eyes": ["opening", "opening"], "eye_corners_pinned": true, "mouth_corners": "at_both_ends"})
+    );
     assert_eq!(report["mm_per_unit_source"], "63 mm pupil separation");
     assert!(
         report["report"]["surface"]["mean_mm"].as_f64().unwrap() < 2.0,

@@ -8,8 +8,8 @@ use super::{load_head, load_mask, print_json, CliResult, FilePath};
 use crate::atomic::write_atomic;
 use crate::fit::limits::{in_range, MM_PER_UNIT_RANGE};
 use crate::fit::{
-    fit_automatically, fit_from_landmarks, report, residuals, solve_fit, AutomaticFit, Fit, FitFile,
-    FitReport, FittedMask, Landmarks, Residuals, SolveOptions,
+    fit_automatically, fit_from_landmarks, report, residuals, solve_fit, AutomaticFit, EyeKind, Fit, FitFile,
+    FitReport, FittedMask, FoundFeatures, Landmarks, MouthCorners, Residuals, SolveOptions,
 };
 use crate::head::Head;
 use crate::mask::Mask;
@@ -68,6 +68,8 @@ struct AutomaticReport {
     forward: [f32; 3],
     /// The nose tip found, head units.
     nose_tip: [f32; 3],
+    /// The eyes and mouth corners found and pinned.
+    found: FoundFeatures,
     report: FitReport,
 }
 
@@ -91,6 +93,7 @@ fn automatic(args: &Args, head: &Head, mask: &Mask) -> CliResult {
             unit_guess: found.unit_name(),
             forward: found.forward.to_array(),
             nose_tip: found.nose_tip.to_array(),
+            found: found.found,
             report,
         });
     }
@@ -109,9 +112,48 @@ fn automatic(args: &Args, head: &Head, mask: &Mask) -> CliResult {
         "mm per head unit: {:.4} ({source}{unit}); scale {:.5} head units per mask unit",
         found.fit.mm_per_unit, found.fit.pose.scale.x
     );
+    println!("found: {}", found_in_words(&found.found));
     print_report(&report);
     println!("wrote {}", args.out.display());
     Ok(())
+}
+
+/// What the automatic fit found, as `facewire fit` prints it.
+fn found_in_words(found: &FoundFeatures) -> String {
+    // One eye's kind, and both eyes'.
+    let names = |kind: EyeKind| match kind {
+        EyeKind::Opening => ("an opening", "openings"),
+        EyeKind::ClosedLids => ("closed lids", "closed lids"),
+        EyeKind::Dome => ("a dome", "domes"),
+    };
+    let eyes = match found.eyes {
+        None => "no eyes (left to the surface)".to_string(),
+        Some([left, right]) => {
+            let kinds = if left == right {
+                format!("both eyes as {}", names(left).1)
+            } else {
+                format!(
+                    "the left eye as {}, the right as {}",
+                    names(left).0,
+                    names(right).0
+                )
+            };
+            let corners = if found.eye_corners_pinned {
+                "their corners pinned"
+            } else {
+                "their corners left to the surface"
+            };
+            format!("{kinds}, {corners}")
+        }
+    };
+    let mouth = match found.mouth_corners {
+        MouthCorners::AtBothEnds => "mouth corners at the ends of the lips' fissure",
+        MouthCorners::Mirrored => {
+            "mouth corners at the fissure's farther end, mirrored (it fades early on one side)"
+        }
+        MouthCorners::NotFound => "mouth corners left to the surface (no fissure at the mouth)",
+    };
+    format!("{eyes}; {mouth}")
 }
 
 /// The report of `fit` on `head`.

@@ -22,7 +22,9 @@ use glam::Vec3;
 use crate::mask::{fap, FapuValues, Mask, MaskPose};
 
 pub use anchors::{anchor_mask, Anchors};
-pub use automatic::{fit_automatically, AutomaticFit, AutomaticFitError};
+pub use automatic::{
+    fit_automatically, AutomaticFit, AutomaticFitError, EyeKind, FoundFeatures, MouthCorners,
+};
 pub use file::{FitFile, FitFileError, Nudge};
 pub use from_landmarks::{fit_from_landmarks, FitError, LandmarkFit};
 pub use landmarks::{Landmark, LandmarkError, Landmarks};

@@ -43,11 +43,24 @@ const MIN_LID_STEP: f64 = 0.02;
 /// step so far (past the corner the orbit's rim steps on, but less).
 const LID_DRIFT: isize = 1;
 
+/// How an eye showed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EyeKind {
+    /// An opening between the lids, seen through.
+    Opening,
+    /// Closed lids: the upper lid's margin steps down onto the lower lid (or an eyeball).
+    ClosedLids,
+    /// A dome standing out of the orbit; no corners.
+    Dome,
+}
+
 /// Where an eye was found, mask frame of the first fit (mask units).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EyeCentre {
     pub x: f64,
     pub y: f64,
+    pub kind: EyeKind,
     /// The eye's corners, inner then outer (x, y), when they are seen: an opening's ends
     /// or closed lids'.
     pub corners: Option<[(f64, f64); 2]>,
@@ -97,7 +110,12 @@ fn eye(image: &FrontImage, lids_image: &FrontImage, side: f64) -> Option<EyeCent
         let y = opening.iter().map(|p| p.1).sum::<f64>() / n;
         let corners = opening_ends(image, side, median - OPENING_BEHIND, (x, y))
             .map(|[inner, outer]| [(inner.0 - side * CARUNCLE_WIDTH, inner.1), outer]);
-        return Some(EyeCentre { x, y, corners });
+        return Some(EyeCentre {
+            x,
+            y,
+            kind: EyeKind::Opening,
+            corners,
+        });
     }
     if let Some(closed) = closed_lids(lids_image, side) {
         return Some(closed);
@@ -119,7 +137,15 @@ fn eye(image: &FrontImage, lids_image: &FrontImage, side: f64) -> Option<EyeCent
         };
         let prominence = z - highest_around;
         if prominence > 0.0 && best.is_none_or(|(p, _)| prominence > p) {
-            best = Some((prominence, EyeCentre { x, y, corners: None }));
+            best = Some((
+                prominence,
+                EyeCentre {
+                    x,
+                    y,
+                    kind: EyeKind::Dome,
+                    corners: None,
+                },
+            ));
         }
     }
     best.map(|(_, centre)| centre)
@@ -173,6 +199,7 @@ fn closed_lids(image: &FrontImage, side: f64) -> Option<EyeCentre> {
     Some(EyeCentre {
         x: (inner.0 + outer.0) / 2.0,
         y: (inner.1 + outer.1) / 2.0 + PUPIL_ABOVE_CORNERS,
+        kind: EyeKind::ClosedLids,
         corners: Some([inner, outer]),
     })
 }
@@ -301,6 +328,7 @@ mod tests {
         EyeCentre {
             x: 0.3,
             y: 0.1,
+            kind: EyeKind::Opening,
             corners,
         }
     }

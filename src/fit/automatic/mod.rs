@@ -26,6 +26,7 @@ use crate::head::Head;
 use crate::mask::{fap, Mask};
 use closest_points::{lay_mask, Pin};
 use depth_map::{DepthMap, NoseCandidate, View};
+pub use eyes::EyeKind;
 
 /// CANDIDE-3's nose tip (FP 9.3).
 const MASK_NOSE_TIP: u32 = 5;
@@ -138,6 +139,32 @@ pub struct AutomaticFit {
     pub score: f64,
     /// No `mm_per_unit` was given; it comes from 63 mm pupils.
     pub mm_per_unit_from_pupils: bool,
+    /// What the face showed in front of the first fit, and so what was pinned.
+    pub found: FoundFeatures,
+}
+
+/// The features the automatic fit found and pinned the mask to, besides the nose tip and
+/// the mouth's height: when one is missing the surface alone places that part of the mask.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct FoundFeatures {
+    /// How the left and right eyes showed (their pupils pinned), or `None` when either did
+    /// not.
+    pub eyes: Option<[EyeKind; 2]>,
+    /// The eyes' corners were seen and agreed, and were pinned.
+    pub eye_corners_pinned: bool,
+    pub mouth_corners: MouthCorners,
+}
+
+/// Where the mouth's corners were pinned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MouthCorners {
+    /// At both ends of the lips' fissure.
+    AtBothEnds,
+    /// Both at the farther end, mirrored: the fissure faded early on one side.
+    Mirrored,
+    /// Not pinned: no fissure at the mouth's height, or too short.
+    NotFound,
 }
 
 impl AutomaticFit {
@@ -223,7 +250,7 @@ pub fn fit_automatically(
     // Pin the mask's nose tip, mouth, pupils and eye corners to what the face shows in
     // front of it, and lay it again.
     let first = best.solution.clone();
-    let pins = face_pins(head, mask, &first, winding).ok_or_else(|| AutomaticFitError::NoMouth {
+    let (pins, found) = face_pins(head, mask, &first, winding).ok_or_else(|| AutomaticFitError::NoMouth {
         head: name(),
         nose_tip: nose.tip,
     })?;
@@ -275,6 +302,7 @@ pub fn fit_automatically(
         nose_tip: nose.tip,
         score: best.score,
         mm_per_unit_from_pupils: from_pupils,
+        found,
     })
 }
 
@@ -282,7 +310,7 @@ pub fn fit_automatically(
 /// mouth's middle at the profile's mouth height and its corners at the ends of the lips'
 /// fissure, and the pupils and eye corners on the eyes (the corners when both sides
 /// agree). `None` when the profile shows no mouth.
-fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Option<Vec<Pin>> {
+fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Option<(Vec<Pin>, FoundFeatures)> {
     let image = front_image::FrontImage::render(head, &fit.similarity, winding, FRONT_IMAGE_CELLS);
     let lids_image = front_image::FrontImage::render(head, &fit.similarity, winding, LIDS_IMAGE_CELLS);
     let shaped = mask.shaped(&fit.shape);
@@ -295,9 +323,17 @@ fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Optio
             image.head_point(DVec3::new(lips.x, features.mouth_height, lips.z)),
         ));
     }
-    pins.extend(mouth_corner_pins(&image, features.mouth_height, &fit.similarity));
+    let (mouth_pins, mouth_corners) = mouth_corner_pins(&image, features.mouth_height, &fit.similarity);
+    pins.extend(mouth_pins);
+    let mut found = FoundFeatures {
+        eyes: None,
+        eye_corners_pinned: false,
+        mouth_corners,
+    };
     if let Some(centres) = eyes::eye_centres(&image, &lids_image) {
+        found.eyes = Some(centres.map(|centre| centre.kind));
         if eyes::eye_widths_agree(&centres, EYE_WIDTHS_RATIO) {
+            found.eye_corners_pinned = true;
             for (centre, corners) in centres
                 .iter()
                 .zip([MASK_LEFT_EYE_CORNERS, MASK_RIGHT_EYE_CORNERS])
@@ -314,34 +350,39 @@ fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Optio
             }
         }
     }
-    Some(pins)
+    Some((pins, found))
 }
 
 /// Pins (sideways only) for the mouth's corners at the ends of the lips' fissure, when it
 /// is found at the mouth's height: at its ends when they are about as far from the
 /// midline, else both at the farther one, mirrored. Left to the surface, the scan's
 /// corners sat 3.8 and 5.1 mm from its marked ones and V folded its lips.
-fn mouth_corner_pins(image: &front_image::FrontImage, mouth_height: f64, first: &Similarity) -> Vec<Pin> {
+fn mouth_corner_pins(
+    image: &front_image::FrontImage,
+    mouth_height: f64,
+    first: &Similarity,
+) -> (Vec<Pin>, MouthCorners) {
     let Some(y) = fissure::crease_height(image, 0.0, mouth_height, MOUTH_CREASE_WINDOW) else {
-        return Vec::new();
+        return (Vec::new(), MouthCorners::NotFound);
     };
     let left = fissure::fissure_end(image, (0.0, y), 1.0, MOUTH_CREASE_REACH);
     let right = fissure::fissure_end(image, (0.0, y), -1.0, MOUTH_CREASE_REACH);
     let (long, short) = (left.0.max(-right.0), left.0.min(-right.0));
     if long < MIN_MOUTH_HALF_WIDTH {
-        return Vec::new();
+        return (Vec::new(), MouthCorners::NotFound);
     }
-    let (left, right) = if long / short > MOUTH_SIDES_RATIO {
+    let (left, right, corners) = if long / short > MOUTH_SIDES_RATIO {
         let y = if left.0 >= -right.0 { left.1 } else { right.1 };
-        ((long, y), (-long, y))
+        ((long, y), (-long, y), MouthCorners::Mirrored)
     } else {
-        (left, right)
+        (left, right, MouthCorners::AtBothEnds)
     };
     let across = first.rotation * DVec3::X;
-    [(MASK_MOUTH_CORNERS[0], left), (MASK_MOUTH_CORNERS[1], right)]
+    let pins = [(MASK_MOUTH_CORNERS[0], left), (MASK_MOUTH_CORNERS[1], right)]
         .into_iter()
         .map(|(vertex, (x, y))| Pin::along(vertex, image.head_point(DVec3::new(x, y, 0.0)), across))
-        .collect()
+        .collect();
+    (pins, corners)
 }
 
 /// Pins (sideways only) for an eye's corners, when they are seen ([`eyes`]). The lids
