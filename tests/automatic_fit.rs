@@ -20,7 +20,7 @@ use facewire::fit::{
     EyeKind, Fit, FitWarning, FittedMask, FoundFeatures, Landmarks, MouthCorners,
 };
 use facewire::head::Head;
-use facewire::mask::Mask;
+use facewire::mask::{fap, Mask};
 use facewire::report::{compare as compare_algorithms, parse_algorithms, CompareInput};
 use facewire::stream::ArkitBasis;
 use facewire::targets::ExpressionTarget;
@@ -462,8 +462,8 @@ fn with_eyeballs(head: &Head, fit: &Fit, radius_mm: f32, gap_mm: f32) -> Head {
     let mut triangles = head.triangles.clone();
     const RINGS: u32 = 16;
     const SEGMENTS: u32 = 24;
-    for pupil in [[67, 68, 71, 72], [69, 70, 73, 74]] {
-        let front = pupil.iter().map(|&j| fitted.neutral[j]).sum::<Vec3>() / 4.0;
+    for pupil in [&fap::LEFT_PUPIL, &fap::RIGHT_PUPIL] {
+        let front = fap::centroid(&fitted.neutral, pupil);
         let centre = front - forward * (radius + gap);
         let first = positions.len() as u32;
         for ring in 0..=RINGS {

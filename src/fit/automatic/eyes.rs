@@ -67,10 +67,14 @@ pub struct EyeCentre {
 }
 
 /// The left (+x) and right eye centres, or `None` when either side shows neither an
-/// opening nor lids. Openings and domes are read on `image`, closed lids on the finer
-/// `lids_image`: their step is a millimetre or two high.
-pub fn eye_centres(image: &FrontImage, lids_image: &FrontImage) -> Option<[EyeCentre; 2]> {
-    Some([eye(image, lids_image, 1.0)?, eye(image, lids_image, -1.0)?])
+/// opening nor lids. Openings and domes are read on `image`, closed lids on the finer image
+/// `lids_image` makes (only when an eye is not an opening): their step is a millimetre or
+/// two high.
+pub fn eye_centres<'a>(
+    image: &FrontImage,
+    lids_image: impl Fn() -> &'a FrontImage,
+) -> Option<[EyeCentre; 2]> {
+    Some([eye(image, &lids_image, 1.0)?, eye(image, &lids_image, -1.0)?])
 }
 
 /// Both eyes' corners are seen, as far apart on one side as on the other within `ratio`.
@@ -82,7 +86,7 @@ pub fn eye_widths_agree(eyes: &[EyeCentre; 2], ratio: f64) -> bool {
     }
 }
 
-fn eye(image: &FrontImage, lids_image: &FrontImage, side: f64) -> Option<EyeCentre> {
+fn eye<'a>(image: &FrontImage, lids_image: &impl Fn() -> &'a FrontImage, side: f64) -> Option<EyeCentre> {
     let columns = ((WINDOW_X[1] - WINDOW_X[0]) / STEP) as usize + 1;
     let rows = ((WINDOW_Y[1] - WINDOW_Y[0]) / STEP) as usize + 1;
     let mut samples = Vec::with_capacity(columns * rows);
@@ -117,7 +121,7 @@ fn eye(image: &FrontImage, lids_image: &FrontImage, side: f64) -> Option<EyeCent
             corners,
         });
     }
-    if let Some(closed) = closed_lids(lids_image, side) {
+    if let Some(closed) = closed_lids(lids_image(), side) {
         return Some(closed);
     }
     let mut best: Option<(f64, EyeCentre)> = None;

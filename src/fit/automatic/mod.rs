@@ -312,7 +312,7 @@ pub fn fit_automatically(
 /// agree). `None` when the profile shows no mouth.
 fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Option<(Vec<Pin>, FoundFeatures)> {
     let image = front_image::FrontImage::render(head, &fit.similarity, winding, FRONT_IMAGE_CELLS);
-    let lids_image = front_image::FrontImage::render(head, &fit.similarity, winding, LIDS_IMAGE_CELLS);
+    let lids_image = std::cell::OnceCell::new();
     let shaped = mask.shaped(&fit.shape);
     let features = profile::midline_features(&image)?;
     let mut pins = vec![Pin::at(MASK_NOSE_TIP, features.nose_tip)];
@@ -330,7 +330,11 @@ fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Optio
         eye_corners_pinned: false,
         mouth_corners,
     };
-    if let Some(centres) = eyes::eye_centres(&image, &lids_image) {
+    let render_lids = || {
+        lids_image
+            .get_or_init(|| front_image::FrontImage::render(head, &fit.similarity, winding, LIDS_IMAGE_CELLS))
+    };
+    if let Some(centres) = eyes::eye_centres(&image, render_lids) {
         found.eyes = Some(centres.map(|centre| centre.kind));
         if eyes::eye_widths_agree(&centres, EYE_WIDTHS_RATIO) {
             found.eye_corners_pinned = true;
