@@ -3,7 +3,7 @@
 //! place the mask on each of the few likeliest noses at a few scales guessed from the
 //! face's width there, lay it on the surface by iterated closest points (pose, then shape
 //! units), keep the start that lies closest, then pin its nose, mouth and its corners,
-//! pupils and eye corners to what the face shows there and lay it again.
+//! chin, pupils and eye corners to what the face shows there and lay it again.
 //!
 //! Assumes +y of the head is up (within 35 degrees) and that the face is not hidden
 //! (one nose, in front). Works in head units; the physical scale comes from the caller or,
@@ -37,6 +37,8 @@ const MASK_MOUTH_MIDDLE: [u32; 2] = [40, 87];
 /// closed lids); a first fit that sat aside reads them askew (a head with its mouth open,
 /// 1.39).
 const EYE_WIDTHS_RATIO: f64 = 1.15;
+/// CANDIDE-3's chin (FP 2.1), at the bottom of the chin.
+const MASK_CHIN: u32 = 10;
 /// CANDIDE-3's mouth corners, left (FP 8.3) and right (FP 8.4).
 const MASK_MOUTH_CORNERS: [u32; 2] = [31, 64];
 /// The lips' fissure is looked for this far above and below the mouth's height (mask
@@ -308,8 +310,8 @@ pub fn fit_automatically(
 
 /// Pins for what the face shows in front of a fit: the nose tip at the profile's, the
 /// mouth's middle at the profile's mouth height and its corners at the ends of the lips'
-/// fissure, and the pupils and eye corners on the eyes (the corners when both sides
-/// agree). `None` when the profile shows no mouth.
+/// fissure, the chin at the height of the chin's bottom, and the pupils and eye corners on
+/// the eyes (the corners when both sides agree). `None` when the profile shows no mouth.
 fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Option<(Vec<Pin>, FoundFeatures)> {
     let image = front_image::FrontImage::render(head, &fit.similarity, winding, FRONT_IMAGE_CELLS);
     let lids_image = std::cell::OnceCell::new();
@@ -321,6 +323,16 @@ fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Optio
         pins.push(Pin::at(
             vertex,
             image.head_point(DVec3::new(lips.x, features.mouth_height, lips.z)),
+        ));
+    }
+    // Held up and down only: left to the surface, the jaw's edge shrank onto the chin's
+    // front, 5-7 mm above the landmark fits' chin on four of the five shipped heads.
+    if let Some(height) = features.chin_height {
+        let up = fit.similarity.rotation * DVec3::Y;
+        pins.push(Pin::along(
+            MASK_CHIN,
+            image.head_point(DVec3::new(0.0, height, 0.0)),
+            up,
         ));
     }
     let (mouth_pins, mouth_corners) = mouth_corner_pins(&image, features.mouth_height, &fit.similarity);
@@ -345,12 +357,19 @@ fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Optio
                 pins.extend(eye_corner_pins(&image, centre, corners, &fit.similarity));
             }
         }
+        // Sideways and up only: the surface sets the eyes' depth (an opening has no
+        // surface where the pupil is, closed lids stand in front of it).
+        let (across, up) = (
+            fit.similarity.rotation * DVec3::X,
+            fit.similarity.rotation * DVec3::Y,
+        );
         for (centre, pupil) in centres.iter().zip([&fap::LEFT_PUPIL, &fap::RIGHT_PUPIL]) {
             let middle = fap::centroid(&shaped, pupil).as_dvec3();
             for &vertex in pupil {
                 let offset = shaped[vertex].as_dvec3() - middle;
-                let target = DVec3::new(centre.x + offset.x, centre.y + offset.y, middle.z + offset.z);
-                pins.push(Pin::at(vertex as u32, image.head_point(target)));
+                let target = image.head_point(DVec3::new(centre.x + offset.x, centre.y + offset.y, 0.0));
+                pins.push(Pin::along(vertex as u32, target, across));
+                pins.push(Pin::along(vertex as u32, target, up));
             }
         }
     }

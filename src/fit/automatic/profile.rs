@@ -1,6 +1,7 @@
 //! Features on the face's midline profile, read under a first fit: the nose tip (the
-//! profile's peak) and the height of the mouth (the notch between the lips). Closest points
-//! alone let the mask slide up or down the face; these pin it.
+//! profile's peak), the height of the mouth (the notch between the lips) and of the chin's
+//! bottom (where the profile turns under the chin). Closest points alone let the mask slide
+//! up or down the face, and its jaw shrink onto the chin's front; these pin them.
 //!
 //! The profile is the head's surface seen along the fitted mask's z axis, on the mask's
 //! plane of symmetry (x = 0), sampled in **mask units** (y up the face, z out of it).
@@ -23,6 +24,13 @@ const MOUTH_BELOW_NOSE: [f64; 2] = [0.15, 0.4];
 const UPPER_LIP_BELOW_NOSE: f64 = 0.1;
 /// ... between lips that come forward within this distance above and below it.
 const LIP_REACH: f64 = 0.08;
+/// The chin's most forward point is looked for this far below the mouth (CANDIDE's chin
+/// is 0.25 below its mouth; the lower lip, more forward, lies above the window) ...
+const CHIN_BELOW_MOUTH: [f64; 2] = [0.15, 0.45];
+/// ... and its bottom is where the profile below it has turned this far back (about 7 mm;
+/// on the shipped heads this lies within 0.02 of the height their landmark fits give
+/// CANDIDE's chin, FP 2.1, which people mark at the bottom of the chin seen from the front).
+const CHIN_BOTTOM_BEHIND: f64 = 0.07;
 
 /// Midline features.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -32,6 +40,9 @@ pub struct MidlineFeatures {
     /// The mouth's height in the first fit's mask frame (mask units): the notch between the
     /// lips lies behind where the mask's lips meet, so only its height is kept.
     pub mouth_height: f64,
+    /// The height of the chin's bottom, mask frame of the first fit (mask units), or `None`
+    /// when the profile ends before it turns under the chin (a face cut off there).
+    pub chin_height: Option<f64>,
 }
 
 /// The midline features seen in `image`, or `None` when the profile shows no nose or no
@@ -49,9 +60,11 @@ pub fn midline_features(image: &FrontImage) -> Option<MidlineFeatures> {
         nose_y - UPPER_LIP_BELOW_NOSE,
     )?;
     let nose_z = profile.depths[nose].expect("the nose is on a covered sample");
+    let mouth_height = profile.heights[mouth];
     Some(MidlineFeatures {
         nose_tip: image.head_point(DVec3::new(0.0, nose_y, nose_z)),
-        mouth_height: profile.heights[mouth],
+        mouth_height,
+        chin_height: profile.chin_bottom(mouth_height),
     })
 }
 
@@ -74,15 +87,37 @@ impl Profile {
             .map(|(k, _)| k)
     }
 
+    /// The height below the chin's most forward point (within [`CHIN_BELOW_MOUTH`] of
+    /// `mouth_height`) where the profile has first turned [`CHIN_BOTTOM_BEHIND`] back,
+    /// between samples; `None` when no surface is seen before it has.
+    fn chin_bottom(&self, mouth_height: f64) -> Option<f64> {
+        let chin = self.highest_in(
+            mouth_height - CHIN_BELOW_MOUTH[1],
+            mouth_height - CHIN_BELOW_MOUTH[0],
+        )?;
+        let limit = self.depths[chin]? - CHIN_BOTTOM_BEHIND;
+        let mut above = (self.heights[chin], self.depths[chin]?);
+        for k in (0..chin).rev() {
+            let z = self.depths[k]?;
+            if z < limit {
+                let t = (above.1 - limit) / (above.1 - z);
+                return Some(above.0 + t * (self.heights[k] - above.0));
+            }
+            above = (self.heights[k], z);
+        }
+        None
+    }
+
     /// The sample with `low <= y <= high` that lies furthest behind the lower of the
     /// surface's most forward points within [`LIP_REACH`] above it (and below `ceiling`)
-    /// and below it.
+    /// and below it. A gap seen through between lips (no surface: a face-only mesh with
+    /// its lips parted) is the deepest notch; its middle is taken.
     fn deepest_notch(&self, low: f64, high: f64, ceiling: f64) -> Option<usize> {
         let reach = (LIP_REACH / STEP).round() as usize;
         let top = self.heights.partition_point(|&y| y < ceiling);
         let mut best: Option<(usize, f64)> = None;
         for k in self.indices_between(low, high) {
-            let Some(z) = self.depths[k] else { continue };
+            let z = self.depths[k].unwrap_or(f64::NEG_INFINITY);
             let above = self.depths[(k + 1).min(top)..(k + 1 + reach).min(top)]
                 .iter()
                 .flatten()
@@ -93,11 +128,107 @@ impl Profile {
                 .flatten()
                 .copied()
                 .fold(f64::NEG_INFINITY, f64::max);
+            // Infinite for a gap between lips; NaN (never taken) with no lip on a side.
             let notch = above.min(below) - z;
             if notch > 0.0 && best.is_none_or(|(_, n)| notch > n) {
                 best = Some((k, notch));
             }
         }
-        best.map(|(k, _)| k)
+        let (notch, _) = best?;
+        if self.depths[notch].is_some() {
+            return Some(notch);
+        }
+        let below = self.depths[..notch]
+            .iter()
+            .rev()
+            .take_while(|z| z.is_none())
+            .count();
+        let above = self.depths[notch + 1..]
+            .iter()
+            .take_while(|z| z.is_none())
+            .count();
+        Some(notch - below + (below + above) / 2)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A midline from the chin's underside up past the nose (mask units): the neck far
+    /// behind below y = -0.95, a chin at 0.05 and the mouth's notch at y = -0.6 between lips
+    /// at 0.12, a dip under the nose at y = -0.4 and the nose tip at 0.25.
+    fn midline(gap_between_lips: bool) -> Profile {
+        let samples = ((HIGHEST - LOWEST) / STEP) as usize + 1;
+        let heights: Vec<f64> = (0..samples).map(|k| LOWEST + k as f64 * STEP).collect();
+        let depths = heights
+            .iter()
+            .map(|&y| {
+                let bump =
+                    |centre: f64, width: f64, height: f64| height * (-((y - centre) / width).powi(2)).exp();
+                if y < -0.95 {
+                    return Some(-0.6);
+                }
+                if gap_between_lips && (-0.62..=-0.58).contains(&y) {
+                    return None;
+                }
+                Some(
+                    bump(-0.8, 0.12, 0.05)
+                        + bump(-0.66, 0.04, 0.12)
+                        + bump(-0.52, 0.05, 0.12)
+                        + bump(-0.33, 0.05, 0.1)
+                        + bump(-0.2, 0.07, 0.25),
+                )
+            })
+            .collect();
+        Profile { heights, depths }
+    }
+
+    fn mouth_height(profile: &Profile) -> f64 {
+        let nose = profile.highest_in(-0.45, 0.05).unwrap();
+        let nose_y = profile.heights[nose];
+        assert!((nose_y + 0.2).abs() < 0.01, "{nose_y}");
+        let mouth = profile
+            .deepest_notch(
+                nose_y - MOUTH_BELOW_NOSE[1],
+                nose_y - MOUTH_BELOW_NOSE[0],
+                nose_y - UPPER_LIP_BELOW_NOSE,
+            )
+            .unwrap();
+        profile.heights[mouth]
+    }
+
+    #[test]
+    fn the_mouth_is_the_notch_between_the_lips_not_the_dip_under_the_nose() {
+        let mouth = mouth_height(&midline(false));
+        assert!((mouth + 0.59).abs() < 0.02, "{mouth}");
+    }
+
+    #[test]
+    fn a_gap_seen_through_between_parted_lips_is_the_mouth() {
+        // A face-only mesh shows nothing between parted lips; the dip under the nose is
+        // then the deepest notch with surface in it.
+        let mouth = mouth_height(&midline(true));
+        assert!((mouth + 0.6).abs() < 0.005, "{mouth}");
+    }
+
+    #[test]
+    fn the_chin_s_bottom_is_where_the_profile_has_turned_back_under_it() {
+        let profile = midline(false);
+        // The chin's front is at 0.05 (y = -0.8); the profile falls 0.07 behind it where
+        // 0.05 exp(-((y + 0.8) / 0.12)^2) = -0.02: never, so at the neck's edge, y = -0.95.
+        let bottom = profile.chin_bottom(-0.59).unwrap();
+        assert!((bottom + 0.95).abs() < 0.005, "{bottom}");
+    }
+
+    #[test]
+    fn a_face_cut_off_above_the_chin_s_bottom_shows_no_chin() {
+        let mut profile = midline(false);
+        for (y, z) in profile.heights.iter().zip(profile.depths.iter_mut()) {
+            if *y < -0.85 {
+                *z = None;
+            }
+        }
+        assert_eq!(profile.chin_bottom(-0.59), None);
     }
 }
