@@ -22,8 +22,10 @@ const MOUTH_BELOW_NOSE: [f64; 2] = [0.15, 0.4];
 /// ... with its upper lip at least this far below the nose tip (so that the nose is not
 /// taken for a lip) ...
 const UPPER_LIP_BELOW_NOSE: f64 = 0.1;
-/// ... between lips that come forward within this distance above and below it.
+/// ... between lips that come forward within this distance above and below it, the upper
+/// one falling again at least this far behind its peak above it (about 0.5 mm).
 const LIP_REACH: f64 = 0.08;
+const UPPER_LIP_DROP: f64 = 0.005;
 /// The chin's most forward point is looked for this far below the mouth (CANDIDE's chin
 /// is 0.25 below its mouth; the lower lip, more forward, lies above the window) ...
 const CHIN_BELOW_MOUTH: [f64; 2] = [0.15, 0.45];
@@ -48,10 +50,7 @@ pub struct MidlineFeatures {
 /// The midline features seen in `image`, or `None` when the profile shows no nose or no
 /// mouth between two lips.
 pub fn midline_features(image: &FrontImage) -> Option<MidlineFeatures> {
-    let samples = ((HIGHEST - LOWEST) / STEP) as usize + 1;
-    let heights: Vec<f64> = (0..samples).map(|k| LOWEST + k as f64 * STEP).collect();
-    let depths: Vec<Option<f64>> = heights.iter().map(|&y| image.z_at(0.0, y)).collect();
-    let profile = Profile { heights, depths };
+    let profile = Profile::along(image, 0.0);
     let nose = profile.highest_in(-0.45, 0.05)?;
     let nose_y = profile.heights[nose];
     let mouth = profile.deepest_notch(
@@ -75,6 +74,14 @@ struct Profile {
 }
 
 impl Profile {
+    /// The profile of `image` along the vertical line at `x`.
+    fn along(image: &FrontImage, x: f64) -> Profile {
+        let samples = ((HIGHEST - LOWEST) / STEP) as usize + 1;
+        let heights: Vec<f64> = (0..samples).map(|k| LOWEST + k as f64 * STEP).collect();
+        let depths = heights.iter().map(|&y| image.z_at(x, y)).collect();
+        Profile { heights, depths }
+    }
+
     fn indices_between(&self, low: f64, high: f64) -> impl Iterator<Item = usize> + '_ {
         (0..self.heights.len()).filter(move |&k| (low..=high).contains(&self.heights[k]))
     }
@@ -110,19 +117,31 @@ impl Profile {
 
     /// The sample with `low <= y <= high` that lies furthest behind the lower of the
     /// surface's most forward points within [`LIP_REACH`] above it (and below `ceiling`)
-    /// and below it. A gap seen through between lips (no surface: a face-only mesh with
-    /// its lips parted) is the deepest notch; its middle is taken.
+    /// and below it, where the surface above falls again above its peak (an upper lip, not
+    /// the nose's underside). A gap seen through between lips (no surface: a face-only mesh
+    /// with its lips parted) is the deepest notch; its middle is taken.
     fn deepest_notch(&self, low: f64, high: f64, ceiling: f64) -> Option<usize> {
         let reach = (LIP_REACH / STEP).round() as usize;
         let top = self.heights.partition_point(|&y| y < ceiling);
         let mut best: Option<(usize, f64)> = None;
         for k in self.indices_between(low, high) {
             let z = self.depths[k].unwrap_or(f64::NEG_INFINITY);
-            let above = self.depths[(k + 1).min(top)..(k + 1 + reach).min(top)]
+            let end = (k + 1 + reach).min(top);
+            let Some((highest, above)) = (k + 1..end)
+                .filter_map(|j| self.depths[j].map(|z| (j, z)))
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+            else {
+                continue;
+            };
+            // An upper lip falls again above its peak (into the dip under the nose); the
+            // nose's underside, above that dip, rises all the way to the ceiling.
+            if !self.depths[highest + 1..top]
                 .iter()
                 .flatten()
-                .copied()
-                .fold(f64::NEG_INFINITY, f64::max);
+                .any(|&z| z < above - UPPER_LIP_DROP)
+            {
+                continue;
+            }
             let below = self.depths[k.saturating_sub(reach)..k]
                 .iter()
                 .flatten()
@@ -202,6 +221,36 @@ mod tests {
     fn the_mouth_is_the_notch_between_the_lips_not_the_dip_under_the_nose() {
         let mouth = mouth_height(&midline(false));
         assert!((mouth + 0.59).abs() < 0.02, "{mouth}");
+    }
+
+    /// MakeHuman's midline with eyeballs behind its lids, as its first fit saw it (mask
+    /// units, every 0.012 from y = -0.724): the dip under its nose (0.117 at y = -0.352)
+    /// lies deeper behind the lips around it than the crease between its closed lips (0.098
+    /// at y = -0.508), and within the mouth's window below the nose.
+    #[test]
+    fn a_dip_under_the_nose_deeper_than_the_lips_crease_is_not_the_mouth() {
+        const DEPTHS: [f64; 61] = [
+            0.05, 0.05, 0.05, 0.049, 0.047, 0.046, 0.051, 0.056, 0.061, 0.065, 0.109, 0.11, 0.112, 0.114,
+            0.116, 0.115, 0.111, 0.106, 0.098, 0.108, 0.132, 0.138, 0.144, 0.15, 0.154, 0.151, 0.141, 0.131,
+            0.126, 0.124, 0.119, 0.117, 0.12, 0.124, 0.131, 0.145, 0.175, 0.189, 0.202, 0.212, 0.222, 0.232,
+            0.234, 0.234, 0.234, 0.231, 0.224, 0.22, 0.215, 0.211, 0.205, 0.192, 0.185, 0.178, 0.172, 0.165,
+            0.152, 0.147, 0.142, 0.137, 0.133,
+        ];
+        let samples = ((HIGHEST - LOWEST) / STEP) as usize + 1;
+        let heights: Vec<f64> = (0..samples).map(|k| LOWEST + k as f64 * STEP).collect();
+        let depths = heights
+            .iter()
+            .map(|&y| {
+                let at = (y + 0.724) / 0.012;
+                let i = at.floor();
+                (0.0..60.0).contains(&i).then(|| {
+                    let (i, t) = (i as usize, at - i);
+                    DEPTHS[i] + t * (DEPTHS[i + 1] - DEPTHS[i])
+                })
+            })
+            .collect();
+        let mouth = mouth_height(&Profile { heights, depths });
+        assert!((mouth + 0.508).abs() < 0.01, "{mouth}");
     }
 
     #[test]
