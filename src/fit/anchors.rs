@@ -8,7 +8,8 @@
 //! closer *along the surface* to the upper or the lower outer lip contour, and upper-lip
 //! mask vertices only take upper-lip head vertices (and so on). The inner-lip vertices
 //! further keep to the lips' contact line: head vertices of one lip within
-//! [`LIP_CONTACT_MM`] of the other lip, which is where the mouth opens.
+//! [`LIP_CONTACT_MM`] of the other lip, which is where the mouth opens; the outer-lip
+//! vertices keep off it.
 
 use glam::Vec3;
 
@@ -69,14 +70,23 @@ pub fn anchor_mask(head: &Head, fitted: &[Vec3], mm_per_unit: f32) -> Anchors {
     set(&UPPER_LIP, &upper);
     set(&LOWER_LIP, &lower);
 
-    // Inner contours: the neutral mask puts 81/83, 87/40 and 82/84 on one point; anchor
-    // each pair on two facing vertices of the contact line near it.
     let contact_limit = LIP_CONTACT_MM / mm_per_unit;
     let upper_contact = facing(head, &upper, &lower, contact_limit);
     let lower_contact = facing(head, &lower, &upper, contact_limit);
     if upper_contact.is_empty() || lower_contact.is_empty() {
         return Anchors { vertex, distance };
     }
+    // Outer contours keep off the contact line: a mask lip standing in front of the head's
+    // can take a vertex where the lips meet for its outer contour, next to the one its
+    // inner contour takes, and the lip then folds between them as the mouth opens.
+    let off = |lip: &[u32], contact: &[u32]| -> Vec<u32> {
+        lip.iter().copied().filter(|v| !contact.contains(v)).collect()
+    };
+    set(&UPPER_LIP_OUTER, &off(&upper, &upper_contact));
+    set(&LOWER_LIP_OUTER, &off(&lower, &lower_contact));
+
+    // Inner contours: the neutral mask puts 81/83, 87/40 and 82/84 on one point; anchor
+    // each pair on two facing vertices of the contact line near it.
     let upper_points: Vec<Vec3> = upper_contact
         .iter()
         .map(|&v| head.positions[v as usize])

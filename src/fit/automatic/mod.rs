@@ -322,7 +322,7 @@ fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Optio
         let lips = shaped[vertex as usize].as_dvec3();
         pins.push(Pin::at(
             vertex,
-            image.head_point(DVec3::new(lips.x, features.mouth_height, lips.z)),
+            image.head_point(DVec3::new(features.midline_x, features.mouth_height, lips.z)),
         ));
     }
     // Held up and down only: left to the surface, the jaw's edge shrank onto the chin's

@@ -3,8 +3,11 @@
 //! bottom (where the profile turns under the chin). Closest points alone let the mask slide
 //! up or down the face, and its jaw shrink onto the chin's front; these pin them.
 //!
-//! The profile is the head's surface seen along the fitted mask's z axis, on the mask's
-//! plane of symmetry (x = 0), sampled in **mask units** (y up the face, z out of it).
+//! The profile is the head's surface seen along the fitted mask's z axis, on the face's
+//! midline, sampled in **mask units** (y up the face, z out of it). The midline is where
+//! the nose is symmetric, read across the nose near its tip: the first fit's own plane of
+//! symmetry (x = 0) lies up to a couple of millimetres aside, as its nose tip was placed on
+//! a coarse range image (2.2 mm on MakeHuman, a mirror-symmetric head).
 
 use glam::DVec3;
 
@@ -26,6 +29,13 @@ const UPPER_LIP_BELOW_NOSE: f64 = 0.1;
 /// one falling again at least this far behind its peak above it (about 0.5 mm).
 const LIP_REACH: f64 = 0.08;
 const UPPER_LIP_DROP: f64 = 0.005;
+/// The nose is read across at its tip and this far and twice as far below it ...
+const NOSE_ACROSS_BELOW: f64 = 0.02;
+/// ... within this distance of x = 0, in samples this far apart ...
+const NOSE_ACROSS_REACH: f64 = 0.15;
+const NOSE_ACROSS_STEP: f64 = 0.0025;
+/// ... and its sides are where it has fallen this far behind its ridge (about 2 mm).
+const NOSE_SIDE_DEPTH: f64 = 0.02;
 /// The chin's most forward point is looked for this far below the mouth (CANDIDE's chin
 /// is 0.25 below its mouth; the lower lip, more forward, lies above the window) ...
 const CHIN_BELOW_MOUTH: [f64; 2] = [0.15, 0.45];
@@ -39,6 +49,8 @@ const CHIN_BOTTOM_BEHIND: f64 = 0.07;
 pub struct MidlineFeatures {
     /// Head units.
     pub nose_tip: DVec3,
+    /// Where the midline crosses the first fit's x axis (mask units): the profile's x.
+    pub midline_x: f64,
     /// The mouth's height in the first fit's mask frame (mask units): the notch between the
     /// lips lies behind where the mask's lips meet, so only its height is kept.
     pub mouth_height: f64,
@@ -50,7 +62,10 @@ pub struct MidlineFeatures {
 /// The midline features seen in `image`, or `None` when the profile shows no nose or no
 /// mouth between two lips.
 pub fn midline_features(image: &FrontImage) -> Option<MidlineFeatures> {
-    let profile = Profile::along(image, 0.0);
+    let first_guess = Profile::along(image, 0.0);
+    let nose = first_guess.highest_in(-0.45, 0.05)?;
+    let midline_x = nose_centre_x(image, first_guess.heights[nose]).unwrap_or(0.0);
+    let profile = Profile::along(image, midline_x);
     let nose = profile.highest_in(-0.45, 0.05)?;
     let nose_y = profile.heights[nose];
     let mouth = profile.deepest_notch(
@@ -61,10 +76,44 @@ pub fn midline_features(image: &FrontImage) -> Option<MidlineFeatures> {
     let nose_z = profile.depths[nose].expect("the nose is on a covered sample");
     let mouth_height = profile.heights[mouth];
     Some(MidlineFeatures {
-        nose_tip: image.head_point(DVec3::new(0.0, nose_y, nose_z)),
+        nose_tip: image.head_point(DVec3::new(midline_x, nose_y, nose_z)),
+        midline_x,
         mouth_height,
         chin_height: profile.chin_bottom(mouth_height),
     })
+}
+
+/// The x halfway between the nose's sides, averaged over its tip's height and
+/// [`NOSE_ACROSS_BELOW`] and twice that below; `None` when no side shows at any of them.
+fn nose_centre_x(image: &FrontImage, tip_y: f64) -> Option<f64> {
+    let samples = (NOSE_ACROSS_REACH / NOSE_ACROSS_STEP).round() as isize;
+    let centres: Vec<f64> = (0..3)
+        .filter_map(|k| {
+            let y = tip_y - k as f64 * NOSE_ACROSS_BELOW;
+            let across: Vec<(f64, f64)> = (-samples..=samples)
+                .map(|i| i as f64 * NOSE_ACROSS_STEP)
+                .map(|x| (x, image.z_at(x, y).unwrap_or(f64::NEG_INFINITY)))
+                .collect();
+            let ridge = (0..across.len()).max_by(|&a, &b| across[a].1.total_cmp(&across[b].1))?;
+            let level = across[ridge].1 - NOSE_SIDE_DEPTH;
+            let side = |steps: &mut dyn Iterator<Item = usize>| {
+                let mut inside = across[ridge];
+                for i in steps {
+                    let (x, z) = across[i];
+                    if z < level {
+                        let t = (inside.1 - level) / (inside.1 - z);
+                        return Some(inside.0 + t * (x - inside.0));
+                    }
+                    inside = (x, z);
+                }
+                None
+            };
+            let right = side(&mut (0..ridge).rev())?;
+            let left = side(&mut (ridge + 1..across.len()))?;
+            Some((left + right) / 2.0)
+        })
+        .collect();
+    (!centres.is_empty()).then(|| centres.iter().sum::<f64>() / centres.len() as f64)
 }
 
 /// z (mask units) against y along the midline; `None` where no surface is seen.
@@ -173,6 +222,36 @@ impl Profile {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fit::automatic::depth_map::tests::grid_plate;
+    use crate::fit::umeyama::Similarity;
+    use crate::head::Head;
+    use glam::{DMat3, Vec2};
+
+    #[test]
+    fn the_midline_runs_through_the_middle_of_the_nose() {
+        // A nose 0.25 high whose ridge runs at x = 0.021, on a plate seen from the front
+        // (mask units), its tip at y = -0.25.
+        let ridge_x = 0.021;
+        let nose = move |x: f32, y: f32| {
+            let along = (-((y + 0.25) / 0.08).powi(2)).exp();
+            let across = (-((x - ridge_x) / 0.06).powi(2)).exp();
+            0.25 * along * across
+        };
+        let (positions, triangles) = grid_plate([151, 151], Vec2::new(-0.3, -0.5), 0.004, nose);
+        let seen_from_the_front = Similarity {
+            rotation: DMat3::IDENTITY,
+            scale: 1.0,
+            translation: DVec3::ZERO,
+        };
+        let image = FrontImage::render(
+            &Head::new("nose", positions, triangles),
+            &seen_from_the_front,
+            1.0,
+            256,
+        );
+        let x = nose_centre_x(&image, -0.25).expect("both sides of the nose show");
+        assert!((x - f64::from(ridge_x)).abs() < 0.002, "{x}");
+    }
 
     /// A midline from the chin's underside up past the nose (mask units): the neck far
     /// behind below y = -0.95, a chin at 0.05 and the mouth's notch at y = -0.6 between lips
