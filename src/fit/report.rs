@@ -189,7 +189,8 @@ pub fn report(head: &Head, fitted: &FittedMask) -> FitReport {
 }
 
 /// Per head vertex: on an edge used by one triangle.
-fn edge_vertices(head: &Head) -> Vec<bool> {
+/// Whether each head vertex lies on the mesh's edge (an edge with one triangle).
+pub(crate) fn edge_vertices(head: &Head) -> Vec<bool> {
     let mut at_edge = vec![false; head.positions.len()];
     for edge in head.topology.edges.iter().filter(|e| e.triangles == 1) {
         at_edge[edge.a as usize] = true;

@@ -37,6 +37,15 @@ impl FrontImage {
             .map(|d| (f64::from(d) - self.forward_offset) / self.similarity.scale)
     }
 
+    /// The most forward surface within `reach` of mask point (x, y) (a square, sampled
+    /// 9 by 9), as a mask z; `None` when none is seen there.
+    pub fn frontmost_near(&self, x: f64, y: f64, reach: f64) -> Option<f64> {
+        (-4..=4)
+            .flat_map(|i| (-4..=4).map(move |j| (i, j)))
+            .filter_map(|(i, j)| self.z_at(x + reach * f64::from(i) / 4.0, y + reach * f64::from(j) / 4.0))
+            .reduce(f64::max)
+    }
+
     /// A mask-frame point in head units.
     pub fn head_point(&self, mask_point: DVec3) -> DVec3 {
         self.similarity.apply(mask_point)

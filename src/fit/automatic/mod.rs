@@ -14,6 +14,7 @@ pub(crate) mod depth_map;
 mod eyes;
 mod fissure;
 pub(crate) mod front_image;
+mod nudges;
 mod profile;
 mod symmetry;
 
@@ -54,6 +55,15 @@ const MIN_MOUTH_HALF_WIDTH: f64 = 0.1;
 /// 2 mm aside), and otherwise both at the farther end, mirrored: a crease fades early
 /// rather than late (the scan's, 1.33, fades 6 mm before its right corner).
 const MOUTH_SIDES_RATIO: f64 = 1.25;
+/// CANDIDE-3's outer eye corners (FP 3.7, 3.12) ...
+const MASK_OUTER_EYE_CORNERS: [u32; 2] = [MASK_LEFT_EYE_CORNERS[1], MASK_RIGHT_EYE_CORNERS[1]];
+/// ... lie inside an opening between the lids when they are this far (mask units, about
+/// 5 mm) behind the frontmost surface within [`CORNER_SKIN_REACH`] of them (MakeHuman's:
+/// 6.0-6.7 mm; 0.3-3.6 mm on the other shipped heads, 1.5-3.4 on the ICT ones) ...
+const MAX_CORNER_BEHIND_SKIN: f64 = 0.05;
+const CORNER_SKIN_REACH: f64 = 0.01;
+/// ... and are then held in depth to the frontmost surface within this distance.
+const CORNER_SKIN_HOLD: f64 = 0.02;
 /// CANDIDE-3's eye corners, inner then outer: left (FP 3.11, 3.7) and right (FP 3.8, 3.12).
 const MASK_LEFT_EYE_CORNERS: [u32; 2] = [23, 20];
 const MASK_RIGHT_EYE_CORNERS: [u32; 2] = [56, 53];
@@ -252,11 +262,18 @@ pub fn fit_automatically(
     // Pin the mask's nose tip, mouth, pupils and eye corners to what the face shows in
     // front of it, and lay it again.
     let first = best.solution.clone();
-    let (pins, found) = face_pins(head, mask, &first, winding).ok_or_else(|| AutomaticFitError::NoMouth {
-        head: name(),
-        nose_tip: nose.tip,
-    })?;
+    let image = front_image::FrontImage::render(head, &first.similarity, winding, FRONT_IMAGE_CELLS);
+    let (mut pins, found) =
+        face_pins(head, mask, &first, &image, winding).ok_or_else(|| AutomaticFitError::NoMouth {
+            head: name(),
+            nose_tip: nose.tip,
+        })?;
     best = lay_mask(head, mask, &used, first.similarity, &pins).map_err(solve_error)?;
+    let sunken = sunken_corner_pins(&image, mask, &first.similarity, &best.solution);
+    if !sunken.is_empty() {
+        pins.extend(sunken);
+        best = lay_mask(head, mask, &used, first.similarity, &pins).map_err(solve_error)?;
+    }
     let up = best.solution.similarity.rotation * DVec3::Y;
     let lean_deg = up.dot(DVec3::Y).clamp(-1.0, 1.0).acos().to_degrees();
     if lean_deg > MAX_LEAN_DEG {
@@ -265,6 +282,8 @@ pub fn fit_automatically(
             lean_deg,
         });
     }
+    let held: Vec<u32> = pins.iter().map(|pin| pin.vertex).collect();
+    let nudges = nudges::onto_surface(head, mask, &best.solution, &used, &held);
     let pose = best.solution.pose;
     let shape = best.solution.shape;
     let range = |source| AutomaticFitError::Range { head: name(), source };
@@ -294,7 +313,7 @@ pub fn fit_automatically(
     let fit = Fit {
         pose,
         shape,
-        nudges: Vec::new(),
+        nudges,
         mm_per_unit,
     };
     fit.check_ranges().map_err(range)?;
@@ -312,11 +331,16 @@ pub fn fit_automatically(
 /// mouth's middle at the profile's mouth height and its corners at the ends of the lips'
 /// fissure, the chin at the height of the chin's bottom, and the pupils and eye corners on
 /// the eyes (the corners when both sides agree). `None` when the profile shows no mouth.
-fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Option<(Vec<Pin>, FoundFeatures)> {
-    let image = front_image::FrontImage::render(head, &fit.similarity, winding, FRONT_IMAGE_CELLS);
+fn face_pins(
+    head: &Head,
+    mask: &Mask,
+    fit: &FitSolution,
+    image: &front_image::FrontImage,
+    winding: f32,
+) -> Option<(Vec<Pin>, FoundFeatures)> {
     let lids_image = std::cell::OnceCell::new();
     let shaped = mask.shaped(&fit.shape);
-    let features = profile::midline_features(&image)?;
+    let features = profile::midline_features(image)?;
     let mut pins = vec![Pin::at(MASK_NOSE_TIP, features.nose_tip)];
     for vertex in MASK_MOUTH_MIDDLE {
         let lips = shaped[vertex as usize].as_dvec3();
@@ -335,7 +359,7 @@ fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Optio
             up,
         ));
     }
-    let (mouth_pins, mouth_corners) = mouth_corner_pins(&image, features.mouth_height, &fit.similarity);
+    let (mouth_pins, mouth_corners) = mouth_corner_pins(image, features.mouth_height, &fit.similarity);
     pins.extend(mouth_pins);
     let mut found = FoundFeatures {
         eyes: None,
@@ -346,7 +370,7 @@ fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Optio
         lids_image
             .get_or_init(|| front_image::FrontImage::render(head, &fit.similarity, winding, LIDS_IMAGE_CELLS))
     };
-    if let Some(centres) = eyes::eye_centres(&image, render_lids) {
+    if let Some(centres) = eyes::eye_centres(image, render_lids) {
         found.eyes = Some(centres.map(|centre| centre.kind));
         if eyes::eye_widths_agree(&centres, EYE_WIDTHS_RATIO) {
             found.eye_corners_pinned = true;
@@ -354,7 +378,7 @@ fn face_pins(head: &Head, mask: &Mask, fit: &FitSolution, winding: f32) -> Optio
                 .iter()
                 .zip([MASK_LEFT_EYE_CORNERS, MASK_RIGHT_EYE_CORNERS])
             {
-                pins.extend(eye_corner_pins(&image, centre, corners, &fit.similarity));
+                pins.extend(eye_corner_pins(image, centre, corners, &fit.similarity));
             }
         }
         // Sideways and up only: the surface sets the eyes' depth (an opening has no
@@ -428,6 +452,36 @@ fn eye_corner_pins(
         .into_iter()
         .zip(corners)
         .map(|(vertex, (x, y))| Pin::along(vertex, image.head_point(DVec3::new(x, y, 0.0)), across))
+        .collect()
+}
+
+/// Pins (in depth only) for outer eye corners the laid mask sank into an opening between
+/// the lids: more than [`MAX_CORNER_BEHIND_SKIN`] behind the frontmost surface within
+/// [`CORNER_SKIN_REACH`] of them, held to the frontmost surface within
+/// [`CORNER_SKIN_HOLD`]. The corner is where the lids meet, on the skin; on MakeHuman, whose
+/// openings have nothing behind them, the surface had laid CANDIDE's corners 6-7 mm behind
+/// it, against the sockets' walls.
+fn sunken_corner_pins(
+    image: &front_image::FrontImage,
+    mask: &Mask,
+    first: &Similarity,
+    laid: &FitSolution,
+) -> Vec<Pin> {
+    let shaped = mask.shaped(&laid.shape);
+    let forward = first.rotation * DVec3::Z;
+    MASK_OUTER_EYE_CORNERS
+        .into_iter()
+        .filter_map(|vertex| {
+            let corner = first.invert_point(laid.similarity.apply(shaped[vertex as usize].as_dvec3()));
+            let skin = image.frontmost_near(corner.x, corner.y, CORNER_SKIN_REACH)?;
+            (skin - corner.z > MAX_CORNER_BEHIND_SKIN).then_some(())?;
+            let hold = image.frontmost_near(corner.x, corner.y, CORNER_SKIN_HOLD)?;
+            Some(Pin::along(
+                vertex,
+                image.head_point(DVec3::new(corner.x, corner.y, hold)),
+                forward,
+            ))
+        })
         .collect()
 }
 
