@@ -137,7 +137,12 @@ fn fit_without_landmarks_finds_the_face_and_guesses_the_units() {
     assert_eq!(report["unit_guess"], "centimetres");
     assert_eq!(
         report["found"],
-        serde_json::json!({"eyes": ["opening", "opening"], "eye_corners_pinned": true, "mouth_corners": "at_both_ends"})
+        serde_json::json!({
+            "eyes": ["opening", "opening"],
+            "eye_corners_pinned": true,
+            "outer_eye_corners_on_skin": false,
+            "mouth_corners": "at_both_ends"
+        })
     );
     assert_eq!(report["mm_per_unit_source"], "63 mm pupil separation");
     assert!(

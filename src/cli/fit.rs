@@ -138,7 +138,9 @@ fn found_in_words(found: &FoundFeatures) -> String {
                     names(right).0
                 )
             };
-            let corners = if found.eye_corners_pinned {
+            let corners = if found.outer_eye_corners_on_skin {
+                "their corners pinned, the outer ones held to the skin (they had sunk into the openings)"
+            } else if found.eye_corners_pinned {
                 "their corners pinned"
             } else {
                 "their corners left to the surface"
@@ -291,4 +293,29 @@ fn from_landmarks(args: &Args, landmarks_path: &FilePath, head: &Head, mask: &Ma
 fn mask_name(path: &Option<FilePath>) -> String {
     path.as_ref()
         .map_or_else(|| "CANDIDE-3.1.6".to_string(), |p| p.display().to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_found_line_says_when_the_outer_eye_corners_were_held_to_the_skin() {
+        let mut found = FoundFeatures {
+            eyes: Some([EyeKind::Opening; 2]),
+            eye_corners_pinned: true,
+            outer_eye_corners_on_skin: false,
+            mouth_corners: MouthCorners::AtBothEnds,
+        };
+        assert_eq!(
+            found_in_words(&found),
+            "both eyes as openings, their corners pinned; mouth corners at the ends of the lips' fissure"
+        );
+        found.outer_eye_corners_on_skin = true;
+        assert_eq!(
+            found_in_words(&found),
+            "both eyes as openings, their corners pinned, the outer ones held to the skin (they had sunk \
+             into the openings); mouth corners at the ends of the lips' fissure"
+        );
+    }
 }

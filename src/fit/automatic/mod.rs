@@ -164,6 +164,9 @@ pub struct FoundFeatures {
     pub eyes: Option<[EyeKind; 2]>,
     /// The eyes' corners were seen and agreed, and were pinned.
     pub eye_corners_pinned: bool,
+    /// The outer eye corners had sunk into openings between the lids and were held to the
+    /// skin where the lids meet.
+    pub outer_eye_corners_on_skin: bool,
     pub mouth_corners: MouthCorners,
 }
 
@@ -263,7 +266,7 @@ pub fn fit_automatically(
     // front of it, and lay it again.
     let first = best.solution.clone();
     let image = front_image::FrontImage::render(head, &first.similarity, winding, FRONT_IMAGE_CELLS);
-    let (mut pins, found) =
+    let (mut pins, mut found) =
         face_pins(head, mask, &first, &image, winding).ok_or_else(|| AutomaticFitError::NoMouth {
             head: name(),
             nose_tip: nose.tip,
@@ -271,6 +274,7 @@ pub fn fit_automatically(
     best = lay_mask(head, mask, &used, first.similarity, &pins).map_err(solve_error)?;
     let sunken = sunken_corner_pins(&image, mask, &first.similarity, &best.solution);
     if !sunken.is_empty() {
+        found.outer_eye_corners_on_skin = true;
         pins.extend(sunken);
         best = lay_mask(head, mask, &used, first.similarity, &pins).map_err(solve_error)?;
     }
@@ -364,6 +368,7 @@ fn face_pins(
     let mut found = FoundFeatures {
         eyes: None,
         eye_corners_pinned: false,
+        outer_eye_corners_on_skin: false,
         mouth_corners,
     };
     let render_lids = || {
