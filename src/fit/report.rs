@@ -188,8 +188,7 @@ pub fn report(head: &Head, fitted: &FittedMask) -> FitReport {
     }
 }
 
-/// Per head vertex: on an edge used by one triangle.
-/// Whether each head vertex lies on the mesh's edge (an edge with one triangle).
+/// Per head vertex: on the mesh's edge (an edge used by one triangle).
 pub(crate) fn edge_vertices(head: &Head) -> Vec<bool> {
     let mut at_edge = vec![false; head.positions.len()];
     for edge in head.topology.edges.iter().filter(|e| e.triangles == 1) {

@@ -266,9 +266,9 @@ fn opening_ends(image: &FrontImage, side: f64, behind: f64, centre: (f64, f64)) 
 mod tests {
     use super::*;
     use crate::fit::automatic::depth_map::tests::grid_plate;
-    use crate::fit::umeyama::Similarity;
+    use crate::fit::automatic::front_image::tests::seen_from_the_front;
     use crate::head::Head;
-    use glam::{DMat3, DVec3, Vec2};
+    use glam::Vec2;
 
     /// The left eye's closed lids on a plate facing +z, in mask units: the upper lid 0.03
     /// in front of the lower one from x = 0.13 to 0.47 above y = 0.08 (up to 0.16), a step
@@ -294,17 +294,7 @@ mod tests {
     /// A plate (mask units) raised by `height`, seen from the front as the lids are.
     fn front_of_plate(name: &str, height: impl Fn(f32, f32) -> f32) -> FrontImage {
         let (positions, triangles) = grid_plate([176, 126], Vec2::new(0.0, -0.1), 0.004, height);
-        let seen_from_the_front = Similarity {
-            rotation: DMat3::IDENTITY,
-            scale: 1.0,
-            translation: DVec3::ZERO,
-        };
-        FrontImage::render(
-            &Head::new(name, positions, triangles),
-            &seen_from_the_front,
-            1.0,
-            512,
-        )
+        seen_from_the_front(&Head::new(name, positions, triangles), 512)
     }
 
     #[test]

@@ -85,9 +85,9 @@ pub fn fissure_end(image: &FrontImage, (x, y): (f64, f64), direction: f64, max_l
 mod tests {
     use super::*;
     use crate::fit::automatic::depth_map::tests::grid_plate;
-    use crate::fit::umeyama::Similarity;
+    use crate::fit::automatic::front_image::tests::seen_from_the_front;
     use crate::head::Head;
-    use glam::{DMat3, DVec3, Vec2};
+    use glam::Vec2;
 
     /// A plate facing +z, in mask units, with a crease 0.02 deep and 0.03 wide along y = 0
     /// from x = -0.2 to 0.2.
@@ -105,13 +105,7 @@ mod tests {
 
     #[test]
     fn the_crease_is_found_at_its_height_and_followed_to_its_ends() {
-        let head = creased_plate();
-        let seen_from_the_front = Similarity {
-            rotation: DMat3::IDENTITY,
-            scale: 1.0,
-            translation: DVec3::ZERO,
-        };
-        let image = FrontImage::render(&head, &seen_from_the_front, 1.0, 256);
+        let image = seen_from_the_front(&creased_plate(), 256);
         let y = crease_height(&image, 0.0, 0.02, 0.03).expect("the crease is there");
         assert!(y.abs() <= 0.004, "{y}");
         let (left, at) = fissure_end(&image, (0.0, y), 1.0, 0.45);

@@ -51,3 +51,21 @@ impl FrontImage {
         self.similarity.apply(mask_point)
     }
 }
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use glam::DMat3;
+
+    use super::*;
+
+    /// `head` seen straight along +z, its own frame taken for the mask's (one head unit
+    /// per mask unit), `cells` along the image's longer side.
+    pub(crate) fn seen_from_the_front(head: &Head, cells: usize) -> FrontImage {
+        let identity = Similarity {
+            rotation: DMat3::IDENTITY,
+            scale: 1.0,
+            translation: DVec3::ZERO,
+        };
+        FrontImage::render(head, &identity, 1.0, cells)
+    }
+}

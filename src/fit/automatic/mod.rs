@@ -262,8 +262,9 @@ pub fn fit_automatically(
         }
     }
     let (mut best, nose) = best.expect("the most prominent candidate stands out enough");
-    // Pin the mask's nose tip, mouth, pupils and eye corners to what the face shows in
-    // front of it, and lay it again.
+    // Pin the mask's nose tip, mouth, chin, pupils and eye corners to what the face shows
+    // in front of it, and lay it again; again with sunken outer eye corners held to the
+    // skin.
     let first = best.solution.clone();
     let image = front_image::FrontImage::render(head, &first.similarity, winding, FRONT_IMAGE_CELLS);
     let (mut pins, mut found) =
@@ -479,7 +480,9 @@ fn sunken_corner_pins(
         .filter_map(|vertex| {
             let corner = first.invert_point(laid.similarity.apply(shaped[vertex as usize].as_dvec3()));
             let skin = image.frontmost_near(corner.x, corner.y, CORNER_SKIN_REACH)?;
-            (skin - corner.z > MAX_CORNER_BEHIND_SKIN).then_some(())?;
+            if skin - corner.z <= MAX_CORNER_BEHIND_SKIN {
+                return None;
+            }
             let hold = image.frontmost_near(corner.x, corner.y, CORNER_SKIN_HOLD)?;
             Some(Pin::along(
                 vertex,

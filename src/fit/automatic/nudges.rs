@@ -91,7 +91,7 @@ mod tests {
         for &(j, offset) in &nudges {
             let p = mask.vertices[j as usize];
             assert!(
-                (p + offset).z - 0.15 < 1e-5 && (p.z - 0.15).abs() < 0.1,
+                ((p + offset).z - 0.15).abs() < 1e-5 && (p.z - 0.15).abs() < 0.1,
                 "vertex {j} at {p} by {offset}"
             );
             assert!(

@@ -125,9 +125,14 @@ struct Profile {
 impl Profile {
     /// The profile of `image` along the vertical line at `x`.
     fn along(image: &FrontImage, x: f64) -> Profile {
+        Profile::sampled(|y| image.z_at(x, y))
+    }
+
+    /// The profile whose depth at height y is `depth(y)`, from [`LOWEST`] to [`HIGHEST`].
+    fn sampled(depth: impl Fn(f64) -> Option<f64>) -> Profile {
         let samples = ((HIGHEST - LOWEST) / STEP) as usize + 1;
         let heights: Vec<f64> = (0..samples).map(|k| LOWEST + k as f64 * STEP).collect();
-        let depths = heights.iter().map(|&y| image.z_at(x, y)).collect();
+        let depths = heights.iter().map(|&y| depth(y)).collect();
         Profile { heights, depths }
     }
 
@@ -223,9 +228,9 @@ impl Profile {
 mod tests {
     use super::*;
     use crate::fit::automatic::depth_map::tests::grid_plate;
-    use crate::fit::umeyama::Similarity;
+    use crate::fit::automatic::front_image::tests::seen_from_the_front;
     use crate::head::Head;
-    use glam::{DMat3, Vec2};
+    use glam::Vec2;
 
     #[test]
     fn the_midline_runs_through_the_middle_of_the_nose() {
@@ -238,17 +243,7 @@ mod tests {
             0.25 * along * across
         };
         let (positions, triangles) = grid_plate([151, 151], Vec2::new(-0.3, -0.5), 0.004, nose);
-        let seen_from_the_front = Similarity {
-            rotation: DMat3::IDENTITY,
-            scale: 1.0,
-            translation: DVec3::ZERO,
-        };
-        let image = FrontImage::render(
-            &Head::new("nose", positions, triangles),
-            &seen_from_the_front,
-            1.0,
-            256,
-        );
+        let image = seen_from_the_front(&Head::new("nose", positions, triangles), 256);
         let x = nose_centre_x(&image, -0.25).expect("both sides of the nose show");
         assert!((x - f64::from(ridge_x)).abs() < 0.002, "{x}");
     }
@@ -257,29 +252,23 @@ mod tests {
     /// behind below y = -0.95, a chin at 0.05 and the mouth's notch at y = -0.6 between lips
     /// at 0.12, a dip under the nose at y = -0.4 and the nose tip at 0.25.
     fn midline(gap_between_lips: bool) -> Profile {
-        let samples = ((HIGHEST - LOWEST) / STEP) as usize + 1;
-        let heights: Vec<f64> = (0..samples).map(|k| LOWEST + k as f64 * STEP).collect();
-        let depths = heights
-            .iter()
-            .map(|&y| {
-                let bump =
-                    |centre: f64, width: f64, height: f64| height * (-((y - centre) / width).powi(2)).exp();
-                if y < -0.95 {
-                    return Some(-0.6);
-                }
-                if gap_between_lips && (-0.62..=-0.58).contains(&y) {
-                    return None;
-                }
-                Some(
-                    bump(-0.8, 0.12, 0.05)
-                        + bump(-0.66, 0.04, 0.12)
-                        + bump(-0.52, 0.05, 0.12)
-                        + bump(-0.33, 0.05, 0.1)
-                        + bump(-0.2, 0.07, 0.25),
-                )
-            })
-            .collect();
-        Profile { heights, depths }
+        Profile::sampled(|y| {
+            let bump =
+                |centre: f64, width: f64, height: f64| height * (-((y - centre) / width).powi(2)).exp();
+            if y < -0.95 {
+                return Some(-0.6);
+            }
+            if gap_between_lips && (-0.62..=-0.58).contains(&y) {
+                return None;
+            }
+            Some(
+                bump(-0.8, 0.12, 0.05)
+                    + bump(-0.66, 0.04, 0.12)
+                    + bump(-0.52, 0.05, 0.12)
+                    + bump(-0.33, 0.05, 0.1)
+                    + bump(-0.2, 0.07, 0.25),
+            )
+        })
     }
 
     fn mouth_height(profile: &Profile) -> f64 {
@@ -315,20 +304,15 @@ mod tests {
             0.234, 0.234, 0.234, 0.231, 0.224, 0.22, 0.215, 0.211, 0.205, 0.192, 0.185, 0.178, 0.172, 0.165,
             0.152, 0.147, 0.142, 0.137, 0.133,
         ];
-        let samples = ((HIGHEST - LOWEST) / STEP) as usize + 1;
-        let heights: Vec<f64> = (0..samples).map(|k| LOWEST + k as f64 * STEP).collect();
-        let depths = heights
-            .iter()
-            .map(|&y| {
-                let at = (y + 0.724) / 0.012;
-                let i = at.floor();
-                (0.0..60.0).contains(&i).then(|| {
-                    let (i, t) = (i as usize, at - i);
-                    DEPTHS[i] + t * (DEPTHS[i + 1] - DEPTHS[i])
-                })
+        let profile = Profile::sampled(|y| {
+            let at = (y + 0.724) / 0.012;
+            let i = at.floor();
+            (0.0..60.0).contains(&i).then(|| {
+                let (i, t) = (i as usize, at - i);
+                DEPTHS[i] + t * (DEPTHS[i + 1] - DEPTHS[i])
             })
-            .collect();
-        let mouth = mouth_height(&Profile { heights, depths });
+        });
+        let mouth = mouth_height(&profile);
         assert!((mouth + 0.508).abs() < 0.01, "{mouth}");
     }
 
