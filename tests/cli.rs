@@ -111,7 +111,7 @@ fn fit_without_landmarks_finds_the_face_and_guesses_the_units() {
     assert!(stdout.contains("probably in centimetres"), "{stdout}");
     assert!(
         stdout.contains(
-            "found: both eyes as openings, their corners pinned; mouth corners at the ends of the lips' fissure"
+            "found: both eyes as openings, their corners pinned; mouth corners where the lips' fissure ends (its ends' mean width)"
         ),
         "{stdout}"
     );

@@ -149,7 +149,7 @@ fn found_in_words(found: &FoundFeatures) -> String {
         }
     };
     let mouth = match found.mouth_corners {
-        MouthCorners::AtBothEnds => "mouth corners at the ends of the lips' fissure",
+        MouthCorners::AtBothEnds => "mouth corners where the lips' fissure ends (its ends' mean width)",
         MouthCorners::Mirrored => {
             "mouth corners at the fissure's farther end, mirrored (it fades early on one side)"
         }
@@ -309,13 +309,13 @@ mod tests {
         };
         assert_eq!(
             found_in_words(&found),
-            "both eyes as openings, their corners pinned; mouth corners at the ends of the lips' fissure"
+            "both eyes as openings, their corners pinned; mouth corners where the lips' fissure ends (its ends' mean width)"
         );
         found.outer_eye_corners_on_skin = true;
         assert_eq!(
             found_in_words(&found),
             "both eyes as openings, their corners pinned, the outer ones held to the skin (they had sunk \
-             into the openings); mouth corners at the ends of the lips' fissure"
+             into the openings); mouth corners where the lips' fissure ends (its ends' mean width)"
         );
     }
 }

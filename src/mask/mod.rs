@@ -238,6 +238,12 @@ impl Mask {
         used
     }
 
+    /// Whether `vertex` lies at one of the face's openings, the eyes or the lips: a mesh's
+    /// edge near it can be the opening's rim rather than the end of the face.
+    pub fn at_an_opening(&self, vertex: usize) -> bool {
+        LIP_VERTICES.contains(&vertex) || FaceRegion::of(self.vertices[vertex]) == FaceRegion::Eyes
+    }
+
     /// Resolves an animation unit by index (`"1"`), key (`jaw_drop`) or alias (`auv11`,
     /// `fap3`, `open_jaw`), case-insensitively.
     pub fn animation_unit(&self, name: &str) -> Result<usize, UnknownUnit> {

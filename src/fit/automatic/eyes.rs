@@ -67,14 +67,10 @@ pub struct EyeCentre {
 }
 
 /// The left (+x) and right eye centres, or `None` when either side shows neither an
-/// opening nor lids. Openings and domes are read on `image`, closed lids on the finer image
-/// `lids_image` makes (only when an eye is not an opening): their step is a millimetre or
-/// two high.
-pub fn eye_centres<'a>(
-    image: &FrontImage,
-    lids_image: impl Fn() -> &'a FrontImage,
-) -> Option<[EyeCentre; 2]> {
-    Some([eye(image, &lids_image, 1.0)?, eye(image, &lids_image, -1.0)?])
+/// opening nor lids. Closed lids' step is a millimetre or two high: `image` needs cells
+/// finer than that.
+pub fn eye_centres(image: &FrontImage) -> Option<[EyeCentre; 2]> {
+    Some([eye(image, 1.0)?, eye(image, -1.0)?])
 }
 
 /// Both eyes' corners are seen, as far apart on one side as on the other within `ratio`.
@@ -86,7 +82,7 @@ pub fn eye_widths_agree(eyes: &[EyeCentre; 2], ratio: f64) -> bool {
     }
 }
 
-fn eye<'a>(image: &FrontImage, lids_image: &impl Fn() -> &'a FrontImage, side: f64) -> Option<EyeCentre> {
+fn eye(image: &FrontImage, side: f64) -> Option<EyeCentre> {
     let columns = ((WINDOW_X[1] - WINDOW_X[0]) / STEP) as usize + 1;
     let rows = ((WINDOW_Y[1] - WINDOW_Y[0]) / STEP) as usize + 1;
     let mut samples = Vec::with_capacity(columns * rows);
@@ -121,7 +117,7 @@ fn eye<'a>(image: &FrontImage, lids_image: &impl Fn() -> &'a FrontImage, side: f
             corners,
         });
     }
-    if let Some(closed) = closed_lids(lids_image(), side) {
+    if let Some(closed) = closed_lids(image, side) {
         return Some(closed);
     }
     let mut best: Option<(f64, EyeCentre)> = None;

@@ -13,7 +13,7 @@ use glam::Vec3;
 use crate::fit::report::edge_vertices;
 use crate::fit::FitSolution;
 use crate::head::Head;
-use crate::mask::{FaceRegion, Mask, LIP_VERTICES};
+use crate::mask::Mask;
 
 /// Mask vertices further than this from the surface (mask units, about 10 mm) keep their
 /// place.
@@ -32,11 +32,7 @@ pub fn onto_surface(
     let similarity = laid.similarity;
     used.iter()
         .copied()
-        .filter(|&j| {
-            !held.contains(&j)
-                && !LIP_VERTICES.contains(&(j as usize))
-                && FaceRegion::of(mask.vertices[j as usize]) != FaceRegion::Eyes
-        })
+        .filter(|&j| !held.contains(&j) && !mask.at_an_opening(j as usize))
         .filter_map(|j| {
             let posed = similarity.apply(shaped[j as usize].as_dvec3());
             let nearest = head.surface.closest_point(posed.as_vec3())?;
@@ -60,7 +56,7 @@ mod tests {
     use super::*;
     use crate::fit::automatic::depth_map::tests::grid_plate;
     use crate::fit::umeyama::Similarity;
-    use crate::mask::MaskPose;
+    use crate::mask::{FaceRegion, MaskPose, LIP_VERTICES};
     use glam::{DMat3, DVec3, Vec2};
 
     #[test]

@@ -39,10 +39,14 @@ const NOSE_SIDE_DEPTH: f64 = 0.02;
 /// The chin's most forward point is looked for this far below the mouth (CANDIDE's chin
 /// is 0.25 below its mouth; the lower lip, more forward, lies above the window) ...
 const CHIN_BELOW_MOUTH: [f64; 2] = [0.15, 0.45];
-/// ... and its bottom is where the profile below it has turned this far back (about 7 mm;
-/// on the shipped heads this lies within 0.02 of the height their landmark fits give
-/// CANDIDE's chin, FP 2.1, which people mark at the bottom of the chin seen from the front).
-const CHIN_BOTTOM_BEHIND: f64 = 0.07;
+/// ... and its bottom is where the profile below it first falls back more steeply than
+/// this (depth per height: 56 degrees from upright), over this height (about 2 mm): the
+/// chin's underside. People mark CANDIDE's chin (FP 2.1) at the bottom of the chin seen
+/// from the front; on the shipped heads this lies within 3.4 mm of their landmark fits'
+/// (0.03-3.4 mm). A slope needs no length: a first fit 10 % too small (a face-only mesh)
+/// finds the same place, where a depth threshold had put it 2.5 mm higher.
+const CHIN_UNDERSIDE_SLOPE: f64 = 1.5;
+const CHIN_SLOPE_SPAN: f64 = 0.02;
 
 /// Midline features.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -149,22 +153,21 @@ impl Profile {
     }
 
     /// The height below the chin's most forward point (within [`CHIN_BELOW_MOUTH`] of
-    /// `mouth_height`) where the profile has first turned [`CHIN_BOTTOM_BEHIND`] back,
-    /// between samples; `None` when no surface is seen before it has.
+    /// `mouth_height`) where the profile first falls back more steeply than
+    /// [`CHIN_UNDERSIDE_SLOPE`] over [`CHIN_SLOPE_SPAN`] (the middle of that span); `None`
+    /// when no surface is seen before it does.
     fn chin_bottom(&self, mouth_height: f64) -> Option<f64> {
         let chin = self.highest_in(
             mouth_height - CHIN_BELOW_MOUTH[1],
             mouth_height - CHIN_BELOW_MOUTH[0],
         )?;
-        let limit = self.depths[chin]? - CHIN_BOTTOM_BEHIND;
-        let mut above = (self.heights[chin], self.depths[chin]?);
-        for k in (0..chin).rev() {
-            let z = self.depths[k]?;
-            if z < limit {
-                let t = (above.1 - limit) / (above.1 - z);
-                return Some(above.0 + t * (self.heights[k] - above.0));
+        let span = (CHIN_SLOPE_SPAN / STEP).round() as usize;
+        for upper in (span..=chin).rev() {
+            let lower = upper - span;
+            let fall = self.depths[upper]? - self.depths[lower]?;
+            if fall > CHIN_UNDERSIDE_SLOPE * (self.heights[upper] - self.heights[lower]) {
+                return Some((self.heights[upper] + self.heights[lower]) / 2.0);
             }
-            above = (self.heights[k], z);
         }
         None
     }
@@ -325,12 +328,27 @@ mod tests {
     }
 
     #[test]
-    fn the_chin_s_bottom_is_where_the_profile_has_turned_back_under_it() {
-        let profile = midline(false);
-        // The chin's front is at 0.05 (y = -0.8); the profile falls 0.07 behind it where
-        // 0.05 exp(-((y + 0.8) / 0.12)^2) = -0.02: never, so at the neck's edge, y = -0.95.
-        let bottom = profile.chin_bottom(-0.59).unwrap();
-        assert!((bottom + 0.95).abs() < 0.005, "{bottom}");
+    fn the_chin_s_bottom_is_where_the_profile_turns_under_it() {
+        // The chin's front is at y = -0.8; below it the chin's bump falls back at most
+        // 0.05 sqrt(2 / e) / 0.12 = 0.36 per unit of height, and then the neck steps
+        // 0.6 back at y = -0.95: the first 0.02 span reaching across that step is centred
+        // about 0.01 above it.
+        let bottom = midline(false).chin_bottom(-0.59).unwrap();
+        assert!((bottom + 0.94).abs() < 0.003, "{bottom}");
+        // A chin falling back 0.5 per unit of height below y = -0.9 and 2 below y = -0.95:
+        // a span falls 1.5 times its height once it reaches 0.0133 below y = -0.95, so the
+        // first one lies between y = -0.943 and -0.963.
+        let chin = Profile::sampled(|y| {
+            Some(if y > -0.9 {
+                0.0
+            } else if y > -0.95 {
+                0.5 * (y + 0.9)
+            } else {
+                -0.025 + 2.0 * (y + 0.95)
+            })
+        });
+        let bottom = chin.chin_bottom(-0.59).unwrap();
+        assert!((bottom + 0.954).abs() < 0.003, "{bottom}");
     }
 
     #[test]
