@@ -1,4 +1,4 @@
-//! The centres and corners of the eyes, read under a first fit, which set the mask's scale
+//! The centres and corners of the eyes, read in front of a fit, which set the mask's scale
 //! and width (the pupils are what `mm_per_unit` is measured by). An eye is an opening in
 //! the mesh (seen through to the far inside of the head), closed lids (the upper lid's
 //! margin stands in front of the lower lid: a step down across the eye) or, when neither

@@ -1,4 +1,4 @@
-//! The head seen from straight in front of a first fit: a range image along the fitted
+//! The head seen from straight in front of a fit: a range image along the fitted
 //! mask's z axis, read in **mask units** (x to the face's left, y up, z out of the face), so
 //! that features can be looked for where CANDIDE puts them.
 

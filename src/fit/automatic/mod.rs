@@ -3,7 +3,9 @@
 //! place the mask on each of the few likeliest noses at a few scales guessed from the
 //! face's width there, lay it on the surface by iterated closest points (pose, then shape
 //! units), keep the start that lies closest, then pin its nose, mouth and its corners,
-//! chin, pupils and eye corners to what the face shows there and lay it again.
+//! chin, pupils and eye corners to what the face shows in front of it and lay it again;
+//! read them again in front of that fit and lay it once more; hold sunken outer eye
+//! corners to the skin, and nudge the free vertices onto the surface.
 //!
 //! Assumes +y of the head is up (within 35 degrees) and that the face is not hidden
 //! (one nose, in front). Works in head units; the physical scale comes from the caller or,
@@ -156,7 +158,7 @@ pub struct AutomaticFit {
     pub score: f64,
     /// No `mm_per_unit` was given; it comes from 63 mm pupils.
     pub mm_per_unit_from_pupils: bool,
-    /// What the face showed in front of the first fit, and so what was pinned.
+    /// What the face showed in front of the fit (its second reading), and so what was pinned.
     pub found: FoundFeatures,
 }
 

@@ -1,4 +1,4 @@
-//! Features on the face's midline profile, read under a first fit: the nose tip (the
+//! Features on the face's midline profile, read in front of a fit: the nose tip (the
 //! profile's peak), the height of the mouth (the notch between the lips) and of the chin's
 //! bottom (where the profile turns under the chin). Closest points alone let the mask slide
 //! up or down the face, and its jaw shrink onto the chin's front; these pin them.
@@ -42,8 +42,8 @@ const CHIN_BELOW_MOUTH: [f64; 2] = [0.15, 0.45];
 /// ... and its bottom is where the profile below it first falls back more steeply than
 /// this (depth per height: 56 degrees from upright), over this height (about 2 mm): the
 /// chin's underside. People mark CANDIDE's chin (FP 2.1) at the bottom of the chin seen
-/// from the front; on the shipped heads this lies within 3.4 mm of their landmark fits'
-/// (0.03-3.4 mm). A slope needs no length: a first fit 10 % too small (a face-only mesh)
+/// from the front; on the shipped heads this lies within 1.8 mm of the height their
+/// landmark fits give it (0.3-1.8 mm). A slope needs no length: a first fit 10 % too small (a face-only mesh)
 /// finds the same place, where a depth threshold had put it 2.5 mm higher.
 const CHIN_UNDERSIDE_SLOPE: f64 = 1.5;
 const CHIN_SLOPE_SPAN: f64 = 0.02;
