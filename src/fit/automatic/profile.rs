@@ -43,8 +43,9 @@ const CHIN_BELOW_MOUTH: [f64; 2] = [0.15, 0.45];
 /// this (depth per height: 56 degrees from upright), over this height (about 2 mm): the
 /// chin's underside. People mark CANDIDE's chin (FP 2.1) at the bottom of the chin seen
 /// from the front; on the shipped heads this lies within 1.8 mm of the height their
-/// landmark fits give it (0.3-1.8 mm). A slope needs no length: a first fit 10 % too small (a face-only mesh)
-/// finds the same place, where a depth threshold had put it 2.5 mm higher.
+/// landmark fits give it (0.3-1.8 mm). A slope needs no length: a first fit 10 % too small
+/// (a face-only mesh) finds the same place, where a depth threshold had put it 2.5 mm
+/// higher.
 const CHIN_UNDERSIDE_SLOPE: f64 = 1.5;
 const CHIN_SLOPE_SPAN: f64 = 0.02;
 
