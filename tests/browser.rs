@@ -3,14 +3,16 @@
 //! Checks that the page goes live, that the head moves, that switching the algorithm
 //! reconnects with it, that a second view runs beside the first, that a stream which stops
 //! sending shows as stalled and a new stream appears in the picker, that the heat-map's
-//! scale is picked and kept in the URL, that an unknown head shows the error state, and
-//! that a page given two cluster nodes moves to the second when the first is killed.
+//! scale is picked and kept in the URL, that a head posted with neither a fit nor landmarks
+//! is fitted, shown with its fit report and talks, that an unknown head shows the error
+//! state, and that a page given two cluster nodes moves to the second when the first is
+//! killed.
 //! WebDriver is plain HTTP and JSON, spoken here with reqwest; the test's own producer
 //! speaks WebSocket with tokio-tungstenite.
 
 mod common;
 
-use common::service::jaw_line;
+use common::service::{jaw_line, moving_jaw_line};
 
 use std::io::{BufRead, BufReader};
 use std::panic::AssertUnwindSafe;
@@ -391,6 +393,7 @@ async fn check_the_page(browser: &Browser) {
     check_the_heat_map_scale(browser, &url, long).await;
     check_the_inner_mouth_close_up(browser, &url, long).await;
     check_a_stalled_stream(browser, &url, long).await;
+    check_a_head_posted_with_no_fit(browser, &url, long).await;
 
     // An unknown head: the server's error and close 4404 end in the error state.
     browser.open(&format!("{url}?head=nosuch")).await;
@@ -402,6 +405,20 @@ async fn check_the_page(browser: &Browser) {
         message.as_str().unwrap().contains("nosuch"),
         "the message names the head: {message}"
     );
+}
+
+/// A producer's socket on stream `stream` of head `head`, served at `url`.
+async fn connect_producer(
+    url: &str,
+    head: &str,
+    stream: &str,
+) -> tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>> {
+    let ws = url.replacen("http://", "ws://", 1);
+    let (producer, _) =
+        tokio_tungstenite::connect_async(format!("{ws}v1/heads/{head}/streams/{stream}/produce"))
+            .await
+            .expect("producer connects");
+    producer
 }
 
 /// One jaw-drop frame as a producer sends it, and the server's ack.
@@ -435,11 +452,7 @@ async fn check_a_stalled_stream(browser: &Browser, url: &str, long: Duration) {
             long,
         )
         .await;
-    let ws = url.replacen("http://", "ws://", 1);
-    let (mut producer, _) =
-        tokio_tungstenite::connect_async(format!("{ws}v1/heads/scan/streams/quiet/produce"))
-            .await
-            .expect("producer connects");
+    let mut producer = connect_producer(url, "scan", "quiet").await;
     for seq in 0..3 {
         produce(&mut producer, seq).await;
     }
@@ -481,6 +494,63 @@ async fn check_a_stalled_stream(browser: &Browser, url: &str, long: Duration) {
             .picture_changes("#canvas-0", &still, Duration::from_secs(5))
             .await,
         "the page did not turn the head in 5 s"
+    );
+    producer.close(None).await.unwrap();
+}
+
+/// A head posted over HTTP with neither a fit nor landmarks (ICT identity 2, which the demo
+/// does not hold): fitted automatically, it becomes ready, the page shows its fit report,
+/// and it talks there.
+async fn check_a_head_posted_with_no_fit(browser: &Browser, url: &str, long: Duration) {
+    let obj = std::fs::read_to_string(common::data("heads/ict_identity_2.obj")).unwrap();
+    let http = reqwest::Client::new();
+    let posted = http
+        .post(format!("{url}v1/heads"))
+        .json(&json!({"id": "found", "obj": obj}))
+        .send()
+        .await
+        .unwrap();
+    assert!(posted.status().is_success(), "{:?}", posted.text().await);
+    let started = Instant::now();
+    let info = loop {
+        let info: Value = http
+            .get(format!("{url}v1/heads/found"))
+            .send()
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap();
+        if info["status"] != "registering" || started.elapsed() > long {
+            break info;
+        }
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    };
+    assert_eq!(info["status"], "ready", "{info}");
+
+    browser.open(&format!("{url}?head=found&stream=talk")).await;
+    let mut producer = connect_producer(url, "found", "talk").await;
+    produce_line(&mut producer, moving_jaw_line(0)).await;
+    browser
+        .wait_for("the posted head live", &state_is("status-0", "live"), long)
+        .await;
+    browser
+        .wait_for(
+            "its fit report shown",
+            "return document.getElementById('fit-regions')?.rows.length === 6",
+            long,
+        )
+        .await;
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let still = browser.screenshot("#canvas-0").await;
+    for seq in 1..10 {
+        produce_line(&mut producer, moving_jaw_line(seq)).await;
+    }
+    assert!(
+        browser
+            .picture_changes("#canvas-0", &still, Duration::from_secs(5))
+            .await,
+        "the posted head did not move in 5 s"
     );
     producer.close(None).await.unwrap();
 }
@@ -554,11 +624,7 @@ async fn check_the_tongue(browser: &Browser, url: &str, long: Duration) {
     browser
         .open(&format!("{url}?head=ict&stream=tongue&mouth=1"))
         .await;
-    let ws = url.replacen("http://", "ws://", 1);
-    let (mut producer, _) =
-        tokio_tungstenite::connect_async(format!("{ws}v1/heads/ict/streams/tongue/produce"))
-            .await
-            .expect("producer connects");
+    let mut producer = connect_producer(url, "ict", "tongue").await;
     produce_line(
         &mut producer,
         r#"{"seq":0,"t":0,"au":{"jaw_drop":0.5}}"#.to_string(),
