@@ -79,10 +79,10 @@ pub struct Laid {
     pub score: f64,
 }
 
-/// Lays `mask` on `head` from the similarity `start` (mask units to head units), pulling
-/// each pinned mask vertex toward its pin in every round.
+/// Lays `mask` on the head of `surface` from the similarity `start` (mask units to head
+/// units), pulling each pinned mask vertex toward its pin in every round.
 pub fn lay_mask(
-    head: &Head,
+    surface: &Surface,
     mask: &Mask,
     used: &[u32],
     start: Similarity,
@@ -92,11 +92,6 @@ pub fn lay_mask(
     let mut posed: Vec<DVec3> = neutral.iter().map(|&p| start.apply(p)).collect();
     let mut pairs: Vec<(u32, DVec3)> = Vec::with_capacity(used.len() + PIN_WEIGHT * pins.len());
     let mut distances: Vec<f64> = Vec::with_capacity(used.len());
-    let surface = Surface {
-        head,
-        at_edge: edge_vertices(head),
-        at_an_opening: (0..mask.vertices.len()).map(|j| mask.at_an_opening(j)).collect(),
-    };
     let mut solution = None;
     for round in 0..SIMILARITY_ROUNDS + SHAPE_ROUNDS {
         let with_shape = round >= SIMILARITY_ROUNDS;
@@ -134,7 +129,8 @@ pub fn lay_mask(
         .iter()
         .map(|&j| {
             let p = posed[j as usize].as_vec3();
-            let d = head
+            let d = surface
+                .head
                 .surface
                 .closest_point(p)
                 .map_or(f32::INFINITY, |s| s.distance);
@@ -145,16 +141,35 @@ pub fn lay_mask(
     Ok(Laid { solution, score })
 }
 
-/// The head's surface as the mask is laid on it.
-struct Surface<'a> {
-    head: &'a Head,
+/// The head's surface as the mask is laid on it: which of its vertices are on the mesh's
+/// edge, and which mask vertices belong at the face's openings.
+pub struct Surface<'a> {
+    pub head: &'a Head,
     /// Per head vertex: on the mesh's edge.
     at_edge: Vec<bool>,
     /// Per mask vertex: [`Mask::at_an_opening`].
     at_an_opening: Vec<bool>,
 }
 
-impl Surface<'_> {
+impl<'a> Surface<'a> {
+    pub fn new(head: &'a Head, mask: &Mask) -> Surface<'a> {
+        Surface {
+            head,
+            at_edge: edge_vertices(head),
+            at_an_opening: (0..mask.vertices.len()).map(|j| mask.at_an_opening(j)).collect(),
+        }
+    }
+
+    /// Whether mask vertex `vertex`, nearest to head triangle `triangle`, lies past the
+    /// end of the face: the triangle is at the mesh's edge, and the vertex is not at one of
+    /// the face's openings (whose rims are edges too).
+    pub fn past_the_edge(&self, vertex: u32, triangle: u32) -> bool {
+        !self.at_an_opening[vertex as usize]
+            && self.head.triangles[triangle as usize]
+                .iter()
+                .any(|&v| self.at_edge[v as usize])
+    }
+
     /// Pairs each used mask vertex with its closest surface point (or, past the mesh's
     /// edge, with the nearest point of that triangle's plane), leaving out those further
     /// than [`OUTLIER_FACTOR`] times the median distance.
@@ -170,11 +185,9 @@ impl Surface<'_> {
         for &j in used {
             let p = posed[j as usize];
             if let Some(s) = self.head.surface.closest_point(p.as_vec3()) {
-                let triangle = self.head.triangles[s.triangle as usize];
-                let past_the_edge =
-                    !self.at_an_opening[j as usize] && triangle.iter().any(|&v| self.at_edge[v as usize]);
-                let target = if past_the_edge {
-                    let [a, b, c] = triangle.map(|v| self.head.positions[v as usize].as_dvec3());
+                let target = if self.past_the_edge(j, s.triangle) {
+                    let [a, b, c] = self.head.triangles[s.triangle as usize]
+                        .map(|v| self.head.positions[v as usize].as_dvec3());
                     let normal = (b - a).cross(c - a).normalize_or_zero();
                     p + normal * (s.point.as_dvec3() - p).dot(normal)
                 } else {

@@ -27,7 +27,7 @@ use super::umeyama::Similarity;
 use super::{Fit, FitSolution, SolveError};
 use crate::head::Head;
 use crate::mask::{fap, Mask};
-use closest_points::{lay_mask, Pin};
+use closest_points::{lay_mask, Pin, Surface};
 use depth_map::{DepthMap, NoseCandidate, View};
 pub use eyes::EyeKind;
 
@@ -38,7 +38,7 @@ const MASK_MOUTH_MIDDLE: [u32; 2] = [40, 87];
 /// The eye corners are pinned only when the two eyes are as wide, corner to corner,
 /// within this factor (1.04 at most on the shipped heads' openings, 1.08 on the scan's
 /// closed lids); a first fit that sat aside reads them askew (a head with its mouth open,
-/// 1.39).
+/// 1.39; read again in front of the pinned fit they agree).
 const EYE_WIDTHS_RATIO: f64 = 1.15;
 /// CANDIDE-3's chin (FP 2.1), at the bottom of the chin.
 const MASK_CHIN: u32 = 10;
@@ -242,6 +242,7 @@ pub fn fit_automatically(
         .filter(|(_, &u)| u)
         .map(|(j, _)| j as u32)
         .collect();
+    let surface = Surface::new(head, mask);
     let rotation = DMat3::from_cols(
         view.lateral.as_dvec3(),
         view.up.as_dvec3(),
@@ -261,8 +262,8 @@ pub fn fit_automatically(
                 scale,
                 translation: tip - scale * (rotation * mask_tip),
             };
-            let laid =
-                lay_mask(head, mask, &used, start, &[Pin::at(MASK_NOSE_TIP, tip)]).map_err(solve_error)?;
+            let laid = lay_mask(&surface, mask, &used, start, &[Pin::at(MASK_NOSE_TIP, tip)])
+                .map_err(solve_error)?;
             if best.as_ref().is_none_or(|(b, _)| laid.score < b.score) {
                 best = Some((laid, *candidate));
             }
@@ -281,7 +282,7 @@ pub fn fit_automatically(
                 head: name(),
                 nose_tip: nose.tip,
             })?;
-        best = lay_mask(head, mask, &used, seen_from.similarity, &pins).map_err(solve_error)?;
+        best = lay_mask(&surface, mask, &used, seen_from.similarity, &pins).map_err(solve_error)?;
         pinned = Some((seen_from, image, pins, found));
     }
     let (seen_from, image, mut pins, mut found) = pinned.expect("features are read at least once");
@@ -289,7 +290,7 @@ pub fn fit_automatically(
     if !sunken.is_empty() {
         found.outer_eye_corners_on_skin = true;
         pins.extend(sunken);
-        best = lay_mask(head, mask, &used, seen_from.similarity, &pins).map_err(solve_error)?;
+        best = lay_mask(&surface, mask, &used, seen_from.similarity, &pins).map_err(solve_error)?;
     }
     let up = best.solution.similarity.rotation * DVec3::Y;
     let lean_deg = up.dot(DVec3::Y).clamp(-1.0, 1.0).acos().to_degrees();
@@ -300,7 +301,7 @@ pub fn fit_automatically(
         });
     }
     let held: Vec<u32> = pins.iter().map(|pin| pin.vertex).collect();
-    let nudges = nudges::onto_surface(head, mask, &best.solution, &used, &held);
+    let nudges = nudges::onto_surface(&surface, mask, &best.solution, &used, &held);
     let pose = best.solution.pose;
     let shape = best.solution.shape;
     let range = |source| AutomaticFitError::Range { head: name(), source };
@@ -488,15 +489,15 @@ fn eye_corner_pins(
 fn sunken_corner_pins(
     image: &front_image::FrontImage,
     mask: &Mask,
-    first: &Similarity,
+    seen_from: &Similarity,
     laid: &FitSolution,
 ) -> Vec<Pin> {
     let shaped = mask.shaped(&laid.shape);
-    let forward = first.rotation * DVec3::Z;
+    let forward = seen_from.rotation * DVec3::Z;
     MASK_OUTER_EYE_CORNERS
         .into_iter()
         .filter_map(|vertex| {
-            let corner = first.invert_point(laid.similarity.apply(shaped[vertex as usize].as_dvec3()));
+            let corner = seen_from.invert_point(laid.similarity.apply(shaped[vertex as usize].as_dvec3()));
             let skin = image.frontmost_near(corner.x, corner.y, CORNER_SKIN_REACH)?;
             if skin - corner.z <= MAX_CORNER_BEHIND_SKIN {
                 return None;

@@ -10,9 +10,8 @@
 
 use glam::Vec3;
 
-use crate::fit::report::edge_vertices;
+use super::closest_points::Surface;
 use crate::fit::FitSolution;
-use crate::head::Head;
 use crate::mask::Mask;
 
 /// Mask vertices further than this from the surface (mask units, about 10 mm) keep their
@@ -21,13 +20,12 @@ const NUDGE_REACH: f64 = 0.1;
 
 /// (mask vertex, offset in mask units) moving each free vertex of `used` onto the surface.
 pub fn onto_surface(
-    head: &Head,
+    surface: &Surface,
     mask: &Mask,
     laid: &FitSolution,
     used: &[u32],
     held: &[u32],
 ) -> Vec<(u32, Vec3)> {
-    let at_edge = edge_vertices(head);
     let shaped = mask.shaped(&laid.shape);
     let similarity = laid.similarity;
     used.iter()
@@ -35,9 +33,8 @@ pub fn onto_surface(
         .filter(|&j| !held.contains(&j) && !mask.at_an_opening(j as usize))
         .filter_map(|j| {
             let posed = similarity.apply(shaped[j as usize].as_dvec3());
-            let nearest = head.surface.closest_point(posed.as_vec3())?;
-            let triangle = head.triangles[nearest.triangle as usize];
-            if triangle.iter().any(|&v| at_edge[v as usize]) {
+            let nearest = surface.head.surface.closest_point(posed.as_vec3())?;
+            if surface.past_the_edge(j, nearest.triangle) {
                 return None;
             }
             let offset = nearest.point.as_dvec3() - posed;
@@ -56,6 +53,7 @@ mod tests {
     use super::*;
     use crate::fit::automatic::depth_map::tests::grid_plate;
     use crate::fit::umeyama::Similarity;
+    use crate::head::Head;
     use crate::mask::{FaceRegion, MaskPose, LIP_VERTICES};
     use glam::{DMat3, DVec3, Vec2};
 
@@ -82,7 +80,7 @@ mod tests {
             .filter(|&j| mask.used_vertices()[j as usize])
             .collect();
         let held = [5u32];
-        let nudges = onto_surface(&head, &mask, &laid, &used, &held);
+        let nudges = onto_surface(&Surface::new(&head, &mask), &mask, &laid, &used, &held);
         assert!(!nudges.is_empty());
         for &(j, offset) in &nudges {
             let p = mask.vertices[j as usize];
