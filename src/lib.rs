@@ -15,6 +15,7 @@ pub mod head;
 pub mod input;
 pub mod mask;
 pub mod metrics;
+pub mod population;
 pub mod quote;
 pub mod render;
 #[cfg(feature = "reports")]

@@ -11,6 +11,7 @@ mod inspect;
 mod load;
 mod part_arg;
 mod play;
+mod population;
 mod render;
 mod serve;
 mod syllables;
@@ -69,6 +70,9 @@ pub enum Command {
     /// Compare algorithms on a head over a stream: roughness, fidelity and speed, written as
     /// TSV tables, SVG charts and a Markdown report.
     Compare(compare::Args),
+    /// Fit a population of heads automatically (ICT identities, MakeHuman, the scan and
+    /// their variants) and print how close each lies to its landmark fit.
+    Population(population::Args),
 }
 
 pub fn run(cli: Cli) -> CliResult {
@@ -86,6 +90,7 @@ pub fn run(cli: Cli) -> CliResult {
         Command::Algos(args) => algos::run(args),
         Command::Deform(args) => deform::run(args),
         Command::Compare(args) => compare::run(args),
+        Command::Population(args) => population::run(args),
     }
 }
 

@@ -88,12 +88,35 @@ pub fn lay_mask(
     start: Similarity,
     pins: &[Pin],
 ) -> Result<Laid, SolveError> {
+    lay(surface, mask, used, start, pins, SHAPE_ROUNDS)
+}
+
+/// Like [`lay_mask`] with the similarity rounds alone: a cheap first look at a start, to
+/// choose the few worth laying in full.
+pub fn screen_start(
+    surface: &Surface,
+    mask: &Mask,
+    used: &[u32],
+    start: Similarity,
+    pins: &[Pin],
+) -> Result<Laid, SolveError> {
+    lay(surface, mask, used, start, pins, 0)
+}
+
+fn lay(
+    surface: &Surface,
+    mask: &Mask,
+    used: &[u32],
+    start: Similarity,
+    pins: &[Pin],
+    shape_rounds: usize,
+) -> Result<Laid, SolveError> {
     let neutral: Vec<DVec3> = mask.vertices.iter().map(|v| v.as_dvec3()).collect();
     let mut posed: Vec<DVec3> = neutral.iter().map(|&p| start.apply(p)).collect();
     let mut pairs: Vec<(u32, DVec3)> = Vec::with_capacity(used.len() + PIN_WEIGHT * pins.len());
     let mut distances: Vec<f64> = Vec::with_capacity(used.len());
     let mut solution = None;
-    for round in 0..SIMILARITY_ROUNDS + SHAPE_ROUNDS {
+    for round in 0..SIMILARITY_ROUNDS + shape_rounds {
         let with_shape = round >= SIMILARITY_ROUNDS;
         surface.closest_pairs(used, &posed, &mut pairs, &mut distances);
         for pin in pins {

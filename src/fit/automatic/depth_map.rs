@@ -18,6 +18,7 @@ pub struct View {
 
 impl View {
     /// Looking at the head from `yaw` radians about +y: yaw 0 sees a face that looks along +z.
+    #[cfg(test)]
     pub fn horizontal(yaw: f32) -> View {
         let forward = Vec3::new(yaw.sin(), 0.0, yaw.cos());
         let up = Vec3::Y;
@@ -25,6 +26,25 @@ impl View {
             lateral: up.cross(forward),
             up,
             forward,
+        }
+    }
+
+    /// Looking along `forward` with `lateral` (unit, perpendicular to it) as the face's
+    /// left: up is `forward x lateral`.
+    pub fn with_lateral(forward: Vec3, lateral: Vec3) -> View {
+        View {
+            lateral,
+            up: forward.cross(lateral),
+            forward,
+        }
+    }
+
+    /// The same view turned upside down (up and lateral negated; still right-handed).
+    pub fn upside_down(self) -> View {
+        View {
+            lateral: -self.lateral,
+            up: -self.up,
+            forward: self.forward,
         }
     }
 

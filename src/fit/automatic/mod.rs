@@ -1,5 +1,6 @@
-//! A fit with no landmarks, for heads nobody has marked up: find which way the face looks
-//! and where its nose may be on range images of the head from every horizontal direction,
+//! A fit with no landmarks, for heads nobody has marked up: find the plane the head is
+//! mirror-symmetric about, which way the face looks and where its nose may be on range
+//! images of the head from every direction across that plane, up along the nose's ridge;
 //! place the mask on each of the few likeliest noses at a few scales guessed from the
 //! face's width there, lay it on the surface by iterated closest points (pose, then shape
 //! units), keep the start that lies closest, then pin its nose, mouth and its corners,
@@ -7,8 +8,8 @@
 //! read them again in front of that fit and lay it once more; hold sunken outer eye
 //! corners to the skin, and nudge the free vertices onto the surface.
 //!
-//! Assumes +y of the head is up (within 35 degrees) and that the face is not hidden
-//! (one nose, in front). Works in head units; the physical scale comes from the caller or,
+//! Assumes nothing of the file's axes; assumes the face is close to mirror-symmetric and
+//! not hidden (one nose, in front). Works in head units; the physical scale comes from the caller or,
 //! as for landmark fits, from 63 mm pupils.
 
 mod closest_points;
@@ -16,9 +17,9 @@ pub(crate) mod depth_map;
 mod eyes;
 mod fissure;
 pub(crate) mod front_image;
+mod mirror_plane;
 mod nudges;
 mod profile;
-mod symmetry;
 
 use glam::{DMat3, DVec3, Vec3};
 
@@ -27,9 +28,10 @@ use super::umeyama::Similarity;
 use super::{Fit, FitSolution, SolveError};
 use crate::head::Head;
 use crate::mask::{fap, Mask};
-use closest_points::{lay_mask, Pin, Surface};
+use closest_points::{lay_mask, screen_start, Pin, Surface};
 use depth_map::{DepthMap, NoseCandidate, View};
 pub use eyes::EyeKind;
+use mirror_plane::MirrorPlane;
 
 /// CANDIDE-3's nose tip (FP 9.3).
 const MASK_NOSE_TIP: u32 = 5;
@@ -78,8 +80,22 @@ const FRONT_IMAGE_CELLS: usize = 512;
 /// laid on them: on ICT's face cut the first fit lay 10 % small and tilted, and the chin
 /// and mouth read in its frame 2.5 and 0.9 mm high.
 const FEATURE_READINGS: usize = 2;
-/// Directions the head is looked at from, evenly around +y.
-const VIEWS: usize = 24;
+/// Directions the head is looked at from, evenly around the normal of its mirror plane.
+const VIEWS: usize = 72;
+/// Views whose noses are tried: the likeliest, and the next likeliest looking at least
+/// [`FACING_VIEWS_APART_DEG`] away from it.
+const FACING_VIEWS: usize = 4;
+const FACING_VIEWS_APART_DEG: f32 = 20.0;
+/// A nose tip lies this close to the mirror plane, as a fraction of the nose's radius
+/// (three cells of the range image: the tip is read to a cell, and faces are not exactly
+/// symmetric).
+const NOSE_OFF_PLANE: f32 = 0.3;
+/// Starts laid in full after the screening, the closest first.
+const LAID_STARTS: usize = 6;
+/// A nose stands out of the surface beside it by at most this fraction of that radius: its
+/// ridge rises to the brow at less than 45 degrees. A cell standing out more is the rim
+/// of a hole (a neck's cut, seen from below, with the inside of the head behind it).
+const MAX_NOSE_PROMINENCE: f32 = 1.0;
 /// Cells along the longer side of each range image.
 const DEPTH_MAP_CELLS: usize = 96;
 /// The sides of a nose are compared this far from the tip, as a fraction of the head's size.
@@ -95,8 +111,6 @@ const NOSE_CANDIDATES: usize = 3;
 const HEAD_WIDTH_AT_NOSE: f64 = 1.7;
 /// Starting scales, as factors of the one guessed from the width.
 const START_SCALES: [f64; 3] = [0.8, 1.0, 1.25];
-/// The fitted face's up may lean this far from +y (degrees) before the fit is refused.
-const MAX_LEAN_DEG: f64 = 35.0;
 /// A fit whose score (mean capped distance, mask units; 0.045 is about 4.5 mm) is worse
 /// than this did not find a face.
 const MAX_SCORE: f64 = 0.045;
@@ -104,32 +118,17 @@ const MAX_SCORE: f64 = 0.045;
 #[derive(Debug, thiserror::Error)]
 pub enum AutomaticFitError {
     #[error(
-        "{head}: no face found: looked from every horizontal direction for a nose (the automatic fit \
-         assumes +y is up); the best stood out {prominence:.2} of the surface beside it, a nose \
-         stands out at least {MIN_NOSE_PROMINENCE}. Give landmarks, or turn the head so +y is up"
+        "{head}: no face found: looked for a nose from every direction across the head's plane of \
+         mirror symmetry; the best stood out {prominence:.2} of the surface beside it, a nose \
+         stands out at least {MIN_NOSE_PROMINENCE}. Give landmarks"
     )]
     NoNose { head: String, prominence: f32 },
     #[error(
-        "{head}: the face lies on its side: it is mirror-symmetric about the level plane through its \
-         nose (median mirror distance {about_level:.3} head units), not the upright one ({about_upright:.3}); \
-         the automatic fit assumes +y is up. Turn the head, or give landmarks"
-    )]
-    Sideways {
-        head: String,
-        about_upright: f32,
-        about_level: f32,
-    },
-    #[error(
-        "{head}: found a nose at ({x:.3}, {y:.3}, {z:.3}) but no mouth below it (a notch between two lips, \
-         toward -y); the automatic fit assumes +y is up. Turn the head, or give landmarks",
+        "{head}: found a nose at ({x:.3}, {y:.3}, {z:.3}) but no mouth below it (a notch between two lips) \
+         in front of any fit laid on it. Give landmarks",
         x = nose_tip.x, y = nose_tip.y, z = nose_tip.z
     )]
     NoMouth { head: String, nose_tip: Vec3 },
-    #[error(
-        "{head}: the best fit stands the face {lean_deg:.0} degrees from +y; the automatic fit assumes \
-         +y is up (within {MAX_LEAN_DEG} degrees). Turn the head, or give landmarks"
-    )]
-    NotUpright { head: String, lean_deg: f64 },
     #[error(
         "{head}: the mask does not lie on this mesh: its vertices are {mean_mask_units:.3} mask units \
          (about {about_mm:.1} mm) from the surface on average after the best start. Give landmarks"
@@ -149,7 +148,7 @@ pub enum AutomaticFitError {
 #[derive(Debug, Clone, PartialEq)]
 pub struct AutomaticFit {
     pub fit: Fit,
-    /// The direction the face looks, head frame.
+    /// The direction the face looks (the fitted mask's +z), head frame.
     pub forward: Vec3,
     /// The nose tip found on the range image, head units.
     pub nose_tip: Vec3,
@@ -216,24 +215,17 @@ pub fn fit_automatically(
 ) -> Result<AutomaticFit, AutomaticFitError> {
     let name = || head.name.clone();
     let winding = depth_map::outward_winding(&head.positions, &head.triangles);
-    let (view, noses) = find_nose(head, winding);
-    let nose = noses[0];
+    let no_nose = |prominence| AutomaticFitError::NoNose {
+        head: name(),
+        prominence,
+    };
+    let plane = mirror_plane::mirror_plane(head).ok_or_else(|| no_nose(0.0))?;
+    let views = find_nose(head, winding, &plane);
+    let Some(nose) = views.first().map(|(_, noses)| noses[0]) else {
+        return Err(no_nose(0.0));
+    };
     if nose.prominence < MIN_NOSE_PROMINENCE {
-        return Err(AutomaticFitError::NoNose {
-            head: name(),
-            prominence: nose.prominence,
-        });
-    }
-    // A face is mirror-symmetric about the upright plane through its nose; one lying on its
-    // side is symmetric about the level plane instead.
-    let about_upright = symmetry::asymmetry(head, nose.tip, view.lateral);
-    let about_level = symmetry::asymmetry(head, nose.tip, view.up);
-    if about_level < about_upright {
-        return Err(AutomaticFitError::Sideways {
-            head: name(),
-            about_upright,
-            about_level,
-        });
+        return Err(no_nose(nose.prominence));
     }
     let used: Vec<u32> = mask
         .used_vertices()
@@ -243,62 +235,75 @@ pub fn fit_automatically(
         .map(|(j, _)| j as u32)
         .collect();
     let surface = Surface::new(head, mask);
-    let rotation = DMat3::from_cols(
-        view.lateral.as_dvec3(),
-        view.up.as_dvec3(),
-        view.forward.as_dvec3(),
-    );
+    let midline = midline_pins(mask, &used, &plane);
     let mask_tip = mask.vertices[MASK_NOSE_TIP as usize].as_dvec3();
     let solve_error = |source| AutomaticFitError::Solve { head: name(), source };
-    // Every candidate nose at every starting scale; the start that lies closest wins.
-    let mut best: Option<(closest_points::Laid, NoseCandidate)> = None;
-    for candidate in noses.iter().filter(|n| n.prominence >= MIN_NOSE_PROMINENCE) {
-        let tip = candidate.tip.as_dvec3();
-        let guessed_scale = f64::from(candidate.width_at_tip) / HEAD_WIDTH_AT_NOSE;
-        for factor in START_SCALES {
-            let scale = guessed_scale * factor;
-            let start = Similarity {
-                rotation,
-                scale,
-                translation: tip - scale * (rotation * mask_tip),
-            };
-            let laid = lay_mask(&surface, mask, &used, start, &[Pin::at(MASK_NOSE_TIP, tip)])
-                .map_err(solve_error)?;
-            if best.as_ref().is_none_or(|(b, _)| laid.score < b.score) {
-                best = Some((laid, *candidate));
+    // Every candidate nose of each view, upright and upside down (which way is up shows in
+    // how the mask lies), at every starting scale: screened by the similarity alone, the
+    // closest few laid in full, the closest of those first.
+    let mut screened: Vec<(closest_points::Laid, View, NoseCandidate)> = Vec::new();
+    for (view, noses) in &views {
+        for view in [*view, view.upside_down()] {
+            let rotation = DMat3::from_cols(
+                view.lateral.as_dvec3(),
+                view.up.as_dvec3(),
+                view.forward.as_dvec3(),
+            );
+            for candidate in noses.iter().filter(|n| n.prominence >= MIN_NOSE_PROMINENCE) {
+                let tip = candidate.tip.as_dvec3();
+                let guessed_scale = f64::from(candidate.width_at_tip) / HEAD_WIDTH_AT_NOSE;
+                for factor in START_SCALES {
+                    let scale = guessed_scale * factor;
+                    let start = Similarity {
+                        rotation,
+                        scale,
+                        translation: tip - scale * (rotation * mask_tip),
+                    };
+                    let pins = with_midline(&[Pin::at(MASK_NOSE_TIP, tip)], &midline);
+                    let laid = screen_start(&surface, mask, &used, start, &pins).map_err(solve_error)?;
+                    screened.push((laid, view, *candidate));
+                }
             }
         }
     }
-    let (mut best, nose) = best.expect("the most prominent candidate stands out enough");
-    // Pin the mask's nose tip, mouth, chin, pupils and eye corners to what the face shows
-    // in front of it, and lay it again; read them again in front of that fit; and lay it
-    // once more with sunken outer eye corners held to the skin.
-    let mut pinned = None;
-    for _ in 0..FEATURE_READINGS {
-        let seen_from = best.solution.clone();
-        let image = front_image::FrontImage::render(head, &seen_from.similarity, winding, FRONT_IMAGE_CELLS);
-        let (pins, found) =
-            face_pins(mask, &seen_from, &image).ok_or_else(|| AutomaticFitError::NoMouth {
-                head: name(),
-                nose_tip: nose.tip,
-            })?;
-        best = lay_mask(&surface, mask, &used, seen_from.similarity, &pins).map_err(solve_error)?;
-        pinned = Some((seen_from, image, pins, found));
+    screened.sort_by(|a, b| a.0.score.total_cmp(&b.0.score));
+    let mut starts = Vec::with_capacity(LAID_STARTS);
+    for (screen, view, candidate) in screened.into_iter().take(LAID_STARTS) {
+        let tip = candidate.tip.as_dvec3();
+        let pins = with_midline(&[Pin::at(MASK_NOSE_TIP, tip)], &midline);
+        let laid = lay_mask(&surface, mask, &used, screen.solution.similarity, &pins).map_err(solve_error)?;
+        starts.push((laid, view, candidate));
     }
-    let (seen_from, image, mut pins, mut found) = pinned.expect("features are read at least once");
+    starts.sort_by(|a, b| a.0.score.total_cmp(&b.0.score));
+    // The closest start whose face shows a mouth below its nose: the back of a head can
+    // stand out and be as symmetric as a face, but shows none.
+    let mut chosen = None;
+    for (laid, view, candidate) in starts {
+        if let Some(read) =
+            read_features(head, mask, &surface, &used, &midline, laid, winding).map_err(solve_error)?
+        {
+            chosen = Some((read, view, candidate));
+            break;
+        }
+    }
+    let Some(((mut best, seen_from, image, mut pins, mut found), _, nose)) = chosen else {
+        return Err(AutomaticFitError::NoMouth {
+            head: name(),
+            nose_tip: nose.tip,
+        });
+    };
     let sunken = sunken_corner_pins(&image, mask, &seen_from.similarity, &best.solution);
     if !sunken.is_empty() {
         found.outer_eye_corners_on_skin = true;
         pins.extend(sunken);
-        best = lay_mask(&surface, mask, &used, seen_from.similarity, &pins).map_err(solve_error)?;
-    }
-    let up = best.solution.similarity.rotation * DVec3::Y;
-    let lean_deg = up.dot(DVec3::Y).clamp(-1.0, 1.0).acos().to_degrees();
-    if lean_deg > MAX_LEAN_DEG {
-        return Err(AutomaticFitError::NotUpright {
-            head: name(),
-            lean_deg,
-        });
+        best = lay_mask(
+            &surface,
+            mask,
+            &used,
+            seen_from.similarity,
+            &with_midline(&pins, &midline),
+        )
+        .map_err(solve_error)?;
     }
     let held: Vec<u32> = pins.iter().map(|pin| pin.vertex).collect();
     let nudges = nudges::onto_surface(&surface, mask, &best.solution, &used, &held);
@@ -337,7 +342,7 @@ pub fn fit_automatically(
     fit.check_ranges().map_err(range)?;
     Ok(AutomaticFit {
         fit,
-        forward: view.forward,
+        forward: (best.solution.similarity.rotation * DVec3::Z).as_vec3(),
         nose_tip: nose.tip,
         score: best.score,
         mm_per_unit_from_pupils: from_pupils,
@@ -512,40 +517,136 @@ fn sunken_corner_pins(
         .collect()
 }
 
-/// The view whose nose lies on the head's plane of mirror symmetry, and the places in it
-/// that could be the nose tip, the one chosen by first ([`DepthMap::noses`]; never empty).
-/// An ear or a brow seen from the side can stand out as much as a nose, but the head is
-/// not symmetric about a plane through it.
-fn find_nose(head: &Head, winding: f32) -> (View, Vec<NoseCandidate>) {
-    let mut best: Option<(f32, View, Vec<NoseCandidate>)> = None;
-    let mut most_prominent = NoseCandidate {
-        tip: Vec3::ZERO,
-        prominence: 0.0,
-        width_at_tip: 0.0,
-    };
-    for k in 0..VIEWS {
-        let view = View::horizontal(k as f32 * std::f32::consts::TAU / VIEWS as f32);
+/// Pins (across the plane only) holding every used mask vertex on CANDIDE's midline to the
+/// head's mirror plane: a face is laid symmetric about the plane it is symmetric about.
+/// Left to the surface, a start's roll stayed (1.4 degrees on the scan).
+fn midline_pins(mask: &Mask, used: &[u32], plane: &MirrorPlane) -> Vec<Pin> {
+    used.iter()
+        .filter(|&&j| mask.vertices[j as usize].x == 0.0)
+        .map(|&j| Pin::along(j, plane.point.as_dvec3(), plane.normal.as_dvec3()))
+        .collect()
+}
+
+/// `pins` and the midline's.
+fn with_midline(pins: &[Pin], midline: &[Pin]) -> Vec<Pin> {
+    pins.iter().chain(midline).copied().collect()
+}
+
+/// A start laid again on what the face shows in front of it, read twice: the laid mask,
+/// the fit it was read in front of, that image, the pins and what they hold.
+type FeaturesRead = (
+    closest_points::Laid,
+    FitSolution,
+    front_image::FrontImage,
+    Vec<Pin>,
+    FoundFeatures,
+);
+
+/// Pins the laid mask's nose tip, mouth, chin, pupils and eye corners to what the face
+/// shows in front of it and lays it again, then reads them again in front of that fit and
+/// lays it once more. `None` when the profile in front of it shows no mouth below the nose.
+fn read_features(
+    head: &Head,
+    mask: &Mask,
+    surface: &Surface,
+    used: &[u32],
+    midline: &[Pin],
+    mut laid: closest_points::Laid,
+    winding: f32,
+) -> Result<Option<FeaturesRead>, SolveError> {
+    let mut pinned = None;
+    for _ in 0..FEATURE_READINGS {
+        let seen_from = laid.solution.clone();
+        let image = front_image::FrontImage::render(head, &seen_from.similarity, winding, FRONT_IMAGE_CELLS);
+        let Some((pins, found)) = face_pins(mask, &seen_from, &image) else {
+            return Ok(None);
+        };
+        laid = lay_mask(
+            surface,
+            mask,
+            used,
+            seen_from.similarity,
+            &with_midline(&pins, midline),
+        )?;
+        pinned = Some((seen_from, image, pins, found));
+    }
+    Ok(pinned.map(|(seen_from, image, pins, found)| (laid, seen_from, image, pins, found)))
+}
+
+/// The views that may look at the face, each with the places in it that could be the nose
+/// tip ([`DepthMap::noses`]; never empty), the likeliest first: of [`VIEWS`] directions
+/// across the head's mirror plane (from the head's longest axis in it, so that a head
+/// turned is seen from the same directions, turned), those whose most prominent place stands out like a nose
+/// (within [`MIN_NOSE_PROMINENCE`] and [`MAX_NOSE_PROMINENCE`]) and lies on the plane
+/// (within [`NOSE_OFF_PLANE`] of the nose's radius: a brow or a cheekbone seen aslant can
+/// stand out as much, but off the plane), the most prominent first, each at least
+/// [`FACING_VIEWS_APART_DEG`] from those before. The back of a head can stand out on the
+/// plane too: the fit that follows tells them apart. Which way is up is left to the fit.
+fn find_nose(head: &Head, winding: f32, plane: &MirrorPlane) -> Vec<(View, Vec<NoseCandidate>)> {
+    let lateral = plane.normal;
+    let across = mirror_plane::principal_axis_in(&head.positions, plane);
+    let look = |forward: Vec3| {
+        let view = View::with_lateral(forward, lateral);
         let map = DepthMap::render(&head.positions, &head.triangles, view, DEPTH_MAP_CELLS, winding);
         let radius = NOSE_RADIUS * map.extent();
-        let noses = map.noses(radius, NOSE_CANDIDATES);
-        let Some(&nose) = noses.first() else { continue };
-        if nose.prominence > most_prominent.prominence {
-            most_prominent = nose;
-        }
-        if nose.prominence < MIN_NOSE_PROMINENCE {
+        let noses: Vec<NoseCandidate> = map
+            .noses(radius, NOSE_CANDIDATES)
+            .into_iter()
+            .filter(|n| {
+                n.prominence <= MAX_NOSE_PROMINENCE
+                    && (n.tip - plane.point).dot(lateral).abs() < NOSE_OFF_PLANE * radius
+            })
+            .collect();
+        (!noses.is_empty()).then_some((view, noses))
+    };
+    let mut scored: Vec<(View, Vec<NoseCandidate>)> = Vec::new();
+    let mut most_prominent: Option<(View, NoseCandidate)> = None;
+    for k in 0..VIEWS {
+        let angle = k as f32 * std::f32::consts::TAU / VIEWS as f32;
+        let Some((view, noses)) = look(across * angle.cos() + lateral.cross(across) * angle.sin()) else {
             continue;
+        };
+        let nose = noses[0];
+        if most_prominent.is_none_or(|(_, m)| nose.prominence > m.prominence) {
+            most_prominent = Some((view, nose));
         }
-        // Seen from behind, a bump on the midline of the back of the head lies on the
-        // same plane as the nose; the nose stands out more.
-        let badness = symmetry::asymmetry(head, nose.tip, view.lateral) / radius / nose.prominence;
-        if best.as_ref().is_none_or(|(b, ..)| badness < *b) {
-            best = Some((badness, view, noses));
+        if nose.prominence >= MIN_NOSE_PROMINENCE {
+            scored.push((view, noses));
         }
     }
-    best.map_or(
-        (View::horizontal(0.0), vec![most_prominent]),
-        |(_, view, noses)| (view, noses),
-    )
+    // The file's own axes, as far as they lie across the plane: a head written upright is
+    // seen straight from the front, where the most prominent view of its nose can be
+    // pitched by a few degrees, and the fit keeps a start's pitch.
+    let file_views: Vec<(View, Vec<NoseCandidate>)> = [Vec3::X, Vec3::Y, Vec3::Z]
+        .into_iter()
+        .flat_map(|axis| [axis, -axis])
+        .filter_map(|axis| (axis - lateral * axis.dot(lateral)).try_normalize())
+        .filter_map(look)
+        .filter(|(_, noses)| noses[0].prominence >= MIN_NOSE_PROMINENCE)
+        .collect();
+    scored.sort_by(|a, b| b.1[0].prominence.total_cmp(&a.1[0].prominence));
+    let min_cos = FACING_VIEWS_APART_DEG.to_radians().cos();
+    let mut views: Vec<(View, Vec<NoseCandidate>)> = Vec::new();
+    for (view, noses) in scored {
+        if views.iter().all(|(v, _)| v.forward.dot(view.forward) < min_cos) {
+            let nearest_file_view = file_views
+                .iter()
+                .filter(|(v, _)| v.forward.dot(view.forward) >= min_cos)
+                .max_by(|a, b| {
+                    a.0.forward
+                        .dot(view.forward)
+                        .total_cmp(&b.0.forward.dot(view.forward))
+                });
+            views.push(nearest_file_view.cloned().unwrap_or((view, noses)));
+        }
+        if views.len() == FACING_VIEWS {
+            break;
+        }
+    }
+    if views.is_empty() {
+        views.extend(most_prominent.map(|(view, nose)| (view, vec![nose])));
+    }
+    views
 }
 
 #[cfg(test)]

@@ -1,0 +1,112 @@
+//! One member through the automatic fit, against its reference: refused or not (with the
+//! reason), the landmark mask vertices' distance from the reference's (mm), the guessed
+//! scale against the true one, the mask's distance to the surface, and the time taken.
+
+use std::time::Instant;
+
+use glam::Vec3;
+
+use super::Member;
+use crate::fit::{fit_automatically, FittedMask};
+use crate::mask::Mask;
+
+/// What the automatic fit made of a member.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Outcome {
+    pub member: String,
+    /// `ict`, `makehuman` or `scan`.
+    pub family: &'static str,
+    pub held_out: bool,
+    pub vertices: usize,
+    /// Wall time of the fit, s.
+    pub seconds: f64,
+    /// The measures, or the reason it was refused.
+    pub result: Result<Measures, String>,
+}
+
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+pub struct Measures {
+    /// The reference's landmark mask vertices against the fit's (mm, the true scale).
+    pub landmark_mean_mm: f32,
+    pub landmark_max_mm: f32,
+    /// The landmark mask vertex furthest from the reference's.
+    pub worst_vertex: u32,
+    /// Guessed over true mm per unit, minus one.
+    pub scale_error: f32,
+    /// The fit's own score: the mask's mean capped distance to the surface, mm (true scale).
+    pub surface_mm: f32,
+}
+
+/// Fits `member` automatically (scale guessed) and compares it with its reference.
+pub fn measure(member: &Member, mask: &Mask) -> Outcome {
+    let started = Instant::now();
+    let fitted = fit_automatically(&member.head, mask, None);
+    let seconds = started.elapsed().as_secs_f64();
+    let result = fitted.map_err(|e| e.to_string()).map(|automatic| {
+        let scale = automatic.fit.pose.scale.x;
+        let score = automatic.score;
+        let guessed_mm = automatic.fit.mm_per_unit;
+        let neutral = FittedMask::new(mask.clone(), automatic.fit).neutral;
+        let distances: Vec<f32> = member
+            .reference
+            .iter()
+            .map(|&(vertex, reference)| {
+                let vertex = if member.mirrored {
+                    mirror_partner(mask, vertex)
+                } else {
+                    vertex
+                };
+                neutral[vertex as usize].distance(reference) * member.mm_per_unit
+            })
+            .collect();
+        let worst = (0..distances.len())
+            .max_by(|&a, &b| distances[a].total_cmp(&distances[b]))
+            .unwrap_or(0);
+        Measures {
+            landmark_mean_mm: distances.iter().sum::<f32>() / distances.len() as f32,
+            landmark_max_mm: distances.iter().copied().fold(0.0, f32::max),
+            worst_vertex: member.reference.get(worst).map_or(0, |&(vertex, _)| vertex),
+            scale_error: guessed_mm / member.mm_per_unit - 1.0,
+            surface_mm: score as f32 * scale * member.mm_per_unit,
+        }
+    });
+    Outcome {
+        member: member.spec.name(),
+        family: member.spec.source.family(),
+        held_out: member.spec.held_out,
+        vertices: member.head.positions.len(),
+        seconds,
+        result,
+    }
+}
+
+/// The mask vertex that mirrors `vertex` across the mask's midline (x = 0, mask units).
+pub fn mirror_partner(mask: &Mask, vertex: u32) -> u32 {
+    let p = mask.vertices[vertex as usize];
+    let mirrored = Vec3::new(-p.x, p.y, p.z);
+    let (nearest, _) = mask
+        .vertices
+        .iter()
+        .enumerate()
+        .map(|(j, q)| (j, q.distance_squared(mirrored)))
+        .fold((0, f32::INFINITY), |best, c| if c.1 < best.1 { c } else { best });
+    nearest as u32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mirror_partners_swap_the_sides_and_keep_the_midline() {
+        let mask = Mask::candide3();
+        // Eye corners and mouth corners, left (FP 3.7, 3.11, 8.3) and right (3.12, 3.8, 8.4).
+        for (left, right) in [(20, 53), (23, 56), (31, 64)] {
+            assert_eq!(mirror_partner(&mask, left), right);
+            assert_eq!(mirror_partner(&mask, right), left);
+        }
+        // Nose tip and chin lie on the midline.
+        assert_eq!(mirror_partner(&mask, 5), 5);
+        assert_eq!(mirror_partner(&mask, 10), 10);
+    }
+}
