@@ -202,25 +202,13 @@ fn median(values: &mut [f32]) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::{Mat3, Vec2};
-
-    /// A plate 4 x 4 with a bump above its middle and a ridge across below: mirror-symmetric
-    /// about x = 0 only.
-    fn bumped_plate() -> Head {
-        let (positions, triangles) = crate::fit::automatic::depth_map::tests::grid_plate(
-            [41, 41],
-            Vec2::new(-2.0, -2.0),
-            0.1,
-            |x, y| {
-                0.5 * (-(x * x + (y - 0.7) * (y - 0.7)) / 0.3).exp() + 0.2 * (-(y + 1.0) * (y + 1.0)).exp()
-            },
-        );
-        Head::new("bumped plate", positions, triangles)
-    }
+    use glam::Mat3;
 
     #[test]
-    fn a_plate_with_a_bump_is_symmetric_about_the_bump_s_upright_plane_however_turned() {
-        let head = bumped_plate();
+    fn the_ict_head_is_symmetric_about_its_sagittal_plane_however_turned() {
+        let head =
+            Head::load(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/heads/ict_head.obj"))
+                .unwrap();
         for turn in [
             Mat3::IDENTITY,
             Mat3::from_axis_angle(Vec3::new(1.0, 2.0, 3.0).normalize(), 1.1),
@@ -232,18 +220,15 @@ mod tests {
                 head.triangles.clone(),
             );
             let plane = mirror_plane(&turned).unwrap();
+            // The generic ICT head is modelled symmetric about x = 0 (cm).
             let expected = turn * Vec3::X;
             assert!(
-                plane.normal.dot(expected).abs() > 0.9995,
+                plane.normal.dot(expected).abs() > 1f32.to_radians().cos(),
                 "{} against {expected}",
                 plane.normal
             );
-            assert!(
-                (plane.point - Vec3::ZERO).dot(expected).abs() < 0.01,
-                "{}",
-                plane.point
-            );
-            assert!(plane.asymmetry < 0.01, "{}", plane.asymmetry);
+            assert!(plane.point.dot(expected).abs() < 0.1, "{}", plane.point);
+            assert!(plane.asymmetry < 0.1, "{}", plane.asymmetry);
         }
     }
 
