@@ -482,6 +482,7 @@ fn folds_with_v(registration: &Registration) -> (u64, f64) {
         algorithms: &parse_algorithms("V").unwrap(),
         targets: &[],
         parts: &[],
+        contact: None,
     };
     let v = &compare_algorithms(&input, &mut |_| {}).unwrap().algorithms[0].summary;
     (v.lip_folds, v.fold_deg)

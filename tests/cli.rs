@@ -170,7 +170,10 @@ fn fit_without_landmarks_finds_the_face_and_guesses_the_units() {
     ]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("no face found") && err.contains("+y"), "{err}");
+    assert!(
+        err.contains("ball.obj: no face found") && err.contains("Give landmarks"),
+        "{err}"
+    );
     assert!(!refused.exists());
 }
 

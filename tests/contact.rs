@@ -24,6 +24,7 @@ fn compare_on_ict(algorithms: &str, stream: &Path) -> Comparison {
         algorithms: &algorithms,
         targets: &[],
         parts: &head.parts,
+        contact: head.contact.as_ref(),
     };
     compare(&input, &mut |_| {}).unwrap()
 }

@@ -33,6 +33,7 @@ fn on_every_shipped_head_the_default_folds_no_lip_and_is_smoother_than_h() {
             algorithms: &algorithms,
             targets: &[],
             parts: &[],
+            contact: None,
         };
         let comparison = compare(&input, &mut |_| {}).unwrap();
         let row = |letter: &str| {

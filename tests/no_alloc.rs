@@ -41,6 +41,19 @@ fn allocations_during(f: impl FnOnce()) -> usize {
     ALLOCATIONS.with(Cell::get) - before
 }
 
+/// Allocations while `job` deforms and encodes every frame, after a first frame has sized
+/// the encoder's buffers.
+fn allocations_over(job: &mut FrameJob, frames: &[facewire::stream::Frame]) -> usize {
+    job.deform(&frames[0]);
+    job.encode(&frames[0], FrameTimes::default()).unwrap();
+    allocations_during(|| {
+        for frame in frames {
+            job.deform(frame);
+            job.encode(frame, FrameTimes::default()).unwrap();
+        }
+    })
+}
+
 #[test]
 fn the_per_frame_job_allocates_nothing() {
     let mask = Mask::candide3();
@@ -57,15 +70,7 @@ fn the_per_frame_job_allocates_nothing() {
         for heat in [Heat::None, Heat::Roughness, Heat::Folds] {
             let binding = Arc::new(bind(&head.registration, &spec));
             let mut job = FrameJob::new(head.clone(), binding, basis.clone(), heat).unwrap();
-            // The first frame sizes the encoder's buffers.
-            job.deform(&frames[0]);
-            job.encode(&frames[0], FrameTimes::default()).unwrap();
-            let count = allocations_during(|| {
-                for frame in &frames {
-                    job.deform(frame);
-                    job.encode(frame, FrameTimes::default()).unwrap();
-                }
-            });
+            let count = allocations_over(&mut job, &frames);
             assert_eq!(
                 count,
                 0,
@@ -76,4 +81,20 @@ fn the_per_frame_job_allocates_nothing() {
         // the counter does see allocations
         assert_eq!(allocations_during(|| drop(vec![1u8; 10])), 1);
     }
+}
+
+#[test]
+fn the_contact_constraint_allocates_nothing() {
+    let head = Arc::new(common::ict_head());
+    assert!(head.contact.is_some(), "the ICT head's teeth are closed pieces");
+    let mask = Mask::candide3();
+    let frames: Vec<_> = open_stream(&data("streams/syllables.jsonl"), &mask)
+        .unwrap()
+        .map(Result::unwrap)
+        .collect();
+    let spec: AlgoSpec = "biharmonic".parse().unwrap();
+    let binding = Arc::new(bind(&head.registration, &spec));
+    let mut job = FrameJob::new(head.clone(), binding, Arc::new(ArkitBasis::shipped()), Heat::None).unwrap();
+    let count = allocations_over(&mut job, &frames);
+    assert_eq!(count, 0, "allocated {count} times over {} frames", frames.len());
 }

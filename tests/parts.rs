@@ -177,6 +177,21 @@ async fn parts_register_serve_travel_and_survive_a_restart() {
         },
         &mut expected,
     );
+    // ... and as the contact constraint then keeps it out of the teeth (the jaw at rest).
+    let contact = head.contact.as_ref().expect("the ICT head has teeth");
+    let mut skin = head.registration.head.positions.clone();
+    let mut scratch = contact.scratch(skin.len(), expected.len());
+    let tongue_rest = &head.parts[contact.tongue_part().unwrap()].mesh.positions;
+    let pushed = contact.apply(
+        &mut skin,
+        glam::Affine3A::IDENTITY,
+        Some((tongue_rest, &mut expected)),
+        &mut scratch,
+    );
+    eprintln!(
+        "the raised tip: {} tongue vertices pushed out of the teeth",
+        pushed.tongue_pushed
+    );
     let mut sent = vec![Vec3::ZERO; expected.len()];
     for &(v, counts) in &tongue.moved {
         sent[v as usize] = Vec3::from_array(counts.map(|c| c as f32)) * frame.step;

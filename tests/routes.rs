@@ -320,7 +320,7 @@ async fn a_head_with_neither_fit_nor_landmarks_is_fitted_automatically() {
         "{body}"
     );
 
-    // A mesh with no face: refused at once, naming the reason and the assumption.
+    // A mesh with no face: refused at once, naming the reason and the way out.
     let ball = common::ball_obj();
     let ball = serde_json::json!({"id": "ball", "obj": ball});
     let (status, body) = call_json(&router, Method::POST, "/v1/heads", Body::from(ball.to_string())).await;
@@ -331,7 +331,7 @@ async fn a_head_with_neither_fit_nor_landmarks_is_fitted_automatically() {
     );
     let message = body["message"].as_str().unwrap_or_default();
     assert!(
-        message.contains("no face found") && message.contains("+y"),
+        message.contains("no face found") && message.contains("Give landmarks"),
         "{body}"
     );
 

@@ -50,6 +50,15 @@ pub struct PartInfo {
     pub triangles: u32,
     /// Its rest mesh, binary (`mesh.bin`), head units.
     pub mesh: String,
+    /// The part as registered, when it held both rows of teeth and was split into
+    /// `{name}_upper` (skull) and `{name}_lower` (jaw). Absent from servers before it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub split_from: Option<String>,
+    /// Its closed pieces (teeth). A skull or jaw part with none is an open shell: the lips
+    /// and the tongue are not kept out of it and contact is not measured. Absent (null)
+    /// from servers before it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub closed_pieces: Option<u32>,
 }
 
 /// Messages the server sends as JSON text.

@@ -2,7 +2,8 @@
 //! region the roughness is measured on, the quantization step of viewer frames, and the
 //! parts (teeth, gums, tongue) that move with the skull or the jaw.
 
-use super::{infer_role, TongueShaper};
+use super::part_split::split_rows;
+use super::{infer_role, TeethContact, TongueShaper};
 use crate::deform::Registration;
 use crate::head::{check_part_names, Head, Part, PartListError, PartRole};
 use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
@@ -21,9 +22,27 @@ pub struct AnimatedHead {
     pub parts: Vec<Part>,
     /// The part with role tongue (at most one), by index into `parts`, and its shaper.
     pub tongue: Option<(usize, TongueShaper)>,
+    /// Parts given without a role that held both rows of teeth, and so were split in two.
+    pub splits: Vec<PartSplit>,
+    /// Keeps the lips and the tongue out of the teeth; `None` without closed teeth.
+    pub contact: Option<TeethContact>,
+}
+
+/// A part given whole that moves as two ([`super::part_split`]): `{name}_upper` with the
+/// skull and `{name}_lower` with the jaw.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+pub struct PartSplit {
+    /// The part's name as given.
+    pub name: String,
+    pub upper: String,
+    pub lower: String,
+    /// Connected pieces (teeth) on each side of the mouth line.
+    pub upper_pieces: usize,
+    pub lower_pieces: usize,
 }
 
 /// A part mesh before its role is settled.
+#[derive(Debug, Clone)]
 pub struct PartInput {
     pub name: String,
     /// `None`: inferred ([`infer_role`]).
@@ -57,19 +76,32 @@ impl AnimatedHead {
     ) -> Result<AnimatedHead, AnimatedHeadError> {
         check_part_names(parts.iter().map(|p| p.name.as_str()))?;
         let mut settled: Vec<Part> = Vec::with_capacity(parts.len());
+        let mut splits = Vec::new();
         for part in parts {
             if part.mesh.positions.is_empty() {
                 return Err(AnimatedHeadError::EmptyPart { name: part.name });
             }
+            if part.role.is_none() {
+                if let Some(split) = split_rows(&part.mesh, &part.name, &registration.fitted) {
+                    splits.push(PartSplit {
+                        name: part.name.clone(),
+                        upper: split.upper.name.clone(),
+                        lower: split.lower.name.clone(),
+                        upper_pieces: split.upper_pieces,
+                        lower_pieces: split.lower_pieces,
+                    });
+                    for (mesh, role) in [(split.upper, PartRole::Skull), (split.lower, PartRole::Jaw)] {
+                        settled.push(Part::new(mesh.name.clone(), role, mesh, Some(part.name.clone())));
+                    }
+                    continue;
+                }
+            }
             let role = part
                 .role
                 .unwrap_or_else(|| infer_role(&part.mesh, &registration.fitted));
-            settled.push(Part {
-                name: part.name,
-                role,
-                mesh: part.mesh,
-            });
+            settled.push(Part::new(part.name, role, part.mesh, None));
         }
+        check_part_names(settled.iter().map(|p| p.name.as_str()))?;
         let mut tongues = settled.iter().filter(|p| p.role == PartRole::Tongue);
         if let (Some(first), Some(second)) = (tongues.next(), tongues.next()) {
             return Err(AnimatedHeadError::TwoTongues {
@@ -84,12 +116,20 @@ impl AnimatedHead {
             registration.mm_per_unit(),
         )?;
         let step = STEP_MM / registration.mm_per_unit();
+        let contact = TeethContact::new(
+            &registration.head,
+            lip_region.union(),
+            &settled,
+            registration.mm_per_unit(),
+        );
         Ok(AnimatedHead {
             registration,
             lip_region,
             step,
             parts: settled,
             tongue,
+            splits,
+            contact,
         })
     }
 

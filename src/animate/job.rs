@@ -1,5 +1,6 @@
 //! The per-frame job for one head and one algorithm: pose the mask from a frame, deform
-//! the head, find the head's own rigid motion and the jaw's (kept apart from the deformation), shape the tongue, measure lip (and optionally whole-face) roughness, quantize the deltas and
+//! the head, find the head's own rigid motion and the jaw's (kept apart from the
+//! deformation), shape the tongue, keep the lips and tongue out of the teeth, measure lip (and optionally whole-face) roughness, quantize the deltas and
 //! encode the viewer frame. Every buffer is made once, in [`FrameJob::new`].
 
 use std::sync::Arc;
@@ -7,7 +8,7 @@ use std::sync::Arc;
 use glam::Vec3;
 
 use super::json_frame::write_json_frame;
-use super::{head_motion, jaw_motion, AnimatedHead, RigidMotion};
+use super::{head_motion, jaw_motion, AnimatedHead, ContactScratch, RigidMotion};
 use crate::deform::{Binding, DeformScratch};
 use crate::mask::LIP_VERTICES;
 use crate::metrics::{FoldMeter, LipRoughness, RegionError, Roughness, RoughnessError};
@@ -81,6 +82,8 @@ pub struct FrameJob {
     tongue: Vec<Vec3>,
     tongue_shaped: bool,
     tongue_wire: Vec<[f32; 3]>,
+    /// Buffers of the head's contact constraint; `None` for a head without teeth.
+    contact: Option<ContactScratch>,
     lip: LipRoughness,
     lip_wire: WireLip,
     lip_folds: FoldMeter,
@@ -126,6 +129,7 @@ impl FrameJob {
             tongue: vec![Vec3::ZERO; tongue_n],
             tongue_shaped: false,
             tongue_wire: vec![[0.0; 3]; tongue_n],
+            contact: head.contact.as_ref().map(|c| c.scratch(n, tongue_n)),
             lip,
             lip_folds,
             lip_wire: WireLip {
@@ -165,6 +169,16 @@ impl FrameJob {
         }
         if let Some((_, shaper)) = &self.head.tongue {
             self.tongue_shaped = shaper.shape(frame, &mut self.tongue);
+        }
+        if let (Some(contact), Some(scratch)) = (&self.head.contact, &mut self.contact) {
+            let tongue = contact.tongue_part().map(|k| {
+                (
+                    self.head.parts[k].mesh.positions.as_slice(),
+                    self.tongue.as_mut_slice(),
+                )
+            });
+            let applied = contact.apply(&mut self.deformed, self.jaw_motion.affine(), tongue, scratch);
+            self.tongue_shaped |= applied.tongue_pushed > 0;
         }
         &self.deformed
     }

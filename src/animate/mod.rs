@@ -10,15 +10,20 @@ mod jaw;
 mod job;
 mod json_frame;
 mod part_role;
+mod part_split;
 mod rigid;
+mod teeth_contact;
 mod tongue;
 
-pub use head::{AnimatedHead, AnimatedHeadError, PartInput, STEP_MM};
+pub use head::{AnimatedHead, AnimatedHeadError, PartInput, PartSplit, STEP_MM};
 pub use head_motion::{head_motion, NECK_PIVOT_MASK};
 pub use jaw::{jaw_motion, CHIN_VERTICES, JAW_PIVOT_MASK};
 pub use job::{FrameJob, FrameJobError, FrameTimes, Heat};
 pub use part_role::infer_role;
 pub use rigid::RigidMotion;
+pub use teeth_contact::{
+    ContactApplied, ContactScratch, TeethContact, CONTACT_MARGIN_MM, FALLOFF_MM, WATCH_MM,
+};
 pub use tongue::{
     TongueLandmarks, TongueShaper, BODY_BEHIND_TIP, BODY_REACH, FREE_MM, HELD_MM, TIP_REACH,
     TONGUE_OUT_COUNTS,

@@ -39,6 +39,11 @@ impl RigidMotion {
         }
     }
 
+    /// As an affine map of head units.
+    pub fn affine(&self) -> glam::Affine3A {
+        glam::Affine3A::from_rotation_translation(self.rotation, self.translation)
+    }
+
     pub fn is_identity(&self) -> bool {
         *self == RigidMotion::IDENTITY
     }

@@ -6,7 +6,7 @@ use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 
 use super::fitted_head::FittedHeadArgs;
-use super::part_arg::load_parts;
+use super::part_arg::{describe_parts, load_parts};
 use super::{print_json, CliResult, FilePath};
 use crate::animate::AnimatedHead;
 use crate::report::{
@@ -64,6 +64,7 @@ pub fn run(args: Args) -> CliResult {
     let targets = load_targets(&args, head.positions.len())?;
     let animated = AnimatedHead::with_parts(args.fitted.register(head, fitted)?, parts)
         .map_err(|e| format!("{}: {e}", args.fitted.head.display()))?;
+    describe_parts(&animated);
 
     let basis = ArkitBasis::shipped();
     let input = CompareInput {
@@ -73,6 +74,7 @@ pub fn run(args: Args) -> CliResult {
         algorithms: &algorithms,
         targets: targets.as_ref().map_or(&[], |t| t.targets.as_slice()),
         parts: &animated.parts,
+        contact: animated.contact.as_ref(),
     };
     let mut bar = ProgressBar::new(std::io::stderr().is_terminal());
     let comparison = compare(&input, &mut |p| bar.update(p))?;

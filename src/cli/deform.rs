@@ -10,7 +10,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::fitted_head::FittedHeadArgs;
-use super::part_arg::load_parts;
+use super::part_arg::{describe_parts, load_parts};
 use super::{CliResult, FilePath};
 use crate::animate::{AnimatedHead, FrameJob, Heat};
 use crate::deform::{bind, AlgoSpec};
@@ -97,14 +97,7 @@ pub fn run(args: Args) -> CliResult {
         AnimatedHead::with_parts(registration, parts)
             .map_err(|e| format!("{}: {e}", args.fitted.head.display()))?,
     );
-    for part in &animated.parts {
-        eprintln!(
-            "part {}: {} vertices, moves with the {}",
-            part.name,
-            part.mesh.positions.len(),
-            part.role
-        );
-    }
+    describe_parts(&animated);
     let registration = &animated.registration;
     let mut lips = LipRoughness::new(&registration.head, &animated.lip_region)?;
     let metrics_path = args.out.join("metrics.tsv");

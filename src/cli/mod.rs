@@ -12,6 +12,7 @@ mod load;
 mod part_arg;
 mod play;
 mod population;
+mod population_animation;
 mod render;
 mod serve;
 mod syllables;

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use crate::animate::PartInput;
+use crate::animate::{AnimatedHead, PartInput};
 use crate::head::{Head, PartRole};
 
 /// `[ROLE:]PATH` into a part to register.
@@ -25,4 +25,26 @@ pub fn load_part(text: &str) -> Result<PartInput, String> {
 /// Every `--part` of a command, loaded.
 pub fn load_parts(texts: &[String]) -> Result<Vec<PartInput>, String> {
     texts.iter().map(|t| load_part(t)).collect()
+}
+
+/// Says on stderr how each part of `head` moves, which were split from one mesh holding
+/// both rows of teeth, and which teeth are open shells that contact cannot use.
+pub fn describe_parts(head: &AnimatedHead) {
+    for part in &head.parts {
+        let split = part.split_from.as_ref().map_or(String::new(), |from| {
+            format!(" (split from {from}: both rows of teeth in one mesh)")
+        });
+        eprintln!(
+            "part {}: {} vertices, moves with the {}{split}",
+            part.name,
+            part.mesh.positions.len(),
+            part.role
+        );
+        if part.role != PartRole::Tongue && part.closed_pieces == 0 {
+            eprintln!(
+                "warning: part {} has no closed piece (an open shell): the lips and the tongue are not kept out of it, and contact is not measured against it",
+                part.name
+            );
+        }
+    }
 }

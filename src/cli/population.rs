@@ -4,11 +4,13 @@
 //! and for the held-out members (docs/FITTING.md, "On a population").
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use super::CliResult;
+use crate::fit::FitFile;
+use crate::head::{obj, Head};
 use crate::mask::Mask;
-use crate::population::{self, Maker, Outcome};
+use crate::population::{self, Maker, Member, Outcome};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -25,9 +27,30 @@ pub struct Args {
     /// Print the outcomes as JSON lines instead of the table.
     #[arg(long)]
     json: bool,
+    /// Write the members into this folder instead of measuring them, as a user would
+    /// have them: `NAME.obj`, its parts (`NAME.teeth.obj`, ...) and, for the whole heads,
+    /// the landmark fit (`NAME.fit.toml`).
+    #[arg(long, conflicts_with = "animate")]
+    write: Option<PathBuf>,
+    /// Animate the whole heads (with their teeth, gums and tongue) through a stream
+    /// instead of measuring the fit: lip folds, lips and tongue in the teeth, f/v gap,
+    /// ground truth and deform time per head and fit.
+    #[arg(long)]
+    animate: bool,
+    #[command(flatten)]
+    animation: super::population_animation::Args,
 }
 
 pub fn run(args: Args) -> CliResult {
+    if args.animate {
+        return super::population_animation::run(
+            &args.data,
+            args.sample,
+            args.only.as_deref(),
+            args.json,
+            &args.animation,
+        );
+    }
     let maker = Maker::new(&args.data)?;
     let mask = Mask::candide3();
     let specs = if args.sample {
@@ -39,6 +62,16 @@ pub fn run(args: Args) -> CliResult {
         .into_iter()
         .filter(|s| args.only.as_deref().is_none_or(|only| s.name().contains(only)))
         .collect();
+    if let Some(dir) = &args.write {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        for spec in &specs {
+            let member = maker.make(spec)?;
+            for path in write_member(&member, &mask, dir)? {
+                println!("{}", path.display());
+            }
+        }
+        return Ok(());
+    }
     let mut outcomes = Vec::new();
     for (k, spec) in specs.iter().enumerate() {
         let member = maker.make(spec)?;
@@ -53,6 +86,44 @@ pub fn run(args: Args) -> CliResult {
         print!("{}", table(&outcomes));
     }
     Ok(())
+}
+
+/// `member` as files in `dir`, named after it; the paths written.
+fn write_member(member: &Member, mask: &Mask, dir: &Path) -> Result<Vec<PathBuf>, String> {
+    let stem: String = member
+        .spec
+        .name()
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '.' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    let mut written = Vec::new();
+    let mut write = |name: String, bytes: Vec<u8>| -> Result<(), String> {
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+        written.push(path);
+        Ok(())
+    };
+    let obj = |head: &Head| -> Result<Vec<u8>, String> {
+        let mut bytes = Vec::new();
+        let header = [format!("facewire population member: {}", member.spec.name())];
+        obj::write(&mut bytes, &header, &head.positions, &head.triangles).map_err(|e| e.to_string())?;
+        Ok(bytes)
+    };
+    write(format!("{stem}.obj"), obj(&member.head)?)?;
+    for part in &member.parts {
+        write(format!("{stem}.{}.obj", part.name), obj(&part.mesh)?)?;
+    }
+    if let Some(fit) = &member.landmark_fit {
+        let file = FitFile::from_fit(fit, mask, Some(format!("{stem}.obj")));
+        write(format!("{stem}.fit.toml"), file.to_toml().into_bytes())?;
+    }
+    Ok(written)
 }
 
 fn line(o: &Outcome) -> String {

@@ -6,6 +6,7 @@ pub mod geodesic;
 pub mod laplacian;
 pub mod obj;
 pub mod part;
+pub mod solid;
 pub mod spatial;
 pub mod subdivide;
 pub mod topology;
@@ -23,6 +24,7 @@ pub use geodesic::SurfaceDistance;
 pub use laplacian::CotanLaplacian;
 pub use obj::ObjError;
 pub use part::{check_part_names, Part, PartListError, PartRole, PartRoleError, MAX_PARTS};
+pub use solid::{closed_piece_count, closed_pieces, surface_of, Pieces, Solid, NO_PIECE};
 pub use spatial::{closest_point_on_triangle, SurfaceIndex, SurfacePoint, VertexIndex};
 pub use topology::{Edge, Fan, Topology};
 pub use validate::Problem;
@@ -116,6 +118,24 @@ impl Head {
 
     pub fn bounds(&self) -> Bounds {
         Bounds::of(&self.positions)
+    }
+
+    /// The vertices of `positions` that `triangles` use, renumbered in the order the
+    /// triangles first use them: a part of a mesh as a mesh of its own.
+    pub fn compacted(name: &str, positions: &[Vec3], triangles: &[[u32; 3]]) -> Head {
+        let mut renumber = vec![u32::MAX; positions.len()];
+        let mut kept = Vec::new();
+        for &v in triangles.iter().flatten() {
+            if renumber[v as usize] == u32::MAX {
+                renumber[v as usize] = kept.len() as u32;
+                kept.push(positions[v as usize]);
+            }
+        }
+        let triangles = triangles
+            .iter()
+            .map(|t| t.map(|v| renumber[v as usize]))
+            .collect();
+        Head::new(name, kept, triangles)
     }
 }
 

@@ -99,6 +99,22 @@ pub struct Part {
     pub name: String,
     pub role: PartRole,
     pub mesh: Head,
+    /// The part as given, when it held both rows of teeth and this is one of them.
+    pub split_from: Option<String>,
+    /// Its closed pieces (teeth): 0 for an open shell, which contact cannot use.
+    pub closed_pieces: usize,
+}
+
+impl Part {
+    pub fn new(name: String, role: PartRole, mesh: Head, split_from: Option<String>) -> Part {
+        Part {
+            closed_pieces: super::closed_piece_count(&mesh),
+            name,
+            role,
+            mesh,
+            split_from,
+        }
+    }
 }
 
 #[cfg(test)]

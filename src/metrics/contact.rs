@@ -3,132 +3,18 @@
 //! lip is to the upper teeth (labiodental f/v must close that gap). docs/METRICS.md,
 //! section 9, "Contact inside the mouth".
 //!
-//! The teeth are the closed pieces of the head's skull and jaw parts (each tooth of the
-//! ICT model is one; gums and tongue are open surfaces and never count as solids). A
-//! point is inside a piece when a ray from it crosses the piece's surface an odd number
-//! of times. Everything is in the head's frame before the head's own motion, which moves
+//! The teeth are the closed pieces of the head's skull and jaw parts ([`crate::head::solid`]:
+//! each tooth of the ICT model is one; gums and tongue are open surfaces and never count as
+//! solids). Everything is in the head's frame before the head's own motion, which moves
 //! skin, teeth and tongue alike: skull pieces stay at rest, jaw pieces are moved by the
 //! frame's jaw motion. Lengths come out in millimetres.
 
 use glam::{Affine3A, Vec3};
 
-use crate::head::{closest_point_on_triangle, Head, Part, PartRole, SurfaceIndex};
+use crate::head::{closed_pieces, surface_of, Head, Part, PartRole, Solid, SurfaceIndex};
 use crate::mask::{MaskPose, LOWER_LIP};
 
 use super::LipRegion;
-
-/// The ray the inside test casts: off every axis so that it does not run along the
-/// edges of axis-aligned geometry.
-const RAY: Vec3 = Vec3::new(0.8017, 0.3312, 0.4975);
-
-/// One closed piece (a tooth): its triangles and bounding box, head units.
-#[derive(Debug, Clone)]
-struct Piece {
-    min: Vec3,
-    max: Vec3,
-    triangles: Vec<[Vec3; 3]>,
-}
-
-impl Piece {
-    fn contains(&self, p: Vec3) -> bool {
-        if p.cmplt(self.min).any() || p.cmpgt(self.max).any() {
-            return false;
-        }
-        let crossings = self.triangles.iter().filter(|t| ray_hits(p, RAY, t)).count();
-        crossings % 2 == 1
-    }
-
-    /// How far `p` is from the piece's surface (head units).
-    fn distance(&self, p: Vec3) -> f32 {
-        self.triangles
-            .iter()
-            .map(|[a, b, c]| closest_point_on_triangle(p, *a, *b, *c).distance(p))
-            .fold(f32::INFINITY, f32::min)
-    }
-}
-
-/// Möller-Trumbore: whether the ray `origin + s * direction`, `s > 0`, crosses `t`.
-fn ray_hits(origin: Vec3, direction: Vec3, [a, b, c]: &[Vec3; 3]) -> bool {
-    let (e1, e2) = (*b - *a, *c - *a);
-    let h = direction.cross(e2);
-    let det = e1.dot(h);
-    if det.abs() < 1e-12 {
-        return false;
-    }
-    let inv = 1.0 / det;
-    let s = origin - *a;
-    let u = s.dot(h) * inv;
-    if !(0.0..=1.0).contains(&u) {
-        return false;
-    }
-    let q = s.cross(e1);
-    let v = direction.dot(q) * inv;
-    if v < 0.0 || u + v > 1.0 {
-        return false;
-    }
-    e2.dot(q) * inv > 0.0
-}
-
-/// The closed connected pieces of a mesh (components none of whose edges is open), and
-/// the triangles of the open ones.
-fn split_pieces(mesh: &Head) -> (Vec<Piece>, Vec<[Vec3; 3]>) {
-    let n = mesh.positions.len();
-    let mut parent: Vec<u32> = (0..n as u32).collect();
-    fn root(parent: &mut [u32], mut v: u32) -> u32 {
-        while parent[v as usize] != v {
-            let up = parent[parent[v as usize] as usize];
-            parent[v as usize] = up;
-            v = up;
-        }
-        v
-    }
-    for t in &mesh.triangles {
-        for k in 1..3 {
-            let (a, b) = (root(&mut parent, t[0]), root(&mut parent, t[k]));
-            parent[a as usize] = b;
-        }
-    }
-    let mut open = vec![false; n];
-    for edge in mesh.topology.edges.iter().filter(|e| e.triangles != 2) {
-        let r = root(&mut parent, edge.a);
-        open[r as usize] = true;
-    }
-    let mut piece_of = vec![usize::MAX; n];
-    let mut pieces: Vec<Piece> = Vec::new();
-    let mut open_triangles = Vec::new();
-    for t in &mesh.triangles {
-        let r = root(&mut parent, t[0]) as usize;
-        let corners = t.map(|v| mesh.positions[v as usize]);
-        if open[r] {
-            open_triangles.push(corners);
-            continue;
-        }
-        if piece_of[r] == usize::MAX {
-            piece_of[r] = pieces.len();
-            pieces.push(Piece {
-                min: Vec3::INFINITY,
-                max: Vec3::NEG_INFINITY,
-                triangles: Vec::new(),
-            });
-        }
-        let piece = &mut pieces[piece_of[r]];
-        for c in corners {
-            piece.min = piece.min.min(c);
-            piece.max = piece.max.max(c);
-        }
-        piece.triangles.push(corners);
-    }
-    (pieces, open_triangles)
-}
-
-/// A surface index over loose triangles; `None` for none.
-fn surface_of(triangles: &[[Vec3; 3]]) -> Option<SurfaceIndex> {
-    let corners: Vec<Vec3> = triangles.iter().flatten().copied().collect();
-    let indices: Vec<[u32; 3]> = (0..triangles.len() as u32)
-        .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
-        .collect();
-    (!indices.is_empty()).then(|| SurfaceIndex::new(&corners, &indices))
-}
 
 /// Contact measures of one frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -165,8 +51,8 @@ struct Tongue {
 
 /// The teeth, lips and tongue of one head, set up to measure contact frame after frame.
 pub struct MouthContact {
-    skull: Vec<Piece>,
-    jaw: Vec<Piece>,
+    skull: Vec<Solid>,
+    jaw: Vec<Solid>,
     /// Every skull part's surface (upper teeth and gums).
     upper_teeth: SurfaceIndex,
     /// The skull parts' open surfaces (the upper gums).
@@ -196,7 +82,7 @@ impl MouthContact {
     ) -> Option<MouthContact> {
         let (mut skull, mut jaw, mut gums) = (Vec::new(), Vec::new(), Vec::new());
         for part in parts {
-            let (closed, open) = split_pieces(&part.mesh);
+            let (closed, open) = closed_pieces(&part.mesh);
             match part.role {
                 PartRole::Skull => {
                     skull.extend(closed);
@@ -331,67 +217,5 @@ impl MouthContact {
             .map(|hit| hit.distance)
             .fold(f32::INFINITY, f32::min)
             * self.mm_per_unit
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A closed unit cube [0, 1]^3 as 12 triangles.
-    fn cube(offset: Vec3) -> Head {
-        let mut obj = String::new();
-        for i in 0..8 {
-            let p = Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) + offset;
-            obj += &format!("v {} {} {}\n", p.x, p.y, p.z);
-        }
-        for f in [
-            [1, 3, 4, 2],
-            [5, 6, 8, 7],
-            [1, 2, 6, 5],
-            [3, 7, 8, 4],
-            [1, 5, 7, 3],
-            [2, 4, 8, 6],
-        ] {
-            obj += &format!("f {} {} {} {}\n", f[0], f[1], f[2], f[3]);
-        }
-        Head::from_obj_bytes("cube", obj.as_bytes()).unwrap()
-    }
-
-    #[test]
-    fn a_closed_piece_holds_its_inside_only() {
-        let (pieces, open) = split_pieces(&cube(Vec3::ZERO));
-        assert!(open.is_empty());
-        assert_eq!(pieces.len(), 1);
-        assert_eq!(pieces[0].triangles.len(), 12);
-        for (p, inside) in [
-            (Vec3::splat(0.5), true),
-            (Vec3::new(0.01, 0.99, 0.5), true),
-            (Vec3::new(0.5, 0.5, 1.01), false),
-            (Vec3::new(-0.5, 0.5, 0.5), false),
-            (Vec3::new(2.0, 0.5, 0.5), false),
-        ] {
-            assert_eq!(pieces[0].contains(p), inside, "{p}");
-        }
-    }
-
-    #[test]
-    fn open_pieces_are_not_solids() {
-        let open = Head::from_obj_bytes("open", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
-        let (closed, triangles) = split_pieces(&open);
-        assert!(closed.is_empty());
-        assert_eq!(triangles.len(), 1);
-    }
-
-    #[test]
-    fn ray_hits_only_forward() {
-        let t = [
-            Vec3::new(-1.0, -1.0, 1.0),
-            Vec3::new(1.0, -1.0, 1.0),
-            Vec3::new(0.0, 1.0, 1.0),
-        ];
-        assert!(ray_hits(Vec3::ZERO, Vec3::Z, &t));
-        assert!(!ray_hits(Vec3::ZERO, Vec3::NEG_Z, &t));
-        assert!(!ray_hits(Vec3::new(5.0, 0.0, 0.0), Vec3::Z, &t));
     }
 }

@@ -15,8 +15,9 @@ use glam::{Mat3, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::fit::{fit_from_landmarks, FittedMask, Landmarks};
-use crate::head::Head;
+use crate::animate::PartInput;
+use crate::fit::{fit_from_landmarks, Fit, FittedMask, Landmarks};
+use crate::head::{Head, PartRole};
 use crate::mask::Mask;
 pub use identity_model::{IdentityModel, IdentityModelError, IdentityPart};
 pub use measure::{measure, Measures, Outcome};
@@ -51,6 +52,16 @@ impl Source {
             Source::IctGeneric => "ict generic".into(),
             Source::MakeHuman => "makehuman".into(),
             Source::Scan => "scan".into(),
+        }
+    }
+
+    /// The folder of expression targets (ground truth) of its heads, relative to
+    /// `data/heads/`; `None` for the scan, which has none.
+    pub fn targets_dir(&self) -> Option<&'static str> {
+        match self {
+            Source::IctIdentity { .. } | Source::IctGeneric => Some("ict_targets/skin"),
+            Source::MakeHuman => Some("makehuman_arkit"),
+            Source::Scan => None,
         }
     }
 
@@ -106,6 +117,11 @@ pub struct Member {
     /// The head's frame is a mirror image of the source's: the mask's left lies where the
     /// reference's right does.
     pub mirrored: bool,
+    /// The landmark fit itself, for a member with no variants (its head is the source's).
+    pub landmark_fit: Option<Fit>,
+    /// Its teeth, gums and tongue as users have them, for an ICT member with no variants
+    /// (the shipped heads' parts are not part of the population): see [`ict_parts`].
+    pub parts: Vec<PartInput>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -145,11 +161,20 @@ impl Maker {
 
     /// The member's head and reference.
     pub fn make(&self, spec: &MemberSpec) -> Result<Member, PopulationError> {
+        let weights = match spec.source {
+            Source::IctIdentity { seed, sigma } => Some(self.model.weights(seed, sigma)),
+            Source::IctGeneric => Some(Vec::new()),
+            Source::MakeHuman | Source::Scan => None,
+        };
+        let parts = match &weights {
+            Some(weights) if spec.variants.is_empty() => ict_parts(&self.model, weights),
+            _ => Vec::new(),
+        };
         let (head, landmarks) = match spec.source {
-            Source::IctIdentity { seed, sigma } => (
+            Source::IctIdentity { seed, .. } => (
                 self.model.part(
                     IdentityPart::Skin,
-                    &self.model.weights(seed, sigma),
+                    weights.as_deref().unwrap_or_default(),
                     &format!("ict_seed{seed}.obj"),
                 ),
                 self.ict_landmarks.clone(),
@@ -174,7 +199,7 @@ impl Maker {
                 message: format!("{}: reference fit: {e}", spec.source.label()),
             }
         })?;
-        let fitted = FittedMask::new(self.mask.clone(), fit.fit);
+        let fitted = FittedMask::new(self.mask.clone(), fit.fit.clone());
         let mut reference: Vec<(u32, Vec3)> = landmarks
             .landmarks
             .iter()
@@ -204,8 +229,48 @@ impl Maker {
             reference,
             mm_per_unit,
             mirrored: linear.determinant() < 0.0,
+            landmark_fit: spec.variants.is_empty().then_some(fit.fit),
+            parts,
         })
     }
+}
+
+/// Vertices of the model's gums-and-tongue mesh that are the upper gums (0..568); the rest
+/// are the lower gums, the floor of the mouth and the tongue, one connected surface.
+pub const UPPER_GUMS: u32 = 568;
+
+/// An ICT identity's parts as a user would pass them: the teeth as the model ships them,
+/// both rows in one mesh with no role (facewire splits it); the gums and tongue cut where
+/// the shipped ICT head's are (`data/heads/LICENSES.md`): `gums_upper` (skull) and
+/// `gums_lower_tongue` (tongue).
+pub fn ict_parts(model: &IdentityModel, weights: &[f32]) -> Vec<PartInput> {
+    let gums_tongue = model.part(IdentityPart::GumsTongue, weights, "gums_tongue");
+    let side = |upper: bool, name: &str| {
+        let triangles: Vec<[u32; 3]> = gums_tongue
+            .triangles
+            .iter()
+            .filter(|t| t.iter().all(|&v| (v < UPPER_GUMS) == upper))
+            .copied()
+            .collect();
+        Head::compacted(name, &gums_tongue.positions, &triangles)
+    };
+    vec![
+        PartInput {
+            name: "teeth".into(),
+            role: None,
+            mesh: model.part(IdentityPart::Teeth, weights, "teeth"),
+        },
+        PartInput {
+            name: "gums_upper".into(),
+            role: Some(PartRole::Skull),
+            mesh: side(true, "gums_upper"),
+        },
+        PartInput {
+            name: "gums_lower_tongue".into(),
+            role: Some(PartRole::Tongue),
+            mesh: side(false, "gums_lower_tongue"),
+        },
+    ]
 }
 
 fn load_landmarks(data_dir: &Path, name: &str) -> Result<Landmarks, PopulationError> {
@@ -315,7 +380,26 @@ pub fn members() -> Vec<MemberSpec> {
     members
 }
 
-/// Every fourth development member and every fourth held-out one: the sample CI runs.
+/// The members whose heads are their sources' own (no cut, no other frame): those the
+/// animation is measured on (`facewire population --animate`), with their parts and
+/// their landmark fits.
+pub fn whole_heads() -> Vec<MemberSpec> {
+    members().into_iter().filter(|m| m.variants.is_empty()).collect()
+}
+
+/// The whole heads CI animates: every tenth development ICT head, MakeHuman and the scan,
+/// and every fifth held-out head.
+pub fn whole_heads_sample() -> Vec<MemberSpec> {
+    let (dev, held): (Vec<_>, Vec<_>) = whole_heads().into_iter().partition(|m| !m.held_out);
+    let (ict, others): (Vec<_>, Vec<_>) = dev.into_iter().partition(|m| m.source.family() == "ict");
+    ict.into_iter()
+        .step_by(10)
+        .chain(others)
+        .chain(held.into_iter().step_by(5))
+        .collect()
+}
+
+/// Every third development member and every fourth held-out one: the sample CI runs.
 pub fn sample() -> Vec<MemberSpec> {
     let all = members();
     let (dev, held): (Vec<_>, Vec<_>) = all.into_iter().partition(|m| !m.held_out);

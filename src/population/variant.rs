@@ -150,7 +150,7 @@ pub fn cut_face(head: &Head, centre: Vec3, radius_mm: f32, depth_mm: f32, mm_per
         .filter(|t| t.iter().all(|&v| keep[v as usize]))
         .copied()
         .collect();
-    compacted(&head.name, &head.positions, &triangles)
+    Head::compacted(&head.name, &head.positions, &triangles)
 }
 
 /// `head` with about `vertices` vertices left by meshoptimizer's quadric edge collapse (no
@@ -175,24 +175,7 @@ pub fn decimated(head: &Head, vertices: usize) -> Head {
         None,
     );
     let triangles: Vec<[u32; 3]> = kept.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
-    compacted(&head.name, &head.positions, &triangles)
-}
-
-/// The vertices `triangles` use, renumbered in their order.
-fn compacted(name: &str, positions: &[Vec3], triangles: &[[u32; 3]]) -> Head {
-    let mut renumber = vec![u32::MAX; positions.len()];
-    let mut kept = Vec::new();
-    for &v in triangles.iter().flatten() {
-        if renumber[v as usize] == u32::MAX {
-            renumber[v as usize] = kept.len() as u32;
-            kept.push(positions[v as usize]);
-        }
-    }
-    let triangles = triangles
-        .iter()
-        .map(|t| t.map(|v| renumber[v as usize]))
-        .collect();
-    Head::new(name, kept, triangles)
+    Head::compacted(&head.name, &head.positions, &triangles)
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@ use glam::Vec3;
 use serde::Serialize;
 
 use super::{Candidate, CompareError};
-use crate::animate::{jaw_motion, TongueShaper};
+use crate::animate::{jaw_motion, ContactScratch, TeethContact, TongueShaper};
 use crate::deform::{bind, Registration};
 use crate::head::Part;
 use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
@@ -41,6 +41,9 @@ pub struct CompareInput<'a> {
     /// The head's parts (teeth, gums, tongue) with their roles, for the contact measures;
     /// empty for none.
     pub parts: &'a [Part],
+    /// The contact constraint applied after each deform (the service's and `facewire
+    /// deform`'s, [`crate::animate::AnimatedHead::contact`]); `None` for none.
+    pub contact: Option<&'a TeethContact>,
 }
 
 /// Where a running comparison is, for a progress display.
@@ -88,7 +91,8 @@ pub struct AlgorithmSummary {
     /// Head mouth opening over mask mouth opening, mean over the frames whose mask opening
     /// is at least 1 mm; `None` when no frame opens the mask that far.
     pub mouth_opening_ratio: Option<f64>,
-    /// Median wall time of one deform call, microseconds (varies by machine).
+    /// Median wall time of one frame's deform (the algorithm, then the contact constraint
+    /// on a head with teeth), microseconds (varies by machine).
     pub deform_us: f64,
     /// Mean over the expression targets of the RMS error over the face vertices, mm;
     /// `None` without targets.
@@ -276,6 +280,9 @@ pub fn compare(
         target_mask: vec![Vec3::ZERO; mask.vertices.len()],
         stream: StreamTotals::default(),
         tongue_deltas: vec![Vec3::ZERO; tongue.as_ref().map_or(0, TongueShaper::vertex_count)],
+        contact: input
+            .contact
+            .map(|c| c.scratch(rest.len(), tongue.as_ref().map_or(0, TongueShaper::vertex_count))),
         mouth,
         tongue,
     };
@@ -389,6 +396,7 @@ struct Run<'i, 'a> {
     /// The tongue's shaper, when the head has one.
     tongue: Option<TongueShaper>,
     tongue_deltas: Vec<Vec3>,
+    contact: Option<ContactScratch>,
 }
 
 impl Run<'_, '_> {
@@ -433,7 +441,25 @@ impl Run<'_, '_> {
                 &mut scratch,
                 &mut self.deformed,
             );
-            durations.push(started.elapsed().as_secs_f64() * 1e6);
+            let mut deform_us = started.elapsed().as_secs_f64() * 1e6;
+            let jaw = jaw_motion(reg.mask_rest(), mask_now, &reg.fitted.fit.pose).affine();
+            let mut tongue_shaped = match &self.tongue {
+                Some(shaper) => shaper.shape(&frame, &mut self.tongue_deltas),
+                None => false,
+            };
+            if let (Some(contact), Some(contact_scratch)) = (self.input.contact, &mut self.contact) {
+                let tongue = contact.tongue_part().map(|k| {
+                    (
+                        self.input.parts[k].mesh.positions.as_slice(),
+                        self.tongue_deltas.as_mut_slice(),
+                    )
+                });
+                let started = Instant::now();
+                let applied = contact.apply(&mut self.deformed, jaw, tongue, contact_scratch);
+                deform_us += started.elapsed().as_secs_f64() * 1e6;
+                tongue_shaped |= applied.tongue_pushed > 0;
+            }
+            durations.push(deform_us);
 
             let rows = self
                 .lips
@@ -486,14 +512,7 @@ impl Run<'_, '_> {
                 self.stream.exact_ratio_sum += exact / opening.mask_mm;
             }
             if let Some(mouth) = &self.mouth {
-                let jaw = jaw_motion(reg.mask_rest(), mask_now, &reg.fitted.fit.pose);
-                let jaw = glam::Affine3A::from_rotation_translation(jaw.rotation, jaw.translation);
-                let tongue = match &self.tongue {
-                    Some(shaper) => shaper
-                        .shape(&frame, &mut self.tongue_deltas)
-                        .then_some(self.tongue_deltas.as_slice()),
-                    None => None,
-                };
+                let tongue = tongue_shaped.then_some(self.tongue_deltas.as_slice());
                 contact.push(ContactRow {
                     frame: f,
                     label: frame.label.clone().unwrap_or_else(|| UNLABELLED.into()),

@@ -51,6 +51,8 @@ impl ReadyHead {
                 vertices: p.mesh.positions.len() as u32,
                 triangles: p.mesh.triangles.len() as u32,
                 mesh: format!("/v1/heads/{head_id}/parts/{}/mesh.bin", p.name),
+                split_from: p.split_from.clone(),
+                closed_pieces: Some(p.closed_pieces as u32),
             })
             .collect()
     }
