@@ -641,4 +641,54 @@ mod tests {
             deltas[at(10, 10)]
         );
     }
+
+    #[test]
+    fn remembered_clearances_give_the_answers_of_testing_every_vertex() {
+        // A row of teeth under the skin and a bump of skin that sinks into them and rises
+        // again, frame after frame, with the jaw moving: a job that remembers where each
+        // vertex was last clear must push exactly as one that tests every vertex afresh.
+        let skin = flat_grid(20);
+        let parts = [
+            tooth(
+                Vec3::new(4.0, 4.0, -3.0),
+                Vec3::new(8.0, 8.0, -0.3),
+                PartRole::Skull,
+            ),
+            tooth(
+                Vec3::new(11.0, 4.0, -3.0),
+                Vec3::new(15.0, 8.0, -0.3),
+                PartRole::Jaw,
+            ),
+        ];
+        let contact = TeethContact::new(&skin, &all(&skin), &parts, 1.0).unwrap();
+        let mut kept = contact.scratch(skin.positions.len(), 0);
+        let mut pushed_frames = 0;
+        for f in 0..40 {
+            let t = f as f32 / 39.0 * std::f32::consts::TAU;
+            let depth = 2.0 * t.sin().max(0.0) + 0.3 * (3.0 * t).cos();
+            let mut now = skin.positions.clone();
+            for (v, p) in now.iter_mut().enumerate() {
+                let (x, y) = ((v % 21) as f32, (v / 21) as f32);
+                let r2 = (x - 10.0).powi(2) / 30.0 + (y - 6.0).powi(2) / 6.0;
+                p.z -= depth * (-r2).exp();
+            }
+            let jaw = Affine3A::from_translation(Vec3::new(0.0, 0.0, 0.4 * t.cos()));
+            let mut afresh = now.clone();
+            let a = contact.apply(&mut now, jaw, None, &mut kept);
+            let b = contact.apply(
+                &mut afresh,
+                jaw,
+                None,
+                &mut contact.scratch(skin.positions.len(), 0),
+            );
+            assert_eq!(a, b, "frame {f}");
+            assert_eq!(now, afresh, "frame {f}");
+            pushed_frames += usize::from(a.skin_pushed > 0);
+        }
+        // Both kinds of frame were seen.
+        assert!(
+            (5..35).contains(&pushed_frames),
+            "{pushed_frames} of 40 frames pushed"
+        );
+    }
 }
