@@ -36,7 +36,7 @@ pub struct PartSplit {
     pub name: String,
     pub upper: String,
     pub lower: String,
-    /// Connected pieces (teeth) on each side of the mouth line.
+    /// Connected pieces (teeth) in each row.
     pub upper_pieces: usize,
     pub lower_pieces: usize,
 }

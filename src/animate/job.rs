@@ -1,7 +1,8 @@
 //! The per-frame job for one head and one algorithm: pose the mask from a frame, deform
 //! the head, find the head's own rigid motion and the jaw's (kept apart from the
-//! deformation), shape the tongue, keep the lips and tongue out of the teeth, measure lip (and optionally whole-face) roughness, quantize the deltas and
-//! encode the viewer frame. Every buffer is made once, in [`FrameJob::new`].
+//! deformation), shape the tongue, keep the lips and the tongue out of the teeth, measure
+//! lip (and optionally whole-face) roughness, quantize the deltas and encode the viewer
+//! frame. Every buffer is made once, in [`FrameJob::new`].
 
 use std::sync::Arc;
 
@@ -171,12 +172,7 @@ impl FrameJob {
             self.tongue_shaped = shaper.shape(frame, &mut self.tongue);
         }
         if let (Some(contact), Some(scratch)) = (&self.head.contact, &mut self.contact) {
-            let tongue = contact.tongue_part().map(|k| {
-                (
-                    self.head.parts[k].mesh.positions.as_slice(),
-                    self.tongue.as_mut_slice(),
-                )
-            });
+            let tongue = self.head.tongue.as_ref().map(|_| self.tongue.as_mut_slice());
             let applied = contact.apply(&mut self.deformed, self.jaw_motion.affine(), tongue, scratch);
             self.tongue_shaped |= applied.tongue_pushed > 0;
         }

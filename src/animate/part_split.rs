@@ -5,24 +5,23 @@
 //!
 //! A piece is a set of triangles joined by shared vertices (a tooth, or a row fused into
 //! one). In the fitted mask's frame (+y up), two rows are two bands of pieces one above
-//! the other: sorted by their centroids' heights, the pieces of one row follow each other
-//! closely (a row curves gently), and from the lower row's highest centroid to the upper
-//! row's lowest there is a step of about a crown's height, less the crowns' overlap. So a
-//! part is split at the largest step between consecutive centroid heights when that step
-//! stands out: over [`ROW_STEP`] of the median piece's height, and over [`STEP_DOMINANCE`]
-//! times every other step. On the ICT identities the rows step by 0.43 of a tooth's height
-//! (roots included) and no step within a row exceeds 0.12. The split is made only when the
-//! part's role is left to be inferred. The mouth line of [`super::infer_role`] cannot split
-//! rows: the lower incisors' crowns rise above the inner-lip corners.
+//! the other. The pieces, sorted by their centroids' heights, are cut where consecutive
+//! centroids step furthest apart; that cut is the two rows when every piece above it
+//! reaches higher than every piece below it by over [`ROW_STEP`] of the median piece's
+//! height. Cut at its largest step, a single row's two halves reach about as high as
+//! each other (incisors and molars share a row's edge). Over the 51 ICT heads of the test
+//! population (`facewire population`), the two rows of each head's teeth clear that test
+//! by 0.46-0.69 of a tooth's height, and each row alone fails it (-0.34 to 0.04). The
+//! split is made only when the part's role is left to be inferred. The mouth line of
+//! [`super::infer_role`] cannot split rows: the lower incisors' crowns rise above the
+//! inner-lip corners.
 
 use crate::fit::FittedMask;
 use crate::head::{Head, Pieces, NO_PIECE};
 
-/// Two rows are split where consecutive pieces' centroids step by more than this share of
-/// the median piece's height...
+/// Every piece of the upper row reaches higher than every piece of the lower row by more
+/// than this share of the median piece's height.
 pub const ROW_STEP: f32 = 0.25;
-/// ... and by more than this many times any other step.
-pub const STEP_DOMINANCE: f32 = 2.0;
 
 /// A part cut into its two rows: `upper` moves with the skull, `lower` with the jaw.
 #[derive(Debug, Clone)]
@@ -35,7 +34,7 @@ pub struct RowSplit {
 }
 
 /// `mesh` (the part `name`) cut into its upper and lower row, named `{name}_upper` and
-/// `{name}_lower`; `None` when it holds one row (no step between its pieces' heights).
+/// `{name}_lower`; `None` when it holds one row.
 pub fn split_rows(mesh: &Head, name: &str, fitted: &FittedMask) -> Option<RowSplit> {
     let pieces = Pieces::of(mesh);
     if pieces.count < 2 {
@@ -62,24 +61,23 @@ pub fn split_rows(mesh: &Head, name: &str, fitted: &FittedMask) -> Option<RowSpl
     let median_height = heights[heights.len() / 2];
     let mut sorted = centre.clone();
     sorted.sort_by(f32::total_cmp);
-    let steps: Vec<(f32, f32)> = sorted
+    let at = sorted
         .windows(2)
-        .map(|w| (w[1] - w[0], (w[0] + w[1]) / 2.0))
-        .collect();
-    let (largest, &(step, at)) = steps
-        .iter()
-        .enumerate()
-        .max_by(|a, b| a.1 .0.total_cmp(&b.1 .0))?;
-    let next = steps
-        .iter()
-        .enumerate()
-        .filter(|&(k, _)| k != largest)
-        .map(|(_, s)| s.0)
-        .fold(0.0, f32::max);
-    if step <= ROW_STEP * median_height || step <= STEP_DOMINANCE * next {
+        .max_by(|a, b| (a[1] - a[0]).total_cmp(&(b[1] - b[0])))
+        .map(|w| (w[0] + w[1]) / 2.0)?;
+    let above: Vec<bool> = centre.iter().map(|&c| c > at).collect();
+    let above = &above;
+    let high = &high;
+    let top = |upper: bool| {
+        (0..pieces.count)
+            .filter(move |&k| above[k] == upper)
+            .map(move |k| high[k])
+    };
+    let lowest_upper_top = top(true).fold(f32::INFINITY, f32::min);
+    let highest_lower_top = top(false).fold(f32::NEG_INFINITY, f32::max);
+    if lowest_upper_top - highest_lower_top <= ROW_STEP * median_height {
         return None;
     }
-    let above: Vec<bool> = centre.iter().map(|&c| c > at).collect();
     let upper_pieces = above.iter().filter(|&&a| a).count();
     let side = |upper: bool| {
         let triangles: Vec<[u32; 3]> = mesh

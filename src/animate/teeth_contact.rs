@@ -132,8 +132,8 @@ pub struct TeethContact {
     skull: Vec<Solid>,
     jaw: Vec<Solid>,
     skin: Watched,
-    /// The tongue part's index in the head's parts and its watched vertices.
-    tongue: Option<(usize, Watched)>,
+    /// The tongue part's rest positions and its watched vertices.
+    tongue: Option<(Vec<Vec3>, Watched)>,
     /// [`CONTACT_MARGIN_MM`] in head units.
     margin: f32,
 }
@@ -255,12 +255,12 @@ impl TeethContact {
         });
         let tongue = parts
             .iter()
-            .position(|p| p.role == PartRole::Tongue)
-            .map(|k| {
-                let tongue = Watched::new(&parts[k].mesh, falloff, teeth, |_, p| {
+            .find(|p| p.role == PartRole::Tongue)
+            .map(|part| {
+                let watched = Watched::new(&part.mesh, falloff, teeth, |_, p| {
                     depth_at_rest(p).is_none().then_some(0.0)
                 });
-                (k, tongue)
+                (part.mesh.positions.clone(), watched)
             })
             .filter(|(_, w)| !w.is_empty());
         Some(TeethContact {
@@ -296,19 +296,14 @@ impl TeethContact {
         }
     }
 
-    /// The tongue part's index, when its vertices are watched.
-    pub fn tongue_part(&self) -> Option<usize> {
-        self.tongue.as_ref().map(|(k, _)| *k)
-    }
-
-    /// Puts the skin (deformed, head units, before the head's motion) and the tongue
-    /// (`tongue_rest` plus `tongue_deltas`, before `jaw`) back out of the teeth, `jaw`
-    /// moving the jaw's teeth (and the tongue).
+    /// Puts the skin (deformed, head units, before the head's motion) and the tongue (its
+    /// rest plus `tongue_deltas`, before `jaw`; `None` for a head without a tongue) back
+    /// out of the teeth, `jaw` moving the jaw's teeth (and the tongue).
     pub fn apply(
         &self,
         skin: &mut [Vec3],
         jaw: Affine3A,
-        tongue: Option<(&[Vec3], &mut [Vec3])>,
+        tongue_deltas: Option<&mut [Vec3]>,
         scratch: &mut ContactScratch,
     ) -> ContactApplied {
         let jaw_inverse = jaw.inverse();
@@ -325,8 +320,8 @@ impl TeethContact {
             &jaw_inverse,
             rounds,
         );
-        let tongue_pushed = match (&self.tongue, tongue) {
-            (Some((_, watched)), Some((rest, deltas))) => {
+        let tongue_pushed = match (&self.tongue, tongue_deltas) {
+            (Some((rest, watched)), Some(deltas)) => {
                 let mut tongue = Tongue {
                     rest,
                     deltas,
@@ -620,19 +615,13 @@ mod tests {
             Part::new("tongue".into(), PartRole::Tongue, tongue.clone(), None),
         ];
         let contact = TeethContact::new(&skin, &all(&skin), &parts, 1.0).unwrap();
-        assert_eq!(contact.tongue_part(), Some(1));
         let mut scratch = contact.scratch(skin.positions.len(), tongue.positions.len());
         let mut deltas = vec![Vec3::ZERO; tongue.positions.len()];
         // The tongue's vertex raised 1 into the tooth, the jaw lowering it 0.5 back: 0.5 in.
         deltas[at(10, 10)].z = 1.5;
         let jaw = Affine3A::from_translation(Vec3::new(0.0, 0.0, -0.5));
         let mut skin_now = skin.positions.clone();
-        let applied = contact.apply(
-            &mut skin_now,
-            jaw,
-            Some((&tongue.positions, &mut deltas)),
-            &mut scratch,
-        );
+        let applied = contact.apply(&mut skin_now, jaw, Some(&mut deltas), &mut scratch);
         assert_eq!(applied.tongue_pushed, 1);
         // In the head's frame it ends at 0.6 - 0.2 = 0.4: a delta of 0.9.
         assert!(

@@ -448,12 +448,7 @@ impl Run<'_, '_> {
                 None => false,
             };
             if let (Some(contact), Some(contact_scratch)) = (self.input.contact, &mut self.contact) {
-                let tongue = contact.tongue_part().map(|k| {
-                    (
-                        self.input.parts[k].mesh.positions.as_slice(),
-                        self.tongue_deltas.as_mut_slice(),
-                    )
-                });
+                let tongue = self.tongue.as_ref().map(|_| self.tongue_deltas.as_mut_slice());
                 let started = Instant::now();
                 let applied = contact.apply(&mut self.deformed, jaw, tongue, contact_scratch);
                 deform_us += started.elapsed().as_secs_f64() * 1e6;
