@@ -17,7 +17,9 @@ use facewire::head::Head;
 use facewire::mask::Mask;
 use facewire::metrics::{FoldMeter, LipRoughness};
 use facewire::stream::{open_stream, ArkitBasis, Frame};
-use facewire_proto::frame::{FrameContent, FrameEncoder, FrameHeader, LipRoughness as WireLip};
+use facewire_proto::viewer_frame::{
+    FrameContent, FrameEncoder, FrameHeader, FrameLayout, LipRoughness as WireLip,
+};
 
 fn makehuman() -> AnimatedHead {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("data");
@@ -55,7 +57,11 @@ fn frame_job(c: &mut Criterion) {
         b.iter(|| {
             let frame = next.next().expect("cycled");
             job.deform(frame);
-            black_box(job.encode(frame, FrameTimes::default()).expect("finite").len())
+            black_box(
+                job.encode(frame, FrameTimes::default(), FrameLayout::Fwf2)
+                    .expect("finite")
+                    .len(),
+            )
         })
     });
     group.bench_function("deform", |b| {
@@ -89,26 +95,25 @@ fn frame_job(c: &mut Criterion) {
         server_send_us: 0,
     };
     let mut encoder = FrameEncoder::for_head(deltas.len(), lip.per_vertex.len());
-    for deflate in [false, true] {
+    for (name, layout, deflate) in [
+        ("encode FWF2, deflated", FrameLayout::Fwf2, true),
+        ("encode FWF2, not deflated", FrameLayout::Fwf2, false),
+        ("encode FWF1, deflated", FrameLayout::Fwf1, true),
+    ] {
         let content = FrameContent {
             step: head.step,
             deltas: &deltas,
             lip: &lip,
             label: None,
-            face: None,
+            heat: None,
             deflate,
             head: None,
             jaw: None,
             tongue: None,
             folds: None,
         };
-        let name = if deflate {
-            "encode, deflated"
-        } else {
-            "encode, not deflated"
-        };
         group.bench_function(name, |b| {
-            b.iter(|| black_box(encoder.encode(&header, black_box(&content)).len()))
+            b.iter(|| black_box(encoder.encode(layout, &header, black_box(&content)).len()))
         });
     }
     group.finish();

@@ -555,7 +555,7 @@ async fn extreme_values_are_refused_in_both_formats_with_field_and_seq() {
             other => panic!("expected a refusal, got {other:?}"),
         }
     };
-    let huge_au = facewire_proto::params::ParamFrame {
+    let huge_au = facewire_proto::param_frame::ParamFrame {
         seq: 3,
         time_s: 0.1,
         animation: vec![(1, 3.4e38)],
@@ -581,11 +581,12 @@ async fn extreme_values_are_refused_in_both_formats_with_field_and_seq() {
     let twice = r#"{"seq":5,"t":0.3,"t":0.4}"#;
     let (code, field, _) = refused(&mut producer, Message::Text(twice.into())).await;
     assert_eq!((code.as_str(), field.as_deref()), ("bad_frame", Some("t")));
-    let mut flags = facewire_proto::params::ParamFrame {
+    let mut flags = facewire_proto::param_frame::ParamFrame {
         seq: 6,
         ..Default::default()
     }
-    .encode();
+    .encode_fwp1()
+    .unwrap();
     flags[20] = 0x80;
     let (code, field, _) = refused(&mut producer, Message::Binary(flags.into())).await;
     assert_eq!((code.as_str(), field.as_deref()), ("bad_frame", Some("flags")));

@@ -10,8 +10,8 @@ use std::time::{Duration, Instant};
 
 use common::nats::NatsServer;
 use common::service::{close_code, connect, moving_jaw_line, next_json, next_message, Server, Socket};
-use facewire_proto::frame::{decode, ViewerFrame};
 use facewire_proto::messages::{HeadInfo, ServerMessage};
+use facewire_proto::viewer_frame::{decode, ViewerFrame};
 use futures_util::SinkExt;
 use tokio_tungstenite::tungstenite::Message;
 

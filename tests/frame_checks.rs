@@ -10,7 +10,7 @@ use common::streams::{au_error, fap_error};
 use facewire::mask::Mask;
 use facewire::stream::jsonl::parse_message;
 use facewire::stream::{AuTextOptions, Frame, StreamError, MAX_LABEL_BYTES, MAX_SEQ};
-use facewire_proto::params::ParamFrame;
+use facewire_proto::param_frame::ParamFrame;
 
 /// The variant of an error, to compare errors from different formats.
 fn kind(e: &StreamError) -> &'static str {
@@ -31,9 +31,14 @@ fn from_json(text: &str, mask: &Mask) -> Result<Frame, StreamError> {
     parse_message("message 1", text, mask)
 }
 
+/// `p` through FWP2, checked to come out of the frozen FWP1 the same way.
 fn from_binary(p: &ParamFrame, mask: &Mask) -> Result<Frame, StreamError> {
     let decoded = ParamFrame::decode(&p.encode()).expect("the test frames are well formed");
-    Frame::from_param_frame(decoded, mask)
+    let fwp2 = Frame::from_param_frame(decoded, mask);
+    let fwp1 = ParamFrame::decode(&p.encode_fwp1().expect("no head translation")).unwrap();
+    let fwp1 = Frame::from_param_frame(fwp1, mask);
+    assert_eq!(format!("{fwp1:?}"), format!("{fwp2:?}"), "FWP1 and FWP2 differ");
+    fwp2
 }
 
 fn param(change: impl FnOnce(&mut ParamFrame)) -> ParamFrame {
@@ -47,7 +52,7 @@ fn param(change: impl FnOnce(&mut ParamFrame)) -> ParamFrame {
 }
 
 #[test]
-fn jsonl_and_fwp1_refuse_the_same_content_the_same_way() {
+fn jsonl_and_binary_frames_refuse_the_same_content_the_same_way() {
     let mask = Mask::candide3();
     // (JSONL members after seq and t, the same content as FWP1, error kind, field)
     let cases: Vec<(&str, ParamFrame, &str, &str)> = vec![
@@ -198,7 +203,7 @@ fn jsonl_and_fwp1_refuse_the_same_content_the_same_way() {
 }
 
 #[test]
-fn jsonl_and_fwp1_accept_the_same_frame_alike() {
+fn jsonl_and_binary_frames_accept_the_same_frame_alike() {
     let mask = Mask::candide3();
     let json = r#"{"seq":3,"t":0.25,"label":"pa","au":{"jaw_drop":0.3,"0":-10},"fap":{"open_jaw":100000,"head_yaw":-628318},"arkit":{"jawOpen":0.5,"eyeBlinkLeft":2},"head_rotation_rad":[0,0,6.25]}"#;
     let binary = ParamFrame {
@@ -210,7 +215,7 @@ fn jsonl_and_fwp1_accept_the_same_frame_alike() {
         arkit: vec![(17, 0.5), (0, 2.0)],
         head_rotation_rad: Some([0.0, 0.0, 6.25]),
         label: Some("pa".into()),
-        viseme: None,
+        ..ParamFrame::default()
     };
     let frame = from_json(json, &mask).unwrap();
     assert_eq!(from_binary(&binary, &mask).unwrap(), frame);

@@ -7,7 +7,7 @@
 //! integers, floats and varints in the binary formats) and
 //! asks one thing of every input: the parser returns `Ok` or `Err`. It must not panic, must
 //! not allocate far beyond the input's size and must not take long. Accepted stream frames
-//! must also pose the fitted mask to finite positions, and accepted JSONL and FWP1 frames
+//! must also pose the fitted mask to finite positions, and accepted JSONL and binary (FWP2, FWP1) frames
 //! must write back to text or bytes that read back equal.
 //!
 //! A failing input is written to `tests/fuzz/crashes/<target>/` and reported in hex;
@@ -37,7 +37,7 @@ use facewire::stream::{
     ArkitBasis, AuTextOptions, AuTextReader, FapReader, Frame, FramePoser, JsonlReader, JsonlWriter,
     StreamError,
 };
-use facewire_proto::params::{ParamFrame, ParamViseme};
+use facewire_proto::param_frame::{ParamFrame, ParamViseme};
 
 /// Generous guard against inputs that make a parser crawl, in CPU time of the thread; the
 /// real inputs take microseconds to a millisecond.
@@ -598,8 +598,9 @@ fn jsonl_round_trip(frame: &Frame) {
     assert_eq!(&back, frame, "{line}");
 }
 
-/// An accepted FWP1 frame encodes back to a message that is accepted as the same frame.
-fn fwp1_round_trip(frame: &Frame) {
+/// An accepted binary frame encodes back, as FWP2 and (when it can carry it) as FWP1, to a
+/// message that is accepted as the same frame.
+fn param_frame_round_trip(frame: &Frame) {
     let p = ParamFrame {
         seq: frame.seq,
         time_s: frame.time_s,
@@ -607,6 +608,7 @@ fn fwp1_round_trip(frame: &Frame) {
         faps: frame.faps.clone(),
         arkit: frame.arkit.clone(),
         head_rotation_rad: frame.head_rotation_rad,
+        head_translation: frame.head_translation,
         label: frame.label.clone(),
         viseme: frame.viseme.map(|v| ParamViseme::Fap1 {
             select1: v.select1 as u8,
@@ -614,9 +616,14 @@ fn fwp1_round_trip(frame: &Frame) {
             blend: v.blend as u8,
             definition: v.definition as u8,
         }),
+        ignored: Vec::new(),
     };
     let back = ParamFrame::decode(&p.encode()).unwrap();
     assert_eq!(&Frame::from_param_frame(back, candide3()).unwrap(), frame);
+    if let Ok(fwp1) = p.encode_fwp1() {
+        let back = ParamFrame::decode(&fwp1).unwrap();
+        assert_eq!(&Frame::from_param_frame(back, candide3()).unwrap(), frame);
+    }
 }
 
 /// Reads a whole stream, posing every frame; returns whether every frame was read.
@@ -706,24 +713,24 @@ fn au_text() {
 }
 
 #[test]
-fn fwp1() {
-    fuzz("fwp1", 4 << 10, true, |bytes| {
+fn param_frame() {
+    fuzz("param_frame", 4 << 10, true, |bytes| {
         ParamFrame::decode(bytes).is_ok_and(|p| {
             Frame::from_param_frame(p, candide3())
                 .inspect(pose)
-                .inspect(fwp1_round_trip)
+                .inspect(param_frame_round_trip)
                 .is_ok()
         })
     });
 }
 
 #[test]
-fn fwf1() {
+fn viewer_frame() {
     fuzz(
-        "fwf1",
+        "viewer_frame",
         16 << 10,
         true,
-        |bytes| match facewire_proto::frame::decode(bytes) {
+        |bytes| match facewire_proto::viewer_frame::decode(bytes) {
             Ok(frame) => {
                 // What a viewer does next: apply the deltas to its rest mesh.
                 if frame.vertex_count <= 100_000 {

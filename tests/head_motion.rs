@@ -12,7 +12,7 @@ use facewire::animate::{head_motion, AnimatedHead, FrameJob, FrameTimes, Heat, N
 use facewire::deform::{bind, AlgoSpec, Registration};
 use facewire::mask::MaskPose;
 use facewire::stream::{open_stream, ArkitBasis, Frame};
-use facewire_proto::frame::decode;
+use facewire_proto::viewer_frame::{decode, FrameLayout};
 use glam::Vec3;
 
 const ROTATION_RAD: [f32; 3] = [0.12, -0.35, 0.08];
@@ -69,7 +69,11 @@ fn a_frame_with_only_head_motion_moves_every_vertex_rigidly_about_the_neck_pivot
             assert!(worst < 0.01, "{name} {spec}: {worst} mm from the rigid motion");
 
             // On the wire: no deltas, the motion beside them, the same placed head.
-            let decoded = decode(job.encode(&frame, FrameTimes::default()).unwrap()).unwrap();
+            let decoded = decode(
+                job.encode(&frame, FrameTimes::default(), FrameLayout::Fwf2)
+                    .unwrap(),
+            )
+            .unwrap();
             assert_eq!(decoded.moved.len(), 0, "{name} {spec}");
             let mut placed = Vec::new();
             decoded.place(&rest, &mut placed);

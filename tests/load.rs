@@ -7,8 +7,8 @@ mod common;
 use std::process::Command;
 
 use common::service::{connect, jaw_line, memory_config, next_json, next_message, Server};
-use facewire_proto::frame::decode;
 use facewire_proto::messages::ServerMessage;
+use facewire_proto::viewer_frame::decode;
 use futures_util::SinkExt;
 use tokio_tungstenite::tungstenite::Message;
 

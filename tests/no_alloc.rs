@@ -14,6 +14,7 @@ use facewire::animate::{AnimatedHead, FrameJob, FrameTimes, Heat};
 use facewire::deform::{bind, AlgoSpec};
 use facewire::mask::Mask;
 use facewire::stream::{open_stream, ArkitBasis};
+use facewire_proto::viewer_frame::FrameLayout;
 
 struct Counting;
 
@@ -41,15 +42,18 @@ fn allocations_during(f: impl FnOnce()) -> usize {
     ALLOCATIONS.with(Cell::get) - before
 }
 
-/// Allocations while `job` deforms and encodes every frame, after a first frame has sized
-/// the encoder's buffers.
+/// Allocations while `job` deforms and encodes every frame in both layouts, after a first
+/// frame has sized the encoder's buffers.
 fn allocations_over(job: &mut FrameJob, frames: &[facewire::stream::Frame]) -> usize {
     job.deform(&frames[0]);
-    job.encode(&frames[0], FrameTimes::default()).unwrap();
+    job.encode(&frames[0], FrameTimes::default(), FrameLayout::Fwf2)
+        .unwrap();
     allocations_during(|| {
         for frame in frames {
             job.deform(frame);
-            job.encode(frame, FrameTimes::default()).unwrap();
+            for layout in [FrameLayout::Fwf2, FrameLayout::Fwf1] {
+                job.encode(frame, FrameTimes::default(), layout).unwrap();
+            }
         }
     })
 }

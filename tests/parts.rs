@@ -138,9 +138,12 @@ async fn parts_register_serve_travel_and_survive_a_restart() {
     assert_eq!(missing.status(), 404);
 
     // The snapshot lists them; a jaw drop's frame carries the jaw's motion.
-    let mut viewer = connect(&server.ws("/v1/heads/ict/streams/main/view")).await;
+    let mut viewer = connect(&server.ws("/v1/heads/ict/streams/main/view?format=fwf2")).await;
     match next_json(&mut viewer).await {
-        ServerMessage::Snapshot(snapshot) => assert_eq!(snapshot.parts, info.parts),
+        ServerMessage::Snapshot(snapshot) => {
+            assert_eq!(snapshot.parts, info.parts);
+            assert_eq!(snapshot.format.as_deref(), Some("fwf2"));
+        }
         other => panic!("{other:?}"),
     }
     let mut producer = connect(&server.ws("/v1/heads/ict/streams/main/produce")).await;
@@ -158,13 +161,15 @@ async fn parts_register_serve_travel_and_survive_a_restart() {
     let degrees = sent.angle_between(Quat::IDENTITY).to_degrees();
     eprintln!("jaw_drop 0.6 opens the ICT jaw {degrees:.1} degrees");
     assert!((3.0..30.0).contains(&degrees), "{degrees}");
-    assert!(frame.tongue.is_none(), "a tongue at rest sends no deltas");
+    assert_eq!(frame.layout, facewire_proto::viewer_frame::FrameLayout::Fwf2);
+    assert!(frame.parts.is_empty(), "a tongue at rest sends no deltas");
 
     // A raised tongue tip travels as the tongue part's deltas, as the library shapes it.
     let line = r#"{"seq":1,"t":0.1,"fap":{"raise_tongue_tip":800}}"#;
     producer.send(Message::Text(line.into())).await.unwrap();
     let frame = next_frame(&mut viewer).await;
-    let tongue = frame.tongue.expect("tongue deltas");
+    let tongue = frame.part(3).expect("tongue deltas");
+    assert_eq!(frame.parts.len(), 1);
     assert_eq!(usize::from(tongue.part), 3);
     assert_eq!(tongue.vertex_count, 2409);
     let head = ict_head();

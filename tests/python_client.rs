@@ -492,3 +492,24 @@ async fn the_python_client_places_the_parts_and_the_tongue() {
     // Within half a quantization step (the tongue's deltas are quantized) and f32 noise.
     assert!(worst < 0.5 * STEP_MM * 3f32.sqrt() + 1e-3, "{worst} mm");
 }
+
+#[test]
+fn the_python_client_reads_every_captured_frame_and_skips_what_it_does_not_know() {
+    // The frames captured from the server in every layout (proto/fixtures/) decode to their
+    // digests; FWF1 fixtures re-encoded as FWF2, reordered and grown as a later server would
+    // send them decode the same; broken ones are refused by name; FWP2 round trips.
+    require_python();
+    let output = Command::new("python3")
+        .arg(repo_path("clients/python/fixtures_test.py"))
+        .arg(repo_path("proto/fixtures"))
+        .output()
+        .expect("python3 runs");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "clients/python/fixtures_test.py failed ({}):\n{stdout}{}",
+        output.status,
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(stdout.contains("fwf2: 10 frames, 10 match"), "{stdout}");
+}

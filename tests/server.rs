@@ -13,9 +13,9 @@ use facewire::mask::Mask;
 use facewire::metrics::{FoldMeter, LipRegion};
 use facewire::server::Config;
 use facewire::stream::{open_stream, Frame, JsonlWriter};
-use facewire_proto::frame::ViewerFrame;
 use facewire_proto::messages::{HeadInfo, ServerMessage};
-use facewire_proto::params::ParamFrame;
+use facewire_proto::param_frame::ParamFrame;
+use facewire_proto::viewer_frame::ViewerFrame;
 use futures_util::{SinkExt, StreamExt};
 use glam::Vec3;
 use tokio_tungstenite::tungstenite::Message;
@@ -321,16 +321,29 @@ async fn malformed_input_is_refused_and_the_stream_keeps_running() {
         time_s: 0.1,
         animation: vec![(1, 0.3)],
         ..ParamFrame::default()
-    }
-    .encode();
+    };
+    let fwp1 = good.encode_fwp1().unwrap();
     let message = expect_error("bad_frame")(
         send(
             &mut producer,
-            Message::Binary(good[..good.len() - 2].to_vec().into()),
+            Message::Binary(fwp1[..fwp1.len() - 2].to_vec().into()),
         )
         .await,
     );
     assert!(message.contains("message too short: arkit_count"), "{message}");
+    let fwp2 = good.encode();
+    match send(
+        &mut producer,
+        Message::Binary(fwp2[..fwp2.len() - 2].to_vec().into()),
+    )
+    .await
+    {
+        ServerMessage::Error { code, field, .. } => {
+            assert_eq!(code.as_str(), "bad_frame");
+            assert_eq!(field.as_deref(), Some("section"));
+        }
+        other => panic!("expected an error, got {other:?}"),
+    }
     let nan = ParamFrame {
         seq: 1,
         time_s: 0.1,
@@ -357,10 +370,14 @@ async fn malformed_input_is_refused_and_the_stream_keeps_running() {
     // A second producer is refused and closed; the first keeps going.
     let mut second = connect(&server.ws("/v1/heads/mh/streams/s/produce")).await;
     expect_error("producer_busy")(next_json(&mut second).await);
-    assert!(matches!(
-        send(&mut producer, Message::Binary(good.into())).await,
-        ServerMessage::Ack { seq: 1, .. }
-    ));
+    // An FWP2 frame with a section from a later producer: accepted, and the ack names it.
+    let mut later = good.encode();
+    later[20] += 1;
+    later.extend_from_slice(&[99, 2, 0, 0, 0, 1, 2]);
+    match send(&mut producer, Message::Binary(later.into())).await {
+        ServerMessage::Ack { seq: 1, ignored, .. } => assert_eq!(ignored, [99]),
+        other => panic!("expected an ack, got {other:?}"),
+    }
     assert!(matches!(
         send(&mut producer, ok(2)).await,
         ServerMessage::Ack { seq: 2, .. }
@@ -591,7 +608,7 @@ async fn viewers_can_colour_by_folds() {
     let line = r#"{"seq":0,"t":0,"au":{"jaw_drop":0.6}}"#;
     producer.send(Message::Text(line.into())).await.unwrap();
     let frame = next_frame(&mut viewer).await;
-    let sent = frame.face.expect("per-vertex folds");
+    let sent = frame.heat.expect("per-vertex folds");
 
     // The library's: the largest turn of each vertex's triangles over the whole head.
     let reg = register("makehuman_head");

@@ -1,5 +1,6 @@
 //! The browser's decoder (`web/decode.js`) against the server's own encoder: frames encoded
-//! by `facewire_proto::frame::FrameEncoder` (with and without label, face roughness, head
+//! by `facewire_proto::viewer_frame::FrameEncoder` in both layouts, FWF2 and the frozen FWF1
+//! (with and without label, heat values, head
 //! and jaw motion, tongue deltas, lip folds and deflate; negative and large deltas;
 //! malformed ones) and a `mesh.bin`, written with the values the Rust decoder reads from
 //! them to a JSON file that `node web/decode.test.mjs` checks; the page's node list
@@ -11,8 +12,8 @@ use common::repo_path;
 
 use std::process::Command;
 
-use facewire_proto::frame::{
-    decode, FrameContent, FrameEncoder, FrameHeader, LipFolds, LipRoughness, RigidMotion,
+use facewire_proto::viewer_frame::{
+    decode, FrameContent, FrameEncoder, FrameHeader, FrameLayout, LipFolds, LipRoughness, RigidMotion,
 };
 use facewire_proto::DecodeError;
 use serde_json::{json, Value};
@@ -37,16 +38,22 @@ struct Case<'a> {
     folds: Option<LipFolds>,
 }
 
-fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8>, Value) {
+fn frame_case(
+    encoder: &mut FrameEncoder,
+    case: &Case,
+    layout: FrameLayout,
+    deflate: bool,
+) -> (Vec<u8>, Value) {
     let bytes = encoder
         .encode(
+            layout,
             &case.header,
             &FrameContent {
                 step: case.step,
                 deltas: &case.deltas,
                 lip: &case.lip,
                 label: case.label,
-                face: case.face.as_deref(),
+                heat: case.face.as_deref(),
                 deflate,
                 head: case.head,
                 jaw: case.jaw,
@@ -64,13 +71,16 @@ fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8
     frame.place(&rest, &mut placed);
     // The tongue as a client draws it: rest + counts x step (in f32, as `apply`), then the
     // jaw's motion, then the head's.
-    let tongue_rest: Vec<f32> = (0..frame.tongue.as_ref().map_or(0, |t| t.vertex_count as usize * 3))
+    let tongue = frame.parts.first();
+    let tongue_rest: Vec<f32> = (0..tongue.map_or(0, |t| t.vertex_count as usize * 3))
         .map(|i| 2.0 - i as f32 * 0.21)
         .collect();
     let mut tongue_positions = tongue_rest.clone();
-    for &(v, q) in frame.tongue.iter().flat_map(|t| &t.moved) {
-        for k in 0..3 {
-            tongue_positions[v as usize * 3 + k] += q[k] as f32 * frame.step;
+    if let Some(t) = tongue {
+        for &(v, q) in &t.moved {
+            for k in 0..3 {
+                tongue_positions[v as usize * 3 + k] += q[k] as f32 * t.step;
+            }
         }
     }
     let tongue_placed: Vec<f32> = tongue_positions
@@ -79,7 +89,7 @@ fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8
         .collect();
     let h = frame.header;
     let value = json!({
-        "name": format!("{}{}", case.name, if deflate { ", deflated" } else { "" }),
+        "name": format!("{} ({}){}", case.name, layout.name(), if deflate { ", deflated" } else { "" }),
         "bytes": bytes,
         "header": {
             "seq": h.seq,
@@ -99,7 +109,7 @@ fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8
         "label": frame.label,
         "movedIndices": frame.moved.iter().map(|m| m.0).collect::<Vec<_>>(),
         "movedCounts": frame.moved.iter().flat_map(|m| m.1).collect::<Vec<_>>(),
-        "face": frame.face.as_deref().map(exact),
+        "face": frame.heat.as_deref().map(exact),
         "head": {
             "rotation": exact(&frame.head.rotation),
             "translation": exact(&frame.head.translation),
@@ -108,7 +118,7 @@ fn frame_case(encoder: &mut FrameEncoder, case: &Case, deflate: bool) -> (Vec<u8
             "rotation": exact(&frame.jaw.rotation),
             "translation": exact(&frame.jaw.translation),
         },
-        "tongue": frame.tongue.as_ref().map(|t| json!({
+        "tongue": tongue.map(|t| json!({
             "part": t.part,
             "vertexCount": t.vertex_count,
             "movedIndices": t.moved.iter().map(|m| m.0).collect::<Vec<_>>(),
@@ -141,6 +151,42 @@ fn failing_field(error: DecodeError) -> &'static str {
 fn malformed(name: &str, bytes: Vec<u8>) -> Value {
     let error = decode(&bytes).expect_err("malformed on purpose");
     json!({ "name": name, "bytes": bytes, "field": failing_field(error) })
+}
+
+/// FWF2 frames broken in their framing (`good` is a frame with a label and heat values):
+/// the field names must be the Rust decoder's.
+fn fwf2_malformed(good: &[u8]) -> Vec<Value> {
+    assert_eq!(&good[..4], b"FWF2");
+    // The sections: (start, kind, length).
+    let mut sections = Vec::new();
+    let mut at = 37;
+    while at < good.len() {
+        let length = u32::from_le_bytes(good[at + 1..at + 5].try_into().unwrap()) as usize;
+        sections.push((at, good[at], length));
+        at += 5 + length;
+    }
+    let (lip_at, _, lip_length) = *sections.iter().find(|s| s.1 == 2).expect("lip section");
+    let lip_section = good[lip_at..lip_at + 5 + lip_length].to_vec();
+    let mut twice = good.to_vec();
+    twice[36] += 1;
+    twice.extend_from_slice(&lip_section);
+    let mut overrun = good.to_vec();
+    overrun[38..42].copy_from_slice(&u32::MAX.to_le_bytes());
+    let mut one_more = good.to_vec();
+    one_more[36] += 1;
+    let mut encoding = good.to_vec();
+    encoding[37 + 5 + 12] = 7;
+    let mut no_deltas = good[..37].to_vec();
+    no_deltas[36] = 1;
+    no_deltas.extend_from_slice(&lip_section);
+    vec![
+        malformed("FWF2 lip_roughness twice", twice),
+        malformed("FWF2 section past the message", overrun),
+        malformed("FWF2 one section more than there is", one_more),
+        malformed("FWF2 unknown delta encoding", encoding),
+        malformed("FWF2 without deltas", no_deltas),
+        malformed("FWF2 cut inside the header", good[..30].to_vec()),
+    ]
 }
 
 /// A `mesh.bin` as the registry writes it (PROTOCOL.md): two triangles.
@@ -338,13 +384,17 @@ fn cases() -> Value {
     let mut encoder = FrameEncoder::default();
     let mut frames = Vec::new();
     let mut encoded = Vec::new();
-    for case in &cases {
-        for deflate in [false, true] {
-            let (bytes, value) = frame_case(&mut encoder, case, deflate);
-            frames.push(value);
-            encoded.push(bytes);
+    // FWF1 first: the malformed cases below edit these by their frozen offsets.
+    for layout in [FrameLayout::Fwf1, FrameLayout::Fwf2] {
+        for case in &cases {
+            for deflate in [false, true] {
+                let (bytes, value) = frame_case(&mut encoder, case, layout, deflate);
+                frames.push(value);
+                encoded.push(bytes);
+            }
         }
     }
+    let fwf2_good = encoded[encoded.len() / 2 + 2].clone();
     let (plain, deflated) = (&encoded[0], &encoded[1]);
     let (good, good_deflated) = (&encoded[2], &encoded[3]);
     let mut bad_magic = good.clone();
@@ -454,6 +504,7 @@ fn cases() -> Value {
         ),
     ];
     malformed_frames.extend(folds_frames);
+    malformed_frames.extend(fwf2_malformed(&fwf2_good));
 
     let positions = [
         [0.0, 0.0, 0.0],
@@ -507,10 +558,12 @@ fn decode_js_agrees_with_the_rust_encoder() {
     println!("{stdout}");
 }
 
-/// Runs `node` on a test script of `web/`, failing with its output.
-fn run_node_test(script: &str) {
+/// Runs `node` on a test script of `web/` with `args` (paths in the repository), failing
+/// with its output.
+fn run_node_test(script: &str, args: &[&str]) {
     let script = repo_path(script);
-    let output = match Command::new("node").arg(&script).output() {
+    let args = args.iter().map(|a| repo_path(a));
+    let output = match Command::new("node").arg(&script).args(args).output() {
         Ok(output) => output,
         Err(e) => panic!("cannot run `node` ({e}): the web tests need Node.js 20 or newer on PATH"),
     };
@@ -527,11 +580,20 @@ fn run_node_test(script: &str) {
 #[test]
 fn fit_js_shows_the_fit_report() {
     // The head's fit report as the page shows it: paths, numbers, every answer of the endpoint.
-    run_node_test("web/fit.test.mjs");
+    run_node_test("web/fit.test.mjs", &[]);
 }
 
 #[test]
 fn nodes_js_fails_over_round_robin() {
     // The page's node list (`?nodes=`): parsing, URL building and round-robin failover.
-    run_node_test("web/nodes.test.mjs");
+    run_node_test("web/nodes.test.mjs", &[]);
+}
+
+#[test]
+fn decode_js_reads_every_captured_frame_and_skips_what_it_does_not_know() {
+    // The frames captured from the server in every layout (proto/fixtures/) decode to their
+    // digests; each FWF1 fixture re-encoded as FWF2, reordered and grown as a later server
+    // would send it decodes the same, and broken ones are refused by name.
+    run_node_test("web/fixtures.test.mjs", &["proto/fixtures"]);
+    run_node_test("web/fwf2.test.mjs", &["proto/fixtures/fwf1"]);
 }

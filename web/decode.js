@@ -1,12 +1,16 @@
-// decode.js: reads the server's two binary formats into typed arrays: the rest mesh
-// (`mesh.bin`, "FWM1") and the viewer frame ("FWF1", proto/src/frame.rs). It touches no DOM,
-// so node runs it in tests/web_decode.rs against frames from the server's own encoder.
-// Every length is checked: a bad message throws a DecodeError naming the field and byte.
-// A deflated delta block is inflated by the browser's own DecompressionStream, which is
-// why decodeFrame returns a promise.
+// decode.js: reads the server's binary formats into typed arrays: the rest mesh
+// (`mesh.bin`, "FWM1") and the viewer frame, in either layout (proto/PROTOCOL.md): the
+// sectioned "FWF2" the page asks for, and the frozen "FWF1" that a server before FWF2 sends.
+// Both decode to the same object, so the page does not care which arrived. It touches no
+// DOM, so node runs it in tests/web_decode.rs against frames from the server's own encoder
+// and in fixtures.test.mjs against frames captured from real servers. Every length is
+// checked: a bad message throws a DecodeError naming the field and byte. A deflated delta
+// block is inflated by the browser's own DecompressionStream, which is why decodeFrame
+// returns a promise.
 
 const MESH_MAGIC = "FWM1";
-const FRAME_MAGIC = "FWF1";
+const FWF1_MAGIC = "FWF1";
+const FWF2_MAGIC = "FWF2";
 const FLAG_FACE = 1;
 const FLAG_LABEL = 2;
 const FLAG_DEFLATE = 4;
@@ -14,6 +18,22 @@ const FLAG_HEAD = 8;
 const FLAG_JAW = 16;
 const FLAG_TONGUE = 32;
 const FLAG_FOLDS = 64;
+/** FWF1's `moved`, which its error for a block too short for its entries names. */
+const FWF1_MOVED = Object.freeze({ field: "moved", at: 48 });
+/** FWF2's section kinds by number; a kind not here is from a later server and skipped. */
+const SECTION_NAMES = new Map([
+  [1, "deltas"],
+  [2, "lip_roughness"],
+  [3, "label"],
+  [4, "head_motion"],
+  [5, "jaw_motion"],
+  [6, "lip_folds"],
+  [7, "part_deltas"],
+  [8, "heat"],
+]);
+/** An FWF2 delta block's `encoding` byte. */
+const ENCODING_PLAIN = 0;
+const ENCODING_DEFLATE = 1;
 /** How far from 1 a head rotation quaternion's length may be. */
 const UNIT_QUATERNION_TOLERANCE = 1e-4;
 /** No motion (the head or the jaw at rest): rotation quaternion x, y, z, w and translation (head units). */
@@ -32,17 +52,21 @@ export class DecodeError extends Error {
   }
 }
 
-/** Little-endian reader over a Uint8Array that names the field on every short read. */
+/**
+ * Little-endian reader over a Uint8Array, or over `bytes[at..end]` (an FWF2 section's
+ * body, offsets still the message's), that names the field on every short read.
+ */
 class Reader {
-  constructor(bytes) {
+  constructor(bytes, at = 0, end = bytes.length) {
     this.view = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
     this.bytes = bytes;
-    this.at = 0;
+    this.at = at;
+    this.end = end;
   }
 
   need(n, field) {
-    if (this.at + n > this.bytes.length) {
-      throw new DecodeError(field, this.at, `needs ${n} byte(s), the message has ${this.bytes.length - this.at} left`);
+    if (this.at + n > this.end) {
+      throw new DecodeError(field, this.at, `needs ${n} byte(s), ${this.end - this.at} left`);
     }
     const at = this.at;
     this.at += n;
@@ -75,12 +99,21 @@ class Reader {
     return this.view.getFloat64(this.need(8, field), true);
   }
 
-  magic(expected) {
+  /** A reader over the next `n` bytes, which this one steps over. */
+  take(n, field) {
+    const at = this.need(n, field);
+    return new Reader(this.bytes, at, at + n);
+  }
+
+  /** The 4-byte magic, which must be one of `expected`; returns it. */
+  magic(...expected) {
     const at = this.need(4, "magic");
     const found = String.fromCharCode(...this.bytes.subarray(at, at + 4));
-    if (found !== expected) {
-      throw new DecodeError("magic", at, `found ${JSON.stringify(found)}, expected ${JSON.stringify(expected)}`);
+    if (!expected.includes(found)) {
+      const names = expected.map((e) => JSON.stringify(e)).join(" or ");
+      throw new DecodeError("magic", at, `found ${JSON.stringify(found)}, expected ${names}`);
     }
+    return found;
   }
 
   /** LEB128, at most 10 bytes; the value must stay below `limit`. */
@@ -103,8 +136,8 @@ class Reader {
   }
 
   finish() {
-    if (this.at !== this.bytes.length) {
-      throw new DecodeError("end", this.at, `${this.bytes.length - this.at} unexpected byte(s) after the message`);
+    if (this.at !== this.end) {
+      throw new DecodeError("end", this.at, `${this.end - this.at} unexpected byte(s) after the message`);
     }
   }
 }
@@ -143,30 +176,116 @@ export function parseMesh(buffer) {
   return { vertexCount, triangleCount, mmPerUnit, positions, indices };
 }
 
-/** The fixed-size fields: `[flags, header]`. */
-function readHeaderFields(r) {
-  r.magic(FRAME_MAGIC);
-  const flags = r.u8("flags");
-  r.need(3, "reserved");
-  const header = {
+/** seq, producer_time_s, server_receive_us, server_send_us: both layouts' timing fields. */
+function readTiming(r) {
+  return {
     seq: r.u64("seq"),
     producerTimeS: r.f64("producer_time_s"),
     serverReceiveUs: r.u64("server_receive_us"),
     serverSendUs: r.u64("server_send_us"),
+  };
+}
+
+/** The lip roughness summary: min, max, mean (3 x f32). */
+function readLipSummary(r) {
+  return { min: r.f32("lip min"), max: r.f32("lip max"), mean: r.f32("lip mean") };
+}
+
+/** FWF1's fixed-size fields after the magic: `[flags, header]`. */
+function readFwf1Header(r) {
+  const flags = r.u8("flags");
+  r.need(3, "reserved");
+  const header = {
+    ...readTiming(r),
     step: r.f32("step"),
     vertexCount: r.u32("vertex_count"),
     moved: r.u32("moved"),
-    lip: { min: r.f32("lip min"), max: r.f32("lip max"), mean: r.f32("lip mean") },
+    lip: readLipSummary(r),
   };
   return [flags, header];
 }
 
 /**
- * The fixed-size part of a frame (timing, sequence, lip roughness summary), without
- * walking the deltas: cheap enough for every frame that arrives, drawn or skipped.
+ * FWF2's sections after the header: `{bodies, partBodies}`, a reader over each known
+ * kind's body by name and a list of the `part_deltas` bodies; kinds it does not know are
+ * skipped. Refuses (naming the field as the Rust decoder does) a count of more sections
+ * than the message holds and a section past the end of the message (`section`), a kind
+ * given twice (its name), bytes after the last section (`end`), and a frame without
+ * `deltas` or `lip_roughness`.
+ */
+function readSections(r) {
+  const countAt = r.at;
+  const count = r.u8("section count");
+  const bodies = new Map();
+  const partBodies = [];
+  for (let i = 0; i < count; i++) {
+    const at = r.at;
+    if (at === r.end) {
+      throw new DecodeError("section", at, `${count} sections, the message ends after ${i}`);
+    }
+    const kind = r.u8("section");
+    const length = r.u32("section");
+    if (length > r.end - r.at) {
+      throw new DecodeError("section", at, `section of kind ${kind} claims ${length} bytes, ${r.end - r.at} are left`);
+    }
+    const body = r.take(length, "section");
+    const name = SECTION_NAMES.get(kind);
+    if (name === "part_deltas") {
+      partBodies.push(body);
+    } else if (name !== undefined) {
+      if (bodies.has(name)) {
+        throw new DecodeError(name, at, `section ${name} (kind ${kind}) given twice`);
+      }
+      bodies.set(name, body);
+    }
+  }
+  r.finish();
+  for (const name of ["deltas", "lip_roughness"]) {
+    if (!bodies.has(name)) {
+      throw new DecodeError(name, countAt, `the frame has no ${name} section`);
+    }
+  }
+  return { bodies, partBodies };
+}
+
+/**
+ * A `deltas` or `part_deltas` body's step, vertex_count and moved (refused above
+ * vertex_count as `movedField`): `{step, vertexCount, moved, movedAt}`.
+ */
+function readBlockCounts(body, movedField) {
+  const step = body.f32("step");
+  const vertexCount = body.u32("vertex_count");
+  const movedAt = body.at;
+  const moved = body.u32(movedField);
+  if (moved > vertexCount) {
+    throw new DecodeError(movedField, movedAt, `${moved} moved of ${vertexCount} vertices`);
+  }
+  return { step, vertexCount, moved, movedAt };
+}
+
+/**
+ * FWF2's header and sections after the magic: `{header, sections, counts}`, the header
+ * shaped as FWF1's (its step, counts and lip summary from the `deltas` and
+ * `lip_roughness` sections, whose readers are left after those fields), `counts` the
+ * head's readBlockCounts.
+ */
+function readFwf2Header(r) {
+  const timing = readTiming(r);
+  const sections = readSections(r);
+  const counts = readBlockCounts(sections.bodies.get("deltas"), "moved");
+  const { step, vertexCount, moved } = counts;
+  const lip = readLipSummary(sections.bodies.get("lip_roughness"));
+  return { header: { ...timing, step, vertexCount, moved, lip }, sections, counts };
+}
+
+/**
+ * The fixed-size part of a frame (timing, sequence, step and counts, lip roughness
+ * summary), without walking the deltas: cheap enough for every frame that arrives, drawn
+ * or skipped. For FWF2 it steps over the sections to find them.
  */
 export function readFrameHeader(buffer) {
-  return readHeaderFields(new Reader(new Uint8Array(buffer)))[1];
+  const r = new Reader(new Uint8Array(buffer));
+  return r.magic(FWF2_MAGIC, FWF1_MAGIC) === FWF2_MAGIC ? readFwf2Header(r).header : readFwf1Header(r)[1];
 }
 
 /** Raw-deflated (RFC 1951) bytes, inflated natively; more than `limit` bytes is an error. */
@@ -232,40 +351,66 @@ function readLipFolds(r) {
   return { turnedOver60, turnedOver90, maxDihedralIncreaseDeg };
 }
 
+/** The mean roughness around each lip vertex: n (u8), then n x f32. */
+function readLipValues(r) {
+  const count = r.u8("lip_count");
+  const values = new Float32Array(count);
+  for (let i = 0; i < count; i++) {
+    values[i] = r.f32("lip roughness");
+  }
+  return values;
+}
+
+/** The label: length (u8), then that many bytes of UTF-8. */
+function readLabel(r) {
+  const length = r.u8("label length");
+  const at = r.need(length, "label");
+  try {
+    return new TextDecoder("utf-8", { fatal: true }).decode(r.bytes.subarray(at, at + length));
+  } catch {
+    throw new DecodeError("label", at, "not UTF-8");
+  }
+}
+
+/** `count` per-vertex bytes (the field `field`) as values: byte / 255 x max. */
+function readPerVertex(r, max, count, field) {
+  const at = r.need(count, field);
+  const values = new Float32Array(count);
+  for (let v = 0; v < count; v++) {
+    values[v] = Math.fround(r.bytes[at + v] / 255) * max;
+  }
+  return values;
+}
+
 /**
- * Decodes a whole frame (a promise: a deflated delta block inflates asynchronously).
- * `movedIndices[i]` is a vertex and `movedCounts[3i..3i+3]` its quantized delta:
- * delta = counts x step, head units. `face` is per-vertex roughness (Float32Array) or
- * null, `label` a string or null, `head` the head's rigid motion ({rotation: quaternion
- * x, y, z, w; translation: head units}) and `jaw` the jaw's (applied before the head's to
- * the parts that move with it), each AT_REST when the frame has none. `tongue` is null
- * (the tongue at rest) or the tongue's deltas, `{part, vertexCount, movedIndices,
- * movedCounts}`: `part` its index in the snapshot's `parts`, the counts of that part's
- * vertices with the frame's `step`, applied before the jaw's and the head's motions.
- * `folds` is null (not measured) or the lip region's folds after its own rigid motion,
- * `{turnedOver60, turnedOver90, maxDihedralIncreaseDeg}`: lip triangles whose normal
- * turned more than 60 and more than 90 degrees from rest, and the largest increase of a
- * dihedral angle between two lip triangles over rest (degrees).
+ * Decodes a whole frame, FWF2 or FWF1 by its magic (a promise: a deflated delta block
+ * inflates asynchronously). `movedIndices[i]` is a vertex and `movedCounts[3i..3i+3]` its
+ * quantized delta: delta = counts x step, head units. `face` is the per-vertex values
+ * (Float32Array: the snapshot's `heat`, face roughness or folds) or null, and `faceMax`
+ * their max as sent (null without them); `label` a string or null, `head` the head's rigid
+ * motion ({rotation: quaternion x, y, z, w; translation: head units}) and `jaw` the jaw's
+ * (applied before the head's to the parts that move with it), each AT_REST when the frame
+ * has none. `parts` lists the part deltas in part order, each `{part, step, vertexCount,
+ * movedIndices, movedCounts}`: `part` its index in the snapshot's `parts`, the counts of
+ * that part's vertices with its `step`, applied before the jaw's and the head's motions;
+ * `tongue` is its first entry (the tongue: the only part the server shapes), or null (the
+ * tongue at rest). `folds` is null (not measured) or the lip region's folds after its own
+ * rigid motion, `{turnedOver60, turnedOver90, maxDihedralIncreaseDeg}`: lip triangles
+ * whose normal turned more than 60 and more than 90 degrees from rest, and the largest
+ * increase of a dihedral angle between two lip triangles over rest (degrees).
  */
 export async function decodeFrame(buffer) {
   const r = new Reader(new Uint8Array(buffer));
-  const [flags, header] = readHeaderFields(r);
+  const frame = r.magic(FWF2_MAGIC, FWF1_MAGIC) === FWF2_MAGIC ? await decodeFwf2(r) : await decodeFwf1(r);
+  return { ...frame, tongue: frame.parts[0] ?? null };
+}
+
+/** An FWF1 frame after its magic, as decodeFrame describes it (all but `tongue`). */
+async function decodeFwf1(r) {
+  const [flags, header] = readFwf1Header(r);
   const { vertexCount, moved } = header;
-  const lipCount = r.u8("lip_count");
-  const lipPerVertex = new Float32Array(lipCount);
-  for (let i = 0; i < lipCount; i++) {
-    lipPerVertex[i] = r.f32("lip roughness");
-  }
-  let label = null;
-  if (flags & FLAG_LABEL) {
-    const length = r.u8("label length");
-    const at = r.need(length, "label");
-    try {
-      label = new TextDecoder("utf-8", { fatal: true }).decode(r.bytes.subarray(at, at + length));
-    } catch {
-      throw new DecodeError("label", at, "not UTF-8");
-    }
-  }
+  const perVertex = readLipValues(r);
+  const label = flags & FLAG_LABEL ? readLabel(r) : null;
   const head = flags & FLAG_HEAD ? readRigidMotion(r, "head motion") : AT_REST;
   const jaw = flags & FLAG_JAW ? readRigidMotion(r, "jaw motion") : AT_REST;
   const folds = flags & FLAG_FOLDS ? readLipFolds(r) : null;
@@ -273,8 +418,8 @@ export async function decodeFrame(buffer) {
     throw new DecodeError("moved", 48, `${moved} moved of ${vertexCount} vertices`);
   }
   const deflated = (flags & FLAG_DEFLATE) !== 0;
-  const { movedIndices, movedCounts } = await readDeltas(r, deflated, moved, vertexCount);
-  let tongue = null;
+  const { movedIndices, movedCounts } = await readDeltas(r, deflated, moved, vertexCount, FWF1_MOVED);
+  const parts = [];
   if (flags & FLAG_TONGUE) {
     const part = r.u8("tongue part");
     const tongueVertices = r.u32("tongue vertex_count");
@@ -283,54 +428,104 @@ export async function decodeFrame(buffer) {
     if (tongueMoved > tongueVertices) {
       throw new DecodeError("tongue moved", movedAt, `${tongueMoved} moved of ${tongueVertices} vertices`);
     }
-    const deltas = await readDeltas(r, deflated, tongueMoved, tongueVertices);
-    tongue = { part, vertexCount: tongueVertices, ...deltas };
+    const deltas = await readDeltas(r, deflated, tongueMoved, tongueVertices, FWF1_MOVED);
+    parts.push({ part, step: header.step, vertexCount: tongueVertices, ...deltas });
   }
   let face = null;
+  let faceMax = null;
   if (flags & FLAG_FACE) {
-    const max = r.f32("face roughness max");
-    const at = r.need(vertexCount, "face roughness");
-    face = new Float32Array(vertexCount);
-    for (let v = 0; v < vertexCount; v++) {
-      face[v] = Math.fround(r.bytes[at + v] / 255) * max;
-    }
+    faceMax = r.f32("heat max");
+    face = readPerVertex(r, faceMax, vertexCount, "heat");
   }
   r.finish();
-  return {
-    ...header,
-    lip: { ...header.lip, perVertex: lipPerVertex },
-    label,
-    head,
-    jaw,
-    movedIndices,
-    movedCounts,
-    tongue,
-    folds,
-    face,
-  };
+  const lip = { ...header.lip, perVertex };
+  return { ...header, lip, label, head, jaw, movedIndices, movedCounts, parts, folds, face, faceMax };
 }
 
 /**
- * A delta block's length and the block (the head's or the tongue's), inflated first
- * when `deflated`: `{movedIndices, movedCounts}` of `moved` entries, each a vertex below
- * `vertexCount`.
+ * An FWF2 frame after its magic, as decodeFrame describes it (all but `tongue`). Sections may
+ * come in any order; every known one is read as far as its documented fields go, the rest
+ * of its body being fields from a later server.
  */
-async function readDeltas(r, deflated, moved, vertexCount) {
+async function decodeFwf2(r) {
+  const { header, sections, counts } = readFwf2Header(r);
+  const { bodies, partBodies } = sections;
+  const section = (name, read, absent) => (bodies.has(name) ? read(bodies.get(name)) : absent);
+  const perVertex = readLipValues(bodies.get("lip_roughness"));
+  const label = section("label", readLabel, null);
+  const head = section("head_motion", (body) => readRigidMotion(body, "head motion"), AT_REST);
+  const jaw = section("jaw_motion", (body) => readRigidMotion(body, "jaw motion"), AT_REST);
+  const folds = section("lip_folds", readLipFolds, null);
+  const { movedIndices, movedCounts } = await readEncodedDeltas(bodies.get("deltas"), counts, "moved");
+  const parts = await readPartDeltas(partBodies);
+  const heat = section("heat", (body) => readHeat(body, header.vertexCount), { face: null, faceMax: null });
+  const lip = { ...header.lip, perVertex };
+  return { ...header, lip, label, head, jaw, movedIndices, movedCounts, parts, folds, ...heat };
+}
+
+/** `part_deltas` bodies, each a part at most once: decodeFrame's `parts`, in part order. */
+async function readPartDeltas(bodies) {
+  const parts = [];
+  for (const body of bodies) {
+    const at = body.at;
+    const part = body.u8("part");
+    if (parts.some((p) => p.part === part)) {
+      throw new DecodeError("part_deltas", at, `part ${part} given twice`);
+    }
+    const counts = readBlockCounts(body, "part moved");
+    const deltas = await readEncodedDeltas(body, counts, "part moved");
+    parts.push({ part, step: counts.step, vertexCount: counts.vertexCount, ...deltas });
+  }
+  return parts.sort((a, b) => a.part - b.part);
+}
+
+/**
+ * The rest of a `deltas` or `part_deltas` body after readBlockCounts: encoding (0 plain,
+ * 1 raw deflate), then the delta block.
+ */
+function readEncodedDeltas(body, counts, movedField) {
+  const at = body.at;
+  const encoding = body.u8("encoding");
+  if (encoding !== ENCODING_PLAIN && encoding !== ENCODING_DEFLATE) {
+    throw new DecodeError("encoding", at, `${encoding}: expected 0 (plain) or 1 (raw deflate)`);
+  }
+  const moved = { field: movedField, at: counts.movedAt };
+  return readDeltas(body, encoding === ENCODING_DEFLATE, counts.moved, counts.vertexCount, moved);
+}
+
+/** A `heat` body: max (f32), count (u32, the head's vertex count), count bytes. */
+function readHeat(body, vertexCount) {
+  const faceMax = body.f32("heat max");
+  const at = body.at;
+  const count = body.u32("heat count");
+  if (count !== vertexCount) {
+    throw new DecodeError("heat count", at, `${count} values for ${vertexCount} vertices`);
+  }
+  return { face: readPerVertex(body, faceMax, count, "heat"), faceMax };
+}
+
+/**
+ * A delta block's length and the block (the head's or a part's), inflated first when
+ * `deflated`: `{movedIndices, movedCounts}` of `moved` entries, each a vertex below
+ * `vertexCount`, the count named by `movedField` as readDeltaBlock says.
+ */
+async function readDeltas(r, deflated, moved, vertexCount, movedField) {
   const blockLength = r.u32("delta block length");
   const blockAt = r.need(blockLength, "delta block");
   const stored = r.bytes.subarray(blockAt, blockAt + blockLength);
   // An entry takes 4 to 40 bytes: never inflate past what the count allows.
   const block = deflated ? await inflateRaw(stored, moved * 40, blockAt) : stored;
-  return readDeltaBlock(block, blockAt, moved, vertexCount);
+  return readDeltaBlock(block, blockAt, moved, vertexCount, movedField);
 }
 
 /**
  * The delta block: `moved` x { varint index gap, 3 x zigzag varint count differences
- * from the previous moved vertex }. Error offsets are those of the stored block.
+ * from the previous moved vertex }. Error offsets are those of the stored block;
+ * `movedField` ({field, at}) names the count when the block is too short for it.
  */
-function readDeltaBlock(block, blockAt, moved, vertexCount) {
+function readDeltaBlock(block, blockAt, moved, vertexCount, movedField) {
   if (moved > block.length / 4) {
-    throw new DecodeError("moved", 48, `${moved} entries cannot fit in ${block.length} bytes`);
+    throw new DecodeError(movedField.field, movedField.at, `${moved} entries cannot fit in ${block.length} bytes`);
   }
   const r = new Reader(block);
   const movedIndices = new Uint32Array(moved);
@@ -383,9 +578,9 @@ export function applyFrame(rest, frame, out) {
 }
 
 /**
- * Rest positions plus decoded deltas (`{movedIndices, movedCounts}`: a frame, or its
- * `tongue` with the tongue's rest) into `out`, as applyFrame: out = rest + f32(counts) x
- * step. Allocates nothing.
+ * Rest positions plus decoded deltas (`{movedIndices, movedCounts}`: a frame, or one of
+ * its `parts` with that part's rest and `step`) into `out`, as applyFrame: out = rest +
+ * f32(counts) x step. Allocates nothing.
  */
 export function applyDeltas(rest, { movedIndices, movedCounts }, step, out) {
   out.set(rest);

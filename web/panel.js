@@ -9,7 +9,7 @@
 import { applyFrame, decodeFrame, motionMatrix, readFrameHeader } from "./decode.js";
 import { HeadRenderer } from "./render.js";
 import { CLOSE } from "./codes.js";
-import { ViewerSocket } from "./stream.js";
+import { VIEW_FORMAT, ViewerSocket } from "./stream.js";
 
 /** Raw frames kept while waiting to be drawn; older ones are dropped. */
 const KEEP_FRAMES = 8;
@@ -166,7 +166,7 @@ export class Panel {
 
   reconnect() {
     const { head, stream, algorithm, heat, token } = this.settings;
-    const query = new URLSearchParams({ algo: algorithm });
+    const query = new URLSearchParams({ algo: algorithm, format: VIEW_FORMAT });
     if (heat) {
       query.set("heat", heat);
     }
@@ -337,7 +337,7 @@ export class Panel {
     }
     applyFrame(this.mesh.positions, frame, this.positions);
     this.renderer.setPositions(this.positions);
-    const problem = this.renderer.setTongue(frame.tongue, frame.step);
+    const problem = this.renderer.setTongue(frame.tongue, frame.tongue?.step);
     if (problem) {
       this.showMessage(problem);
     }

@@ -260,7 +260,7 @@ export class HeadRenderer {
   }
 
   /**
-   * A frame's tongue deltas (decode.js `frame.tongue`, with the frame's `step`): the part
+   * A frame's tongue deltas (decode.js `frame.tongue`, with its `step`): the part
    * they name is drawn at rest + counts x step (then moved by the jaw's and the head's
    * motion as before); null puts the shaped part back at rest. Returns a problem for
    * people when the deltas do not fit the parts (none while the parts are still loading).

@@ -3,7 +3,8 @@
 // after a lost connection: the server sends the newest frame right after its snapshot, so
 // a reconnect resumes where the stream is now, with no replay); and error, for refusals
 // that retrying cannot fix (codes.js: unknown head, bad algorithm, failed registration),
-// which keep the server's `error` message. A deleted head (close 4410) is reconnected to,
+// which keep the server's `error` message, and for a snapshot naming a frame layout the
+// page does not read (it asks for FWF2). A deleted head (close 4410) is reconnected to,
 // so a head registered again under the same id shows up. The URL comes from a function
 // asked again after every lost connection, so the page can move to another node
 // (nodes.js); the backoff starts over once a node sends its snapshot.
@@ -12,6 +13,19 @@ import { END_REASONS, FINAL_CLOSE_CODES } from "./codes.js";
 
 const FIRST_RETRY_MS = 500;
 const MAX_RETRY_MS = 15_000;
+/** The frame layout the page asks for (`format=`). */
+export const VIEW_FORMAT = "fwf2";
+
+/**
+ * Why the snapshot's frames cannot be shown, or null: its `format` is fwf2, or absent (a
+ * server from before FWF2, which sends FWF1: decode.js reads both).
+ */
+function formatProblem({ format }) {
+  if (format === undefined || format === VIEW_FORMAT) {
+    return null;
+  }
+  return `the server sends "${format}" frames, and this page reads only ${VIEW_FORMAT} (or FWF1 from a server that names no format)`;
+}
 
 export class ViewerSocket {
   /**
@@ -78,6 +92,11 @@ export class ViewerSocket {
         return this.setState("error", { message: `unreadable message from the server: ${event.data.slice(0, 80)}` });
       }
       if (message.type === "snapshot") {
+        const problem = formatProblem(message);
+        if (problem) {
+          this.close();
+          return this.setState("error", { message: problem });
+        }
         this.attempt = 0;
         this.handlers.onSnapshot(message);
         this.setState("waiting");

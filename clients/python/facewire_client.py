@@ -6,18 +6,21 @@ websocket-client``, imported as ``websocket``), which only the two WebSocket cla
 need:
 
 - :class:`Producer` pushes parameter frames (facewire's JSONL objects, ``docs/STREAMS.md``)
-  to ``/v1/heads/{id}/streams/{stream}/produce`` as JSON text or binary ``FWP1``, reads
-  the server's answer to each and raises :class:`Refused` (code, field, seq) on a refusal.
+  to ``/v1/heads/{id}/streams/{stream}/produce`` as JSON text or binary ``FWP2`` (or the
+  frozen ``FWP1``), reads the server's answer to each (an :class:`Ack`, with the section
+  kinds the server ignored) and raises :class:`Refused` (code, field, seq) on a refusal.
 - :class:`Viewer` watches ``/v1/heads/{id}/streams/{stream}/view``: it reads the snapshot,
-  downloads the rest mesh (``FWM1``) and decodes every ``FWF1`` frame into seq, time,
-  label, lip roughness and folds and per-vertex positions (plain lists, no numpy), the
-  head's and the jaw's motion and the tongue's deltas; it places the head's parts (teeth, gums,
-  tongue) for a frame; ``end`` and ``error`` messages come out as :class:`StreamEnd` and
+  downloads the rest mesh (``FWM1``) and decodes every frame, sectioned ``FWF2`` (asked
+  for by default) or the frozen ``FWF1``, into seq, time, label, lip roughness and folds
+  and per-vertex positions (plain lists, no numpy), the head's and the jaw's motion and the
+  parts' (the tongue's) deltas; it places the head's parts (teeth, gums, tongue) for a
+  frame; ``end`` and ``error`` messages come out as :class:`StreamEnd` and
   :class:`ServerError` events.
 - :class:`Client` wraps the HTTP resources: register a head, wait until it is ready, list
   heads, download the rest mesh and the parts' meshes, post a batch.
 
-The binary formats have pure functions of their own (:func:`encode_fwp1`,
+The binary formats have pure functions of their own (:func:`encode_fwp2`,
+:func:`encode_fwp1`, :func:`decode_viewer_frame` with :func:`decode_fwf2` and
 :func:`decode_fwf1`, :func:`decode_mesh`). Nothing is kept in globals: every connection is
 an object the caller owns.
 
@@ -60,6 +63,7 @@ __all__ = [
     "ProtocolError",
     "Refused",
     "RestMesh",
+    "SectionInfo",
     "ServerError",
     "Snapshot",
     "StreamEnd",
@@ -68,8 +72,11 @@ __all__ = [
     "animation_unit_index",
     "arkit_index",
     "decode_fwf1",
+    "decode_fwf2",
     "decode_mesh",
+    "decode_viewer_frame",
     "encode_fwp1",
+    "encode_fwp2",
     "encode_json",
     "fap_number",
     "read_jsonl",
@@ -105,7 +112,7 @@ FAP_NAMES: Tuple[str, ...] = (
     "raise_l_ear", "raise_r_ear", "pull_l_ear", "pull_r_ear",
 )
 
-#: The 52 ARKit blendshapes in Apple's order; a name's index is what ``FWP1`` carries.
+#: The 52 ARKit blendshapes in Apple's order; a name's index is what ``FWP2`` and ``FWP1`` carry.
 ARKIT_BLENDSHAPES: Tuple[str, ...] = (
     "eyeBlinkLeft", "eyeLookDownLeft", "eyeLookInLeft", "eyeLookOutLeft", "eyeLookUpLeft",
     "eyeSquintLeft", "eyeWideLeft", "eyeBlinkRight", "eyeLookDownRight", "eyeLookInRight",
@@ -134,10 +141,11 @@ ANIMATION_UNIT_NAMES: Tuple[Tuple[str, ...], ...] = tuple(
     [(key, "auv%d" % auv) for key, auv in _AUV_UNITS]
     + [("fap%d_%s" % (n, FAP_NAMES[n - 1]), "fap%d" % n, FAP_NAMES[n - 1]) for n in _FAP_UNITS]
 )
-#: The unit keys by index: what ``FWP1``'s unit index points at.
+#: The unit keys by index: what the unit index of ``FWP2`` and ``FWP1`` points at.
 ANIMATION_UNITS: Tuple[str, ...] = tuple(names[0] for names in ANIMATION_UNIT_NAMES)
 
-# The keys a JSONL frame object may have, and those FWP1 cannot carry.
+# The keys a JSONL frame object may have, and those FWP1 cannot carry (FWP2 carries
+# head_translation too).
 _FRAME_KEYS = ("seq", "t", "label", "au", "fap", "arkit", "head_rotation_rad",
                "head_translation", "controls", "viseme", "expression")
 _JSON_ONLY_KEYS = ("head_translation", "controls", "expression")
@@ -314,7 +322,7 @@ def arkit_index(key: Union[str, int]) -> int:
 
 
 # ---------------------------------------------------------------------------------------
-# Producer frames: JSON text and binary FWP1
+# Producer frames: JSON text and binary FWP2 and FWP1
 
 
 def _frame_seq(frame: Mapping[str, Any]) -> int:
@@ -377,61 +385,134 @@ def _label_bytes(label: str) -> bytes:
     return data[:end]
 
 
-def encode_fwp1(frame: Mapping[str, Any]) -> bytes:
-    """Encodes a JSONL-style frame (``seq``, ``t``, ``label``, ``au``, ``fap``, ``arkit``,
-    ``head_rotation_rad``, ``viseme``) as a binary ``FWP1`` message (PROTOCOL.md,
-    little-endian).
+@dataclass
+class _BinaryContent:
+    """A frame's content checked for a binary layout: sorted ``(index, value)`` lists,
+    f32-range numbers, None for what the frame does not give."""
 
-    Unit, FAP and blendshape keys may be names or indices, as in JSONL; a viseme is FAP 1
-    (``{"select1","select2","blend","definition"}``), ``{"oculus": 10 or "aa"}`` or
-    ``{"microsoft": 21}``. Raises :class:`FrameError` for anything FWP1 cannot carry
-    (``head_translation``, ``controls``, ``expression``: send such frames as JSON text), for unknown
-    keys and names, and for values that are not finite f32 numbers. A label longer than
-    255 UTF-8 bytes is cut at a character boundary, as the server cuts labels."""
+    seq: int
+    t: float
+    au: List[Tuple[int, float]]
+    faps: List[Tuple[int, float]]
+    arkit: List[Tuple[int, float]]
+    rotation: Optional[List[float]]
+    translation: Optional[List[float]]
+    label: Optional[bytes]
+    viseme: bytes
+
+
+def _binary_content(frame: Mapping[str, Any], layout: str,
+                    json_only: Tuple[str, ...]) -> _BinaryContent:
+    """Checks a frame once for both binary layouts, so that FWP1 and FWP2 refuse the same
+    content with the same :class:`FrameError`; ``json_only`` are the keys ``layout``
+    cannot carry."""
     seq = _frame_seq(frame)
     unknown = [k for k in frame if k not in _FRAME_KEYS]
     if unknown:
         raise FrameError("frame seq %d: unknown key %r; valid: %s"
                          % (seq, unknown[0], ", ".join(_FRAME_KEYS)))
-    json_only = [k for k in _JSON_ONLY_KEYS if frame.get(k) is not None]
-    if json_only:
-        raise FrameError("frame seq %d: FWP1 cannot carry %s; send this frame as JSON text"
-                         % (seq, ", ".join(json_only)))
+    refused = [k for k in json_only if frame.get(k) is not None]
+    if refused:
+        raise FrameError("frame seq %d: %s cannot carry %s; send this frame as JSON text"
+                         % (seq, layout, ", ".join(refused)))
     if "t" not in frame:
         raise FrameError("frame seq %d: t (seconds) is missing" % seq)
     t = _number(seq, "t", frame["t"])
     au = _sparse(seq, frame, "au", animation_unit_index)
     faps = _sparse(seq, frame, "fap", fap_number)
     arkit = _sparse(seq, frame, "arkit", arkit_index)
-    rotation = frame.get("head_rotation_rad")
-    if rotation is not None:
-        if not isinstance(rotation, (list, tuple)) or len(rotation) != 3:
-            raise FrameError("frame seq %d: head_rotation_rad must be [rx, ry, rz]" % seq)
-        rotation = [_f32(seq, "head_rotation_rad[%d]" % k, x) for k, x in enumerate(rotation)]
+    rotation = _vector3(seq, "head_rotation_rad", "[rx, ry, rz]", frame.get("head_rotation_rad"))
+    translation = _vector3(seq, "head_translation", "[x, y, z]", frame.get("head_translation"))
     label = frame.get("label")
     if label is not None and not isinstance(label, str):
         raise FrameError("frame seq %d: label must be a string or null" % seq)
+    return _BinaryContent(seq, t, au, faps, arkit, rotation, translation,
+                          None if label is None else _label_bytes(label),
+                          _viseme_bytes(seq, frame.get("viseme")))
 
-    viseme = _viseme_bytes(seq, frame.get("viseme"))
-    flags = (1 if rotation is not None else 0) | (2 if label is not None else 0) | (4 if viseme else 0)
+
+def _vector3(seq: int, key: str, shape: str, value: Any) -> Optional[List[float]]:
+    """Three finite f32 numbers, or None when the frame does not give ``key``."""
+    if value is None:
+        return None
+    if not isinstance(value, (list, tuple)) or len(value) != 3:
+        raise FrameError("frame seq %d: %s must be %s" % (seq, key, shape))
+    return [_f32(seq, "%s[%d]" % (key, k), x) for k, x in enumerate(value)]
+
+
+def _index_values(entries: Sequence[Tuple[int, float]], index_format: str) -> bytes:
+    """A count (u16), then ``(index, f32 value)`` per entry: the au, fap and arkit lists
+    of both binary layouts."""
+    out = bytearray(struct.pack("<H", len(entries)))
+    for index, value in entries:
+        out += struct.pack("<" + index_format + "f", index, value)
+    return bytes(out)
+
+
+def encode_fwp1(frame: Mapping[str, Any]) -> bytes:
+    """Encodes a JSONL-style frame (``seq``, ``t``, ``label``, ``au``, ``fap``, ``arkit``,
+    ``head_rotation_rad``, ``viseme``) as a binary ``FWP1`` message (PROTOCOL.md,
+    little-endian), the frozen layout every server reads.
+
+    Unit, FAP and blendshape keys may be names or indices, as in JSONL; a viseme is FAP 1
+    (``{"select1","select2","blend","definition"}``), ``{"oculus": 10 or "aa"}`` or
+    ``{"microsoft": 21}``. Raises :class:`FrameError` for anything FWP1 cannot carry
+    (``head_translation``, ``controls``, ``expression``: send such frames as JSON text or
+    FWP2), for unknown keys and names, and for values that are not finite f32 numbers. A
+    label longer than 255 UTF-8 bytes is cut at a character boundary, as the server cuts
+    labels."""
+    c = _binary_content(frame, "FWP1", _JSON_ONLY_KEYS)
+    flags = ((1 if c.rotation is not None else 0) | (2 if c.label is not None else 0)
+             | (4 if c.viseme else 0))
     out = bytearray(b"FWP1")
-    out += struct.pack("<QdBH", seq, t, flags, len(au))
-    for unit, weight in au:
-        out += struct.pack("<Hf", unit, weight)
-    for entries in (faps, arkit):
-        out += struct.pack("<H", len(entries))
-        for index, value in entries:
-            out += struct.pack("<Bf", index, value)
-    if rotation is not None:
-        out += struct.pack("<3f", *rotation)
-    if label is not None:
-        data = _label_bytes(label)
-        out += struct.pack("<B", len(data)) + data
-    return bytes(out + viseme)
+    out += struct.pack("<QdB", c.seq, c.t, flags)
+    out += _index_values(c.au, "H") + _index_values(c.faps, "B") + _index_values(c.arkit, "B")
+    if c.rotation is not None:
+        out += struct.pack("<3f", *c.rotation)
+    if c.label is not None:
+        out += struct.pack("<B", len(c.label)) + c.label
+    return bytes(out + c.viseme)
+
+
+#: FWP2's section kinds (PROTOCOL.md, "Producer WebSocket").
+_FWP2_AU, _FWP2_FAP, _FWP2_ARKIT, _FWP2_HEAD_ROTATION, _FWP2_HEAD_TRANSLATION, _FWP2_LABEL, \
+    _FWP2_VISEME = range(1, 8)
+
+
+def encode_fwp2(frame: Mapping[str, Any]) -> bytes:
+    """Encodes a JSONL-style frame as a binary ``FWP2`` message: a 21-byte header (magic,
+    seq, t, section count), then one section (kind u8, length u32, body) per thing the
+    frame gives, in kind order: ``au``, ``fap``, ``arkit``, ``head_rotation``,
+    ``head_translation``, ``label``, ``viseme``. What the frame leaves out (or gives
+    empty) has no section: every frame is a full state, so absent means at rest.
+
+    The same content as :func:`encode_fwp1` plus ``head_translation`` (mask units), with
+    the same checks (a :class:`FrameError` for the same frames); ``controls`` and
+    ``expression`` still need JSON text."""
+    c = _binary_content(frame, "FWP2", tuple(k for k in _JSON_ONLY_KEYS if k != "head_translation"))
+    sections: List[Tuple[int, bytes]] = []
+    for kind, entries, index_format in ((_FWP2_AU, c.au, "H"), (_FWP2_FAP, c.faps, "B"),
+                                        (_FWP2_ARKIT, c.arkit, "B")):
+        if entries:
+            sections.append((kind, _index_values(entries, index_format)))
+    if c.rotation is not None:
+        sections.append((_FWP2_HEAD_ROTATION, struct.pack("<3f", *c.rotation)))
+    if c.translation is not None:
+        sections.append((_FWP2_HEAD_TRANSLATION, struct.pack("<3f", *c.translation)))
+    if c.label is not None:
+        sections.append((_FWP2_LABEL, struct.pack("<B", len(c.label)) + c.label))
+    if c.viseme:
+        sections.append((_FWP2_VISEME, c.viseme))
+    out = bytearray(b"FWP2")
+    out += struct.pack("<QdB", c.seq, c.t, len(sections))
+    for kind, body in sections:
+        out += struct.pack("<BI", kind, len(body)) + body
+    return bytes(out)
 
 
 def _viseme_bytes(seq: int, viseme: Any) -> bytes:
-    """FWP1's 5 viseme bytes (scheme, then 4 values), or b"" for none."""
+    """The 5 viseme bytes (scheme, then 4 values) of FWP1 and of FWP2's ``viseme``
+    section, or b"" for none."""
     if viseme is None:
         return b""
     if not isinstance(viseme, Mapping):
@@ -487,7 +568,7 @@ def read_jsonl(path: str) -> Iterator[Dict[str, Any]]:
 
 
 # ---------------------------------------------------------------------------------------
-# Viewer frames (FWF1) and the rest mesh (FWM1)
+# Viewer frames (FWF2, FWF1) and the rest mesh (FWM1)
 
 
 @dataclass
@@ -503,11 +584,11 @@ class LipRoughness:
 
 @dataclass(frozen=True)
 class LipFolds:
-    """Folds of the lip region in one frame (flag bit 6), after the region's own rigid
-    motion: ``turned_over_60`` and ``turned_over_90`` count the lip triangles whose normal
-    turned more than 60 and more than 90 degrees from rest (at most 65,535), and
-    ``max_dihedral_increase_deg`` is the largest increase of a dihedral angle between two
-    lip triangles over rest, degrees (finite, not negative)."""
+    """Folds of the lip region in one frame (FWF2's ``lip_folds`` section, FWF1's flag bit
+    6), after the region's own rigid motion: ``turned_over_60`` and ``turned_over_90``
+    count the lip triangles whose normal turned more than 60 and more than 90 degrees from
+    rest (at most 65,535), and ``max_dihedral_increase_deg`` is the largest increase of a
+    dihedral angle between two lip triangles over rest, degrees (finite, not negative)."""
 
     turned_over_60: int
     turned_over_90: int
@@ -536,8 +617,8 @@ class RigidMotion:
 
 @dataclass
 class PartDeltas:
-    """A part's deltas in one frame: the tongue's shape (flag bit 5), against that part's
-    rest mesh.
+    """A part's deltas in one frame (FWF2's ``part_deltas`` section, FWF1's tongue deltas,
+    flag bit 5): a shaped part's (the tongue's) shape against that part's rest mesh.
 
     ``part`` is the part's index in the snapshot's ``parts``, ``vertex_count`` its
     vertices; ``moved`` holds ``(vertex, cx, cy, cz)`` as :attr:`ViewerFrame.moved` does,
@@ -572,18 +653,20 @@ def _apply_deltas(rest: Sequence[Tuple[float, float, float]],
 
 @dataclass
 class ViewerFrame:
-    """A decoded ``FWF1`` frame.
+    """A decoded viewer frame, ``FWF2`` or ``FWF1`` (the same content in either layout).
 
     ``moved`` holds ``(vertex, cx, cy, cz)``: the quantized delta of every vertex that
     moved, in counts of ``step`` head units. ``positions`` is filled by :class:`Viewer`
     (or :meth:`apply`): one ``(x, y, z)`` tuple per vertex, head units, ``rest + counts x
     step``, before the head's own motion ``head`` (:meth:`place` applies it). ``jaw`` is the
     jaw's motion, which places the parts that move with it (before ``head``), and
-    ``tongue`` the tongue's deltas (:class:`PartDeltas`, before the jaw's motion), None while
-    the tongue is at rest; :meth:`place_part` places any part. ``folds`` is the lip region's
-    folds (:class:`LipFolds`), None when the frame has none. Times: ``producer_time_s`` is
-    the producer's ``t``; the ``_us`` fields are µs since the Unix epoch on the server's
-    clock."""
+    ``parts`` the deltas of every part the frame shapes (:class:`PartDeltas`, before the
+    jaw's motion), in part order, empty while every part is at rest; :attr:`tongue` is the
+    first of them; :meth:`place_part` places any part. ``folds`` is the lip region's folds
+    (:class:`LipFolds`), None when the frame has none. ``face`` is the per-vertex values the
+    viewer asked for (the snapshot's ``heat``), ``byte / 255 x face_max`` each, None when
+    it asked for none. Times: ``producer_time_s`` is the producer's ``t``; the ``_us``
+    fields are µs since the Unix epoch on the server's clock."""
 
     seq: int
     producer_time_s: float
@@ -597,9 +680,16 @@ class ViewerFrame:
     face: Optional[List[float]] = None
     head: RigidMotion = field(default_factory=RigidMotion)
     jaw: RigidMotion = field(default_factory=RigidMotion)
-    tongue: Optional[PartDeltas] = None
+    parts: List[PartDeltas] = field(default_factory=list)
     folds: Optional[LipFolds] = None
     positions: Optional[List[Tuple[float, float, float]]] = None
+    face_max: Optional[float] = None
+
+    @property
+    def tongue(self) -> Optional[PartDeltas]:
+        """The first part's deltas, None when no part is shaped: the server shapes only the
+        tongue, and callers written before :attr:`parts` read it here."""
+        return self.parts[0] if self.parts else None
 
     def apply(self, rest: Sequence[Tuple[float, float, float]]) -> List[Tuple[float, float, float]]:
         """The deformed positions: ``rest`` (one ``(x, y, z)`` per vertex, as
@@ -620,14 +710,13 @@ class ViewerFrame:
         """Where part ``index`` of the snapshot's ``parts`` is in the world in this frame,
         from its ``role`` and its rest positions (:meth:`Client.part_mesh`): a ``skull``
         part moved by the head's motion, a ``jaw`` or ``tongue`` part by the jaw's and then
-        the head's, and the part this frame's :attr:`tongue` names shaped by its deltas
-        first (at rest when the frame has none)."""
+        the head's, and a part this frame's :attr:`parts` shape shaped by its deltas first
+        (at rest when the frame has none for it)."""
         if role not in ("skull", "jaw", "tongue"):
             raise ProtocolError("unknown part role %r; expected skull, jaw or tongue" % (role,),
                                 field="role")
-        shaped = rest
-        if self.tongue is not None and self.tongue.part == index:
-            shaped = self.tongue.apply(rest)
+        deltas = next((d for d in self.parts if d.part == index), None)
+        shaped = rest if deltas is None else deltas.apply(rest)
         if role == "skull":
             return [self.head.apply(p) for p in shaped]
         head, jaw = self.head, self.jaw
@@ -645,15 +734,27 @@ class RestMesh:
 
 
 class _Reader:
-    """Little-endian reads that name the field on a short message."""
+    """Little-endian reads that name the field on a short message.
 
-    def __init__(self, data: bytes):
+    A reader may be bounded to one section's body (``start``..``end`` of the message, the
+    section's name in ``section``): a read past the body then names the field cut short,
+    as PROTOCOL.md names a section shorter than its fields, and ``at`` stays an offset in
+    the whole message so that errors point at the right byte."""
+
+    def __init__(self, data: bytes, start: int = 0, end: Optional[int] = None,
+                 section: Optional[str] = None):
         self.data = data
-        self.at = 0
+        self.at = start
+        self.end = len(data) if end is None else end
+        self.section = section
 
     def take(self, n: int, name: str) -> bytes:
         end = self.at + n
-        if n < 0 or end > len(self.data):
+        if n < 0 or end > self.end:
+            if self.section is not None:
+                raise ProtocolError("section %s too short: needs bytes %d..%d, it ends at %d"
+                                    % (self.section, self.at, end, self.end),
+                                    field=name, at=self.at)
             raise ProtocolError("message too short: needs bytes %d..%d, the message has %d"
                                 % (self.at, end, len(self.data)), field=name)
         chunk = self.data[self.at:end]
@@ -673,7 +774,7 @@ class _Reader:
             raise ProtocolError("not UTF-8", field="label", at=at) from None
 
     def finish(self) -> None:
-        extra = len(self.data) - self.at
+        extra = self.end - self.at
         if extra:
             raise ProtocolError("%d unexpected byte(s) after the message" % extra)
 
@@ -706,14 +807,182 @@ def _varint_tail(block: bytes, i: int, first: int) -> Tuple[int, int]:
         shift += 7
 
 
+def decode_viewer_frame(data: bytes) -> ViewerFrame:
+    """Decodes one binary viewer frame of either layout, by its magic: ``FWF2`` (what
+    :class:`Viewer` asks for) or the frozen ``FWF1`` (what servers before ``FWF2`` send,
+    and what a viewer gets that names no ``format``)."""
+    magic = bytes(data[:4])
+    if magic == b"FWF2":
+        return decode_fwf2(data)
+    if magic == b"FWF1":
+        return decode_fwf1(data)
+    raise ProtocolError("bad magic %r: expected b'FWF2' or b'FWF1'" % magic, field="magic", at=0)
+
+
+#: FWF2's section kinds (PROTOCOL.md, "Viewer frame (FWF2)").
+_FWF2_DELTAS, _FWF2_LIP_ROUGHNESS, _FWF2_LABEL, _FWF2_HEAD_MOTION, _FWF2_JAW_MOTION, \
+    _FWF2_LIP_FOLDS, _FWF2_PART_DELTAS, _FWF2_HEAT = range(1, 9)
+#: Their names, as PROTOCOL.md and a snapshot's ``sections`` give them, and as errors name
+#: a kind given twice or missing.
+_FWF2_SECTIONS: Dict[int, str] = {
+    _FWF2_DELTAS: "deltas", _FWF2_LIP_ROUGHNESS: "lip_roughness", _FWF2_LABEL: "label",
+    _FWF2_HEAD_MOTION: "head_motion", _FWF2_JAW_MOTION: "jaw_motion",
+    _FWF2_LIP_FOLDS: "lip_folds", _FWF2_PART_DELTAS: "part_deltas", _FWF2_HEAT: "heat",
+}
+
+
+def _next_section(r: _Reader, number: int, count: int) -> Tuple[int, int, _Reader]:
+    """Section ``number`` (0-based) of ``count``: its kind, where it starts, and a reader
+    bounded to its body, which knows the section's name (``section K`` for a kind this
+    client does not know). Framing errors are the field ``section``, as PROTOCOL.md names
+    them (the message says which kind): a section that runs past the message, or a
+    message that ends where a counted section should start."""
+    at = r.at
+    if at >= r.end:
+        raise ProtocolError("the message ends after %d of its %d sections" % (number, count),
+                            field="section", at=at)
+    (kind,) = r.unpack("B", "section")
+    name = _FWF2_SECTIONS.get(kind, "section %d" % kind)
+    (length,) = r.unpack("I", "section")
+    left = r.end - r.at
+    if length > left:
+        raise ProtocolError("section of kind %d claims %d bytes, %d are left"
+                            % (kind, length, left), field="section", at=at)
+    body = _Reader(r.data, r.at, r.at + length, name)
+    r.at += length
+    return kind, at, body
+
+
+def _section_deltas(r: _Reader,
+                    moved_name: str) -> Tuple[float, int, List[Tuple[int, int, int, int]]]:
+    """step, vertex_count, moved, encoding and the delta block, as the ``deltas`` and
+    ``part_deltas`` sections both carry them: ``(step, vertex_count, moved entries)``."""
+    (step,) = r.unpack("f", "step")
+    (vertex_count,) = r.unpack("I", "vertex_count")
+    moved_at = r.at
+    (moved_count,) = r.unpack("I", moved_name)
+    if moved_count > vertex_count:
+        raise ProtocolError("%d moved of %d vertices" % (moved_count, vertex_count),
+                            field=moved_name, at=moved_at)
+    encoding_at = r.at
+    (encoding,) = r.unpack("B", "encoding")
+    if encoding not in (0, 1):
+        raise ProtocolError("encoding %d in %s: expected 0 (plain) or 1 (raw deflate)"
+                            % (encoding, r.section), field="encoding", at=encoding_at)
+    return step, vertex_count, _read_deltas(r, encoding == 1, moved_count, vertex_count,
+                                            moved_name, moved_at)
+
+
+def decode_fwf2(data: bytes) -> ViewerFrame:
+    """Decodes one sectioned viewer frame (``FWF2``), checking every length.
+
+    After the 37-byte header (magic, seq, t, receive and send times, section count) come
+    the sections, each kind (u8), length (u32) and body, in any order. The layout grows
+    without breaking this decoder (PROTOCOL.md, "Versions and growth"): a section of a kind
+    it does not know is skipped, and so is the end of a known section past the fields read
+    here (fields from a later server). What cannot be read is a :class:`ProtocolError`
+    naming the field as PROTOCOL.md does (and the Rust and JavaScript decoders): a section
+    running past the message or fewer sections than counted (``section``, the message
+    saying which kind), a section shorter than its fields (the field cut short: ``step``,
+    ``moved``, ``delta block``, ``head motion``, ``lip folds``, ``part``, ``heat``, ...),
+    bytes after the last section (``end``), a known kind given twice (the section's name;
+    ``part_deltas`` for a part's deltas twice), a frame without ``deltas`` or
+    ``lip_roughness`` (that name), an ``encoding`` other than 0 (plain) or 1 (raw
+    deflate), heat values not one per vertex (``heat count``), and every check
+    :func:`decode_fwf1` makes, with its names (``moved``, ``delta block``, ``index gap``,
+    ``head motion``, ``jaw motion``, ``lip folds``, ``label``; ``part moved`` for a part's
+    moved count)."""
+    r = _Reader(bytes(data))
+    magic = r.take(4, "magic")
+    if magic != b"FWF2":
+        raise ProtocolError("bad magic %r: expected b'FWF2'" % magic, field="magic", at=0)
+    seq, producer_time_s, receive_us, send_us = r.unpack("QdQQ", "header")
+    (count,) = r.unpack("B", "section count")
+    deltas: Optional[Tuple[float, int, List[Tuple[int, int, int, int]]]] = None
+    lip: Optional[LipRoughness] = None
+    label: Optional[str] = None
+    head = RigidMotion()
+    jaw = RigidMotion()
+    folds: Optional[LipFolds] = None
+    parts: Dict[int, PartDeltas] = {}
+    heat: Optional[Tuple[int, int, float, bytes]] = None  # count's offset, count, max, bytes
+    seen: Dict[int, int] = {}
+    for number in range(count):
+        kind, at, body = _next_section(r, number, count)
+        name = body.section
+        if kind in _FWF2_SECTIONS and kind != _FWF2_PART_DELTAS:
+            if kind in seen:
+                raise ProtocolError("section %s (kind %d) given twice, first at byte %d"
+                                    % (name, kind, seen[kind]), field=name, at=at)
+            seen[kind] = at
+        if kind == _FWF2_DELTAS:
+            deltas = _section_deltas(body, "moved")
+        elif kind == _FWF2_LIP_ROUGHNESS:
+            lip = _lip_roughness(body)
+        elif kind == _FWF2_LABEL:
+            label = body.label()
+        elif kind == _FWF2_HEAD_MOTION:
+            head = _rigid_motion(body, "head motion")
+        elif kind == _FWF2_JAW_MOTION:
+            jaw = _rigid_motion(body, "jaw motion")
+        elif kind == _FWF2_LIP_FOLDS:
+            folds = _lip_folds(body)
+        elif kind == _FWF2_PART_DELTAS:
+            (part,) = body.unpack("B", "part")
+            if part in parts:
+                raise ProtocolError("part_deltas given twice for part %d" % part,
+                                    field="part_deltas", at=at)
+            step, part_vertices, part_moved = _section_deltas(body, "part moved")
+            parts[part] = PartDeltas(part, part_vertices, part_moved, step)
+        elif kind == _FWF2_HEAT:
+            (heat_max,) = body.unpack("f", "heat max")
+            count_at = body.at
+            (heat_count,) = body.unpack("I", "heat count")
+            heat = (count_at, heat_count, heat_max, body.take(heat_count, "heat"))
+        # any other kind: from a later server, skipped (_next_section passed its body)
+    if r.at != r.end:
+        raise ProtocolError("%d byte(s) after the last of %d sections" % (r.end - r.at, count),
+                            field="end", at=r.at)
+    if deltas is None:
+        raise ProtocolError("no deltas section: every frame has one", field="deltas")
+    if lip is None:
+        raise ProtocolError("no lip_roughness section: every frame has one", field="lip_roughness")
+    step, vertex_count, moved = deltas
+    face: Optional[List[float]] = None
+    face_max: Optional[float] = None
+    if heat is not None:
+        heat_at, heat_count, face_max, raw = heat
+        if heat_count != vertex_count:
+            raise ProtocolError("%d values for %d vertices" % (heat_count, vertex_count),
+                                field="heat count", at=heat_at)
+        face = _heat_values(face_max, raw)
+    return ViewerFrame(
+        seq=seq,
+        producer_time_s=producer_time_s,
+        server_receive_us=receive_us,
+        server_send_us=send_us,
+        step=step,
+        vertex_count=vertex_count,
+        moved=moved,
+        lip=lip,
+        label=label,
+        face=face,
+        head=head,
+        jaw=jaw,
+        parts=[parts[k] for k in sorted(parts)],
+        folds=folds,
+        face_max=face_max,
+    )
+
+
 def decode_fwf1(data: bytes) -> ViewerFrame:
-    """Decodes one binary viewer frame (``FWF1``), checking every length.
+    """Decodes one frozen flag-bit viewer frame (``FWF1``), checking every length.
 
     The delta block holds ``moved`` entries: an LEB128 index gap (``index - previous - 1``,
     previous starting at -1), then dx, dy, dz as zigzag LEB128 differences from the
     previous entry's counts (starting from 0); it is raw deflate when flag bit 2 is set.
     With flag bit 5 the tongue's part index, vertex count, moved count and a delta block
-    of its own (the same format) follow it: :attr:`ViewerFrame.tongue`. With flag bit 6
+    of its own (the same format) follow it: :attr:`ViewerFrame.parts`. With flag bit 6
     the lip folds (u16, u16, f32) follow the jaw's motion: :attr:`ViewerFrame.folds`."""
     r = _Reader(bytes(data))
     magic = r.take(4, "magic")
@@ -723,9 +992,7 @@ def decode_fwf1(data: bytes) -> ViewerFrame:
     r.take(3, "reserved")
     seq, producer_time_s, receive_us, send_us = r.unpack("QdQQ", "header")
     step, vertex_count, moved_count = r.unpack("fII", "step, vertex_count, moved")
-    lip_min, lip_max, lip_mean = r.unpack("3f", "lip roughness")
-    (lip_count,) = r.unpack("B", "lip_count")
-    per_vertex = list(r.unpack("%df" % lip_count, "lip roughness per vertex"))
+    lip = _lip_roughness(r)
     label = r.label() if flags & 2 else None
     head = _rigid_motion(r, "head motion") if flags & 8 else RigidMotion()
     jaw = _rigid_motion(r, "jaw motion") if flags & 16 else RigidMotion()
@@ -734,8 +1001,8 @@ def decode_fwf1(data: bytes) -> ViewerFrame:
         raise ProtocolError("%d moved of %d vertices" % (moved_count, vertex_count),
                             field="moved", at=48)
     deflated = bool(flags & 4)
-    moved = _read_deltas(r, deflated, moved_count, vertex_count)
-    tongue: Optional[PartDeltas] = None
+    moved = _read_deltas(r, deflated, moved_count, vertex_count, "moved", 48)
+    parts: List[PartDeltas] = []
     if flags & 32:
         (part,) = r.unpack("B", "tongue part")
         (tongue_vertices,) = r.unpack("I", "tongue vertex_count")
@@ -744,13 +1011,14 @@ def decode_fwf1(data: bytes) -> ViewerFrame:
         if tongue_moved > tongue_vertices:
             raise ProtocolError("%d moved of %d vertices" % (tongue_moved, tongue_vertices),
                                 field="tongue moved", at=moved_at)
-        tongue = PartDeltas(part, tongue_vertices,
-                            _read_deltas(r, deflated, tongue_moved, tongue_vertices), step)
+        parts.append(PartDeltas(part, tongue_vertices,
+                                _read_deltas(r, deflated, tongue_moved, tongue_vertices,
+                                             "tongue moved", moved_at), step))
     face: Optional[List[float]] = None
+    face_max: Optional[float] = None
     if flags & 1:
         (face_max,) = r.unpack("f", "face roughness max")
-        raw = r.take(vertex_count, "face roughness")
-        face = [b / 255.0 * face_max for b in raw]
+        face = _heat_values(face_max, r.take(vertex_count, "face roughness"))
     r.finish()
     return ViewerFrame(
         seq=seq,
@@ -760,21 +1028,23 @@ def decode_fwf1(data: bytes) -> ViewerFrame:
         step=step,
         vertex_count=vertex_count,
         moved=moved,
-        lip=LipRoughness(lip_min, lip_max, lip_mean, per_vertex),
+        lip=lip,
         label=label,
         face=face,
         head=head,
         jaw=jaw,
-        tongue=tongue,
+        parts=parts,
         folds=folds,
+        face_max=face_max,
     )
 
 
-def _read_deltas(r: "_Reader", deflated: bool, moved_count: int,
-                 vertex_count: int) -> List[Tuple[int, int, int, int]]:
-    """A delta block's length and the block (the head's or the tongue's), inflated first
-    when ``deflated``: ``moved_count`` entries ``(vertex, cx, cy, cz)`` of vertices below
-    ``vertex_count``."""
+def _read_deltas(r: _Reader, deflated: bool, moved_count: int, vertex_count: int,
+                 moved_name: str, moved_at: int) -> List[Tuple[int, int, int, int]]:
+    """A delta block's length and the block (the head's or a part's, from the message or
+    from a section's body), inflated first when ``deflated``: ``moved_count`` entries
+    ``(vertex, cx, cy, cz)`` of vertices below ``vertex_count``. ``moved_name`` and
+    ``moved_at`` name the moved count a block too small for it contradicts."""
     (block_length,) = r.unpack("I", "delta block length")
     block_at = r.at
     block = r.take(block_length, "delta block")
@@ -783,7 +1053,7 @@ def _read_deltas(r: "_Reader", deflated: bool, moved_count: int,
         block = _inflate(block, moved_count * 40, block_at)
     if moved_count > len(block) // 4:
         raise ProtocolError("%d entries cannot fit in %d bytes" % (moved_count, len(block)),
-                            field="moved", at=48)
+                            field=moved_name, at=moved_at)
 
     moved: List[Tuple[int, int, int, int]] = []
     append = moved.append
@@ -822,7 +1092,17 @@ def _read_deltas(r: "_Reader", deflated: bool, moved_count: int,
     return moved
 
 
-def _rigid_motion(r: "_Reader", name: str) -> RigidMotion:
+def _lip_roughness(r: _Reader) -> LipRoughness:
+    """min, max, mean (3 x f32), n (u8), then n x f32: the same bytes in both layouts."""
+    (lip_min,) = r.unpack("f", "lip min")
+    (lip_max,) = r.unpack("f", "lip max")
+    (lip_mean,) = r.unpack("f", "lip mean")
+    (lip_count,) = r.unpack("B", "lip_count")
+    per_vertex = list(r.unpack("%df" % lip_count, "lip roughness"))
+    return LipRoughness(lip_min, lip_max, lip_mean, per_vertex)
+
+
+def _rigid_motion(r: _Reader, name: str) -> RigidMotion:
     """7 x f32: a unit rotation quaternion x, y, z, w and a translation, all finite."""
     at = r.at
     values = r.unpack("7f", name)
@@ -835,7 +1115,7 @@ def _rigid_motion(r: "_Reader", name: str) -> RigidMotion:
     return RigidMotion(rotation=tuple(values[:4]), translation=tuple(values[4:]))
 
 
-def _lip_folds(r: "_Reader") -> LipFolds:
+def _lip_folds(r: _Reader) -> LipFolds:
     """u16 triangles turned over 60 degrees, u16 over 90, f32 the largest dihedral
     increase in degrees (finite, not negative)."""
     turned_over_60, turned_over_90 = r.unpack("HH", "lip folds")
@@ -845,6 +1125,11 @@ def _lip_folds(r: "_Reader") -> LipFolds:
         raise ProtocolError("largest dihedral increase %r" % (max_increase,),
                             field="lip folds", at=at)
     return LipFolds(turned_over_60, turned_over_90, max_increase)
+
+
+def _heat_values(top: float, raw: bytes) -> List[float]:
+    """Per-vertex values from their bytes: ``byte / 255 x top`` (both layouts)."""
+    return [b / 255.0 * top for b in raw]
 
 
 def decode_mesh(data: bytes) -> RestMesh:
@@ -1173,17 +1458,37 @@ def _refused(message: Mapping[str, Any]) -> Refused:
 
 @dataclass
 class Ack:
-    """The server accepted frame ``seq`` at ``received_us`` (µs since the Unix epoch)."""
+    """The server accepted frame ``seq`` at ``received_us`` (µs since the Unix epoch).
+    ``ignored`` lists the kinds of the ``FWP2`` sections the server skipped because it does
+    not know them (empty for everything else), so that a producer newer than the server
+    learns what was not used."""
 
     seq: int
     received_us: int
+    ignored: List[int] = field(default_factory=list)
+
+
+def _binary_layout(binary: Union[bool, str, None]) -> Optional[str]:
+    """What a producer's ``binary`` option asks for: None for JSON text (False), else the
+    binary layout, ``"fwp2"`` (True, the default binary layout) or ``"fwp1"`` (the frozen
+    one, which every server reads)."""
+    if binary is None or binary is False:
+        return None
+    if binary is True:
+        return "fwp2"
+    if binary in ("fwp2", "fwp1"):
+        return cast(str, binary)
+    raise FacewireError("binary=%r: expected False (JSON text), True or 'fwp2', or 'fwp1'"
+                        % (binary,))
 
 
 class Producer:
     """Pushes frames to ``/v1/heads/{head}/streams/{stream}/produce``.
 
     ``url`` is the server's base URL; ``token`` the producer token (sent as
-    ``Authorization: Bearer``). Each :meth:`send` waits for the server's answer: it
+    ``Authorization: Bearer``). ``binary`` says how :meth:`send` encodes frames: False
+    for JSON text, True or ``"fwp2"`` for binary ``FWP2``, ``"fwp1"`` for the frozen
+    ``FWP1`` (for servers before ``FWP2``). Each :meth:`send` waits for the server's answer: it
     returns an :class:`Ack` or raises :class:`Refused` (the stream keeps running after a
     refused frame). Limits respected before sending: a message longer than
     ``max_message_bytes`` is refused locally (:class:`FrameError`), and frames are spaced
@@ -1199,11 +1504,13 @@ class Producer:
     """
 
     def __init__(self, url: str, head: str, stream: str = "main", *, token: Optional[str] = None,
-                 binary: bool = False, timeout: float = 10.0, max_fps: float = DEFAULT_MAX_FPS,
+                 binary: Union[bool, str] = False, timeout: float = 10.0,
+                 max_fps: float = DEFAULT_MAX_FPS,
                  max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES):
         _, ws_base = _base_urls(url)
         self.url = "%s/v1/heads/%s/streams/%s/produce" % (ws_base, _segment(head), _segment(stream))
-        self.binary = binary
+        #: None (JSON text), ``"fwp2"`` or ``"fwp1"``: how :meth:`send` encodes by default.
+        self.binary = _binary_layout(binary)
         self.timeout = timeout
         self.min_interval_s = 1.0 / max_fps if max_fps and max_fps > 0 else 0.0
         self.max_message_bytes = max_message_bytes
@@ -1221,12 +1528,26 @@ class Producer:
         finally:
             self.close()
 
-    def send(self, frame: Mapping[str, Any], *, binary: Optional[bool] = None) -> Ack:
-        """Sends one frame (a JSONL object) as JSON text, or as ``FWP1`` when ``binary``
-        (default: the producer's ``binary``), and returns the server's :class:`Ack`."""
-        use_binary = self.binary if binary is None else binary
-        payload: Union[str, bytes] = encode_fwp1(frame) if use_binary else encode_json(frame)
-        seq = _frame_seq(frame)
+    def send(self, frame: Mapping[str, Any], *, binary: Union[bool, str, None] = None) -> Ack:
+        """Sends one frame (a JSONL object) as JSON text, ``FWP2`` or ``FWP1`` as ``binary``
+        says (default: the producer's ``binary``; values as :class:`Producer`'s), and
+        returns the server's :class:`Ack`."""
+        layout = self.binary if binary is None else _binary_layout(binary)
+        payload: Union[str, bytes]
+        if layout == "fwp2":
+            payload = encode_fwp2(frame)
+        elif layout == "fwp1":
+            payload = encode_fwp1(frame)
+        else:
+            payload = encode_json(frame)
+        return self.send_encoded(payload, _frame_seq(frame))
+
+    def send_encoded(self, payload: Union[str, bytes], seq: int) -> Ack:
+        """Sends one frame already encoded, JSON text (str) or a binary message (bytes), and
+        returns the server's :class:`Ack` for it; ``seq`` is the frame's, which the answer
+        must name. For messages this module does not write itself, such as an ``FWP2``
+        frame with sections from a later protocol (the ack's ``ignored`` then lists those
+        the server skipped). The same limits and pacing as :meth:`send`."""
         size = len(payload) if isinstance(payload, bytes) else len(payload.encode("utf-8"))
         if size > self.max_message_bytes:
             raise FrameError("frame seq %d is %d bytes; the server takes at most %d "
@@ -1239,7 +1560,12 @@ class Producer:
         message = self._answer()
         kind = message.get("type")
         if kind == "ack":
-            ack = Ack(int(message["seq"]), int(message["received_us"]))
+            ignored = message.get("ignored", [])
+            if not isinstance(ignored, list) or not all(
+                    isinstance(k, int) and not isinstance(k, bool) for k in ignored):
+                raise ProtocolError("ack for seq %d: ignored is not a list of section kinds: %r"
+                                    % (seq, ignored), field="ignored")
+            ack = Ack(int(message["seq"]), int(message["received_us"]), ignored)
             if ack.seq != seq:
                 raise ProtocolError("sent seq %d, the server acknowledged seq %d" % (seq, ack.seq))
             return ack
@@ -1338,10 +1664,22 @@ class PartInfo:
 
 
 @dataclass
+class SectionInfo:
+    """A section kind the server may put in a viewer's ``FWF2`` frames, as the snapshot's
+    ``sections`` lists it: its number and name."""
+
+    kind: int
+    name: str
+
+
+@dataclass
 class Snapshot:
     """The first message on a viewer socket: what to download and how to decode.
     ``parts`` lists the head's parts in the order frames index them (empty for a head
-    without parts)."""
+    without parts). ``format`` is the frames' layout (``fwf2`` or ``fwf1``; a server
+    before ``FWF2`` names none and sends ``fwf1``), ``messages`` the kinds of message that
+    may follow the snapshot (empty when the server does not say), and ``sections`` every
+    section kind the server may put in ``fwf2`` frames (empty for ``fwf1``)."""
 
     protocol: str
     head: str
@@ -1356,6 +1694,9 @@ class Snapshot:
     lip_vertices: List[int]
     face_roughness: bool
     parts: List[PartInfo] = field(default_factory=list)
+    format: str = "fwf1"
+    messages: List[str] = field(default_factory=list)
+    sections: List[SectionInfo] = field(default_factory=list)
 
     @staticmethod
     def from_message(message: Mapping[str, Any]) -> "Snapshot":
@@ -1363,6 +1704,16 @@ class Snapshot:
         if not isinstance(parts, list):
             raise ProtocolError("malformed snapshot: parts is not a list: %r" % (parts,),
                                 field="parts")
+        sections = message.get("sections") or []
+        if not isinstance(sections, list) or not all(
+                isinstance(x, dict) and isinstance(x.get("kind"), int)
+                and isinstance(x.get("name"), str) for x in sections):
+            raise ProtocolError("malformed snapshot: sections is not a list of {kind, name}: %r"
+                                % (sections,), field="sections")
+        messages = message.get("messages") or []
+        if not isinstance(messages, list) or not all(isinstance(x, str) for x in messages):
+            raise ProtocolError("malformed snapshot: messages is not a list of names: %r"
+                                % (messages,), field="messages")
         try:
             return Snapshot(
                 protocol=str(message["protocol"]),
@@ -1378,6 +1729,9 @@ class Snapshot:
                 lip_vertices=[int(v) for v in message["lip_vertices"]],
                 face_roughness=bool(message["face_roughness"]),
                 parts=[PartInfo.from_message(part) for part in parts],
+                format=str(message.get("format", "fwf1")),
+                messages=list(messages),
+                sections=[SectionInfo(x["kind"], x["name"]) for x in sections],
             )
         except (KeyError, TypeError, ValueError) as e:
             raise ProtocolError("malformed snapshot (%s): %r" % (e, dict(message))) from None
@@ -1408,6 +1762,21 @@ class ServerError:
 ViewerEvent = Union[ViewerFrame, StreamEnd, ServerError]
 
 
+def _check_layout(snapshot: Snapshot) -> None:
+    """Refuses, before the first frame, a snapshot whose frames this client cannot read:
+    a layout other than the two it decodes, or a section kind it knows listed under another
+    name (the server and this client would disagree on what the kind's bytes mean).
+    Unknown kinds are fine: :func:`decode_fwf2` skips them."""
+    if snapshot.format not in ("fwf2", "fwf1"):
+        raise ProtocolError("the snapshot announces %r frames; this client reads fwf2 and fwf1"
+                            % snapshot.format, field="format")
+    for section in snapshot.sections:
+        known = _FWF2_SECTIONS.get(section.kind)
+        if known is not None and known != section.name:
+            raise ProtocolError("the snapshot names section kind %d %r; this client reads it "
+                                "as %r" % (section.kind, section.name, known), field="sections")
+
+
 class Viewer:
     """Watches ``/v1/heads/{head}/streams/{stream}/view``.
 
@@ -1418,20 +1787,28 @@ class Viewer:
     ``positions`` filled from the rest mesh, a :class:`StreamEnd` per ``end`` and a
     :class:`ServerError` per ``error``; it stops when the server closes the socket
     (``close_code`` says why). ``algo`` is a spec or preset letter (the server's default
-    when None); ``face=True`` asks for per-vertex face roughness. ``fetch_parts=True`` also
+    when None); ``face=True`` asks for per-vertex face roughness. ``frame_format`` is the
+    layout asked for, ``"fwf2"`` (sectioned, the default) or ``"fwf1"`` (the frozen
+    layout); frames of either are decoded (:func:`decode_viewer_frame`), and connecting
+    checks that the snapshot names a layout this client reads and no section kind by
+    another name than this client's. ``fetch_parts=True`` also
     downloads the rest meshes of the snapshot's parts into ``parts`` (in its order), which
     :meth:`place_parts` places for a frame. A viewer that reads slowly skips to the newest
     frame: the server never queues a backlog."""
 
     def __init__(self, url: str, head: str, stream: str = "main", *, algo: Optional[str] = None,
                  face: bool = False, token: Optional[str] = None, timeout: float = 30.0,
-                 fetch_mesh: bool = True, fetch_parts: bool = False):
+                 fetch_mesh: bool = True, fetch_parts: bool = False,
+                 frame_format: str = "fwf2"):
+        if frame_format not in ("fwf2", "fwf1"):
+            raise FacewireError("frame_format=%r: expected 'fwf2' or 'fwf1'" % (frame_format,))
         http_base, ws_base = _base_urls(url)
         query = {}
         if algo:
             query["algo"] = algo
         if face:
             query["face"] = "1"
+        query["format"] = frame_format
         self.url = "%s/v1/heads/%s/streams/%s/view" % (ws_base, _segment(head), _segment(stream))
         if query:
             self.url += "?" + urllib.parse.urlencode(query)
@@ -1448,6 +1825,7 @@ class Viewer:
             if message["type"] != "snapshot":
                 raise ProtocolError("expected a snapshot first, got %r" % message)
             self.snapshot = Snapshot.from_message(message)
+            _check_layout(self.snapshot)
             self.rest: Optional[RestMesh] = None
             self.parts: List[RestMesh] = []
             client = Client(http_base, token, timeout)
@@ -1487,7 +1865,7 @@ class Viewer:
             self.close_code = closed.code
             return None
         if isinstance(message, bytes):
-            frame = decode_fwf1(message)
+            frame = decode_viewer_frame(message)
             if self.rest is not None:
                 frame.positions = frame.apply(self.rest.positions)
             return frame
@@ -1549,7 +1927,9 @@ def _parser() -> argparse.ArgumentParser:
     produce.add_argument("file", help="facewire JSONL file (docs/STREAMS.md)")
     produce.add_argument("--head", required=True, help="head id")
     produce.add_argument("--stream", default="main", help="stream name (default: %(default)s)")
-    produce.add_argument("--binary", action="store_true", help="send FWP1 binary frames, not JSON")
+    produce.add_argument("--binary", action="store_true", help="send FWP2 binary frames, not JSON")
+    produce.add_argument("--fwp1", action="store_true",
+                         help="send the frozen FWP1 binary frames (for servers before FWP2)")
     produce.add_argument("--fast", action="store_true",
                          help="send as fast as acks and --max-fps allow, not at the timestamps")
     produce.add_argument("--speed", type=float, default=1.0, help="playback speed factor (default: 1)")
@@ -1569,6 +1949,8 @@ def _parser() -> argparse.ArgumentParser:
     view.add_argument("--stream", default="main", help="stream name (default: %(default)s)")
     view.add_argument("--algo", default=None, help="algorithm spec or letter (default: the server's)")
     view.add_argument("--face", action="store_true", help="ask for per-vertex face roughness")
+    view.add_argument("--format", default="fwf2", choices=("fwf2", "fwf1"),
+                      help="frame layout to ask for (default: %(default)s)")
     view.add_argument("--frames", type=int, default=None, help="stop after this many frames")
     view.add_argument("--until-end", action="store_true", help="stop at the stream's end message")
     view.add_argument("--json", action="store_true", help="print JSON lines")
@@ -1623,8 +2005,8 @@ def _frame_summary(frame: ViewerFrame, received_us: int, positions: bool) -> Dic
 def _run(args: argparse.Namespace) -> int:
     if args.command == "produce":
         refused = sent = 0
-        with Producer(args.url, args.head, args.stream, token=args.token, binary=args.binary,
-                      timeout=args.timeout, max_fps=args.max_fps,
+        with Producer(args.url, args.head, args.stream, token=args.token,
+                      binary="fwp1" if args.fwp1 else args.binary, timeout=args.timeout, max_fps=args.max_fps,
                       max_message_bytes=args.max_message_bytes) as producer:
             start: Optional[float] = None
             first_t = 0.0
@@ -1658,13 +2040,15 @@ def _run(args: argparse.Namespace) -> int:
     if args.command == "view":
         count = 0
         with Viewer(args.url, args.head, args.stream, algo=args.algo, face=args.face,
-                    token=args.token, timeout=args.timeout) as viewer:
+                    token=args.token, timeout=args.timeout,
+                    frame_format=args.format) as viewer:
             snap = viewer.snapshot
             header = {"type": "snapshot", "algorithm": snap.algorithm, "vertices": snap.vertices,
-                      "mm_per_unit": snap.mm_per_unit, "step": snap.step}
+                      "mm_per_unit": snap.mm_per_unit, "step": snap.step, "format": snap.format}
             print(json.dumps(header) if args.json else
-                  "snapshot: head %s stream %s algorithm %s, %d vertices, step %.3g head units"
-                  % (snap.head, snap.stream, snap.algorithm, snap.vertices, snap.step))
+                  "snapshot: head %s stream %s algorithm %s, %d vertices, step %.3g head units, "
+                  "%s frames" % (snap.head, snap.stream, snap.algorithm, snap.vertices, snap.step,
+                                 snap.format))
             sys.stdout.flush()
             while True:
                 try:

@@ -1,14 +1,20 @@
 #!/usr/bin/env python3
 """End-to-end check of facewire_client.py against a running server.
 
-Registers a head over HTTP, connects a viewer, pushes the frames of a JSONL file with a
-producer (even-numbered frames as JSON text, odd-numbered ones as binary FWP1), repeats
-one frame to provoke an ``out_of_order`` refusal, ends the stream, collects the viewer's
-decoded frames until ``end``, posts the same frames as a batch, and writes everything
-(acks, the refusal, seq/label/step/positions/head motion/tongue of every decoded frame, the
-client's name tables) to a JSON file. It checks nothing itself beyond what the client raises:
+Registers a head over HTTP, connects two viewers (one asking for FWF2 frames, the
+default, one for the frozen FWF1), pushes the frames of a JSONL file with a producer
+(even-numbered frames as JSON text, odd-numbered ones as binary, alternately FWP2 and the
+frozen FWP1; the first FWP2 frame carries an extra section of kind 99, which no server
+knows), repeats one frame to provoke an ``out_of_order`` refusal, ends the stream, collects
+both viewers' decoded frames until ``end``, posts the same frames as a batch, and writes
+everything (acks, the refusal, seq/label/step/positions/head motion/tongue of every frame
+the FWF2 viewer decoded, the client's name tables) to a JSON file.
+
 tests/python_client.rs runs it against an in-process server and compares the decoded
-positions with what the library computes.
+positions with what the library computes. What needs no library to check, this script
+checks itself, and exits 1 naming what failed: the snapshots announce the layouts asked
+for, the ack of the frame with kind 99 says ``"ignored": [99]`` and no other ack ignores
+anything, and every frame both viewers got decodes the same from FWF2 as from FWF1.
 
     python3 clients/python/selftest.py --url http://127.0.0.1:PORT --head mh \\
         --obj data/heads/makehuman_head.obj --fit data/heads/makehuman_head.fit.toml \\
@@ -20,6 +26,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import struct
 import sys
 import threading
 import time
@@ -66,6 +73,49 @@ def collect(viewer: fw.Viewer, result: Dict[str, Any], timeout_s: float) -> None
         result["viewer_exception"] = "%s: %s" % (type(e).__name__, e)
 
 
+def with_unknown_section(fwp2: bytes) -> bytes:
+    """An FWP2 message with a section of kind 99 appended (its count raised): what a
+    producer newer than the server might send. The server must skip it and say so."""
+    count = fwp2[20]
+    return fwp2[:20] + bytes([count + 1]) + fwp2[21:] + struct.pack("<BI", 99, 3) + b"new"
+
+
+def check(viewer: fw.Viewer, viewer_fwf1: fw.Viewer, sent: List[Dict[str, Any]],
+          seen: Dict[str, Any], seen_fwf1: Dict[str, Any]) -> List[str]:
+    """What this script can hold without the library: the layouts, the acks' ``ignored``,
+    and FWF2 and FWF1 decoding to the same content."""
+    problems: List[str] = []
+    for name, got in (("FWF2", seen), ("FWF1", seen_fwf1)):
+        if "viewer_exception" in got:
+            problems.append("the %s viewer failed: %s" % (name, got["viewer_exception"]))
+    if viewer.snapshot.format != "fwf2" or viewer_fwf1.snapshot.format != "fwf1":
+        problems.append("asked for fwf2 and fwf1, the snapshots announce %r and %r"
+                        % (viewer.snapshot.format, viewer_fwf1.snapshot.format))
+    kinds = {s.kind for s in viewer.snapshot.sections}
+    if not {1, 2} <= kinds:
+        problems.append("the fwf2 snapshot's sections lack deltas (1) or lip_roughness (2): "
+                        "%r" % viewer.snapshot.sections)
+    for s in sent:
+        want = [99] if s["unknown_section"] else []
+        if s["ignored"] != want:
+            problems.append("seq %d (%s): the ack ignores %r, expected %r"
+                            % (s["seq"], s["layout"], s["ignored"], want))
+    fwf1_frames = {f["seq"]: f for f in seen_fwf1.get("frames", [])}
+    both = [f for f in seen.get("frames", []) if f["seq"] in fwf1_frames]
+    if not both:
+        problems.append("no frame reached both viewers (the last before end must)")
+    for f in both:
+        other = fwf1_frames[f["seq"]]
+        differ = sorted(k for k in f if f[k] != other.get(k))
+        if differ:
+            problems.append("seq %d decodes differently from FWF2 and FWF1: %s"
+                            % (f["seq"], ", ".join(differ)))
+    if seen_fwf1.get("end") != seen.get("end"):
+        problems.append("the viewers ended with %r (FWF2) and %r (FWF1)"
+                        % (seen.get("end"), seen_fwf1.get("end")))
+    return problems
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--url", required=True, help="server base URL, http://127.0.0.1:PORT")
@@ -87,9 +137,13 @@ def main() -> int:
 
     viewer = fw.Viewer(args.url, args.head, args.stream, timeout=30.0)
     assert viewer.rest is not None
+    viewer_fwf1 = fw.Viewer(args.url, args.head, args.stream, timeout=30.0, frame_format="fwf1")
     seen: Dict[str, Any] = {}
-    reader = threading.Thread(target=collect, args=(viewer, seen, 30.0), daemon=True)
-    reader.start()
+    seen_fwf1: Dict[str, Any] = {}
+    readers = [threading.Thread(target=collect, args=(v, into, 30.0), daemon=True)
+               for v, into in ((viewer, seen), (viewer_fwf1, seen_fwf1))]
+    for reader in readers:
+        reader.start()
 
     sent: List[Dict[str, Any]] = []
     refusal: Optional[Dict[str, Any]] = None
@@ -100,9 +154,15 @@ def main() -> int:
             if i:
                 time.sleep(args.pace_s)  # between frames only: `end` follows the last at once
             binary = i % 2 == 1
-            ack = producer.send(frame, binary=binary)
-            sent.append({"seq": frame["seq"], "binary": binary, "ack_seq": ack.seq,
-                         "received_us": ack.received_us})
+            layout = ("fwp2" if i % 4 == 1 else "fwp1") if binary else "json"
+            if i == 1:
+                ack = producer.send_encoded(with_unknown_section(fw.encode_fwp2(frame)),
+                                            frame["seq"])
+            else:
+                ack = producer.send(frame, binary=layout if binary else False)
+            sent.append({"seq": frame["seq"], "binary": binary, "layout": layout,
+                         "unknown_section": i == 1, "ack_seq": ack.seq,
+                         "received_us": ack.received_us, "ignored": ack.ignored})
             if i == repeat_at:
                 try:
                     producer.send(frame, binary=False)
@@ -113,10 +173,12 @@ def main() -> int:
             raise SystemExit("the server answered end with %r" % ended)
     finally:
         producer.close()
-    reader.join(60.0)
+    for reader in readers:
+        reader.join(60.0)
     viewer.close()
-    if reader.is_alive():
-        raise SystemExit("the viewer thread did not finish within 60 s")
+    viewer_fwf1.close()
+    if any(reader.is_alive() for reader in readers):
+        raise SystemExit("a viewer thread did not finish within 60 s")
 
     batch = client.post_batch(args.head, args.stream + "-batch", frames)
 
@@ -140,15 +202,18 @@ def main() -> int:
         },
     }
     result.update(seen)
+    problems = check(viewer, viewer_fwf1, sent, seen, seen_fwf1)
+    result["problems"] = problems
     with open(args.out, "w", encoding="utf-8") as f:
         json.dump(result, f)
-    print("pushed %d frames (%d as FWP1), the viewer decoded %d, end: %r"
-          % (len(sent), sum(s["binary"] for s in sent), len(seen.get("frames", [])),
-             seen.get("end")))
-    if "viewer_exception" in seen:
-        print("viewer failed: %s" % seen["viewer_exception"], file=sys.stderr)
-        return 1
-    return 0
+    print("pushed %d frames (%d as FWP2, %d as FWP1), the FWF2 viewer decoded %d, the FWF1 "
+          "viewer %d, end: %r"
+          % (len(sent), sum(s["layout"] == "fwp2" for s in sent),
+             sum(s["layout"] == "fwp1" for s in sent), len(seen.get("frames", [])),
+             len(seen_fwf1.get("frames", [])), seen.get("end")))
+    for problem in problems:
+        print("selftest: %s" % problem, file=sys.stderr)
+    return 1 if problems else 0
 
 
 if __name__ == "__main__":

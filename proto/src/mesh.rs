@@ -54,7 +54,7 @@ impl RestMesh {
         if magic != MESH_MAGIC {
             return Err(DecodeError::Magic {
                 found: magic,
-                expected: MESH_MAGIC,
+                expected: "FWM1",
             });
         }
         let vertices = r.u32("vertex count")? as usize;

@@ -38,6 +38,36 @@ pub struct Snapshot {
     /// frames' head and jaw motion.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub parts: Vec<PartInfo>,
+    /// The frames' layout: `fwf2`, `fwf1` or `json`. Absent from servers before `FWF2`
+    /// (their frames are `FWF1`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub format: Option<String>,
+    /// The kinds of message that may follow the snapshot (`frame`, `end`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub messages: Vec<String>,
+    /// Every section kind the frames may carry (`fwf2` only), by number and name.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sections: Vec<SectionInfo>,
+}
+
+/// A section kind of a sectioned layout, as the snapshot lists it.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SectionInfo {
+    pub kind: u8,
+    pub name: String,
+}
+
+impl SectionInfo {
+    /// The list of a layout's `(kind, name)` table.
+    pub fn list(table: &[(u8, &str)]) -> Vec<SectionInfo> {
+        table
+            .iter()
+            .map(|&(kind, name)| SectionInfo {
+                kind,
+                name: name.to_string(),
+            })
+            .collect()
+    }
 }
 
 /// A part of a head: its mesh (`mesh.bin` format) and how it moves.
@@ -65,11 +95,14 @@ pub struct PartInfo {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum ServerMessage {
-    Snapshot(Snapshot),
+    Snapshot(Box<Snapshot>),
     /// A producer frame was accepted.
     Ack {
         seq: u64,
         received_us: u64,
+        /// Section kinds of an `FWP2` frame the server does not know and skipped.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        ignored: Vec<u8>,
     },
     /// Something was refused; `seq` and `field` say which frame and field when known.
     Error {
@@ -165,6 +198,7 @@ mod tests {
         let ack = ServerMessage::Ack {
             seq: 3,
             received_us: 10,
+            ignored: vec![],
         };
         assert_eq!(
             serde_json::to_string(&ack).unwrap(),

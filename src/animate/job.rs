@@ -14,7 +14,9 @@ use crate::deform::{Binding, DeformScratch};
 use crate::mask::LIP_VERTICES;
 use crate::metrics::{FoldMeter, LipRoughness, RegionError, Roughness, RoughnessError};
 use crate::stream::{ArkitBasis, Frame, FramePoser};
-use facewire_proto::frame::{FrameContent, FrameEncoder, FrameHeader, LipFolds, LipRoughness as WireLip};
+use facewire_proto::viewer_frame::{
+    FrameContent, FrameEncoder, FrameHeader, FrameLayout, LipFolds, LipRoughness as WireLip,
+};
 
 /// What a frame's per-vertex values (the page's heat-map) measure.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
@@ -229,10 +231,16 @@ impl FrameJob {
         }
     }
 
-    /// Encodes the head as [`FrameJob::deform`] left it, for `frame`: quantized deltas
-    /// against the rest mesh, the head's and the jaw's motions, the tongue's deltas, lip
-    /// roughness and folds, the label, per-vertex heat values if asked for.
-    pub fn encode(&mut self, frame: &Frame, times: FrameTimes) -> Result<&[u8], FrameJobError> {
+    /// Encodes the head as [`FrameJob::deform`] left it, for `frame`, as a viewer frame in
+    /// `layout`: quantized deltas against the rest mesh, the head's and the jaw's motions,
+    /// the tongue's deltas, lip roughness and folds, the label, per-vertex heat values if
+    /// asked for.
+    pub fn encode(
+        &mut self,
+        frame: &Frame,
+        times: FrameTimes,
+        layout: FrameLayout,
+    ) -> Result<&[u8], FrameJobError> {
         self.check_finite(frame)?;
         let rest = &self.head.registration.head.positions;
         for ((d, now), rest) in self.deltas.iter_mut().zip(&self.deformed).zip(rest) {
@@ -251,7 +259,7 @@ impl FrameJob {
         self.lip_wire.min = summary.min as f32;
         self.lip_wire.max = summary.max as f32;
         self.lip_wire.mean = summary.mean as f32;
-        let face = match &mut self.heat {
+        let heat = match &mut self.heat {
             Some((HeatMeter::Roughness(roughness), values)) => {
                 roughness.face_vertex_roughness(&self.deformed, values)?;
                 Some(values.as_slice())
@@ -270,13 +278,14 @@ impl FrameJob {
             server_send_us: times.send_us,
         };
         Ok(self.encoder.encode(
+            layout,
             &header,
             &FrameContent {
                 step: self.head.step,
                 deltas: &self.deltas,
                 lip: &self.lip_wire,
                 label: frame.label.as_deref(),
-                face,
+                heat,
                 deflate: true,
                 head: self.head_motion.to_wire(),
                 jaw: self.jaw_motion.to_wire(),

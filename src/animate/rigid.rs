@@ -5,7 +5,7 @@
 use glam::{Mat3, Quat, Vec3};
 
 use crate::mask::MaskPose;
-use facewire_proto::frame::RigidMotion as WireRigidMotion;
+use facewire_proto::viewer_frame::RigidMotion as WireRigidMotion;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RigidMotion {

@@ -11,8 +11,8 @@ use super::play::with_token;
 use super::serve::runtime;
 use super::{print_json, CliResult};
 use crate::server::now_us;
-use facewire_proto::frame::decode;
 use facewire_proto::messages::ServerMessage;
+use facewire_proto::viewer_frame::decode;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {

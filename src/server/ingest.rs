@@ -1,12 +1,12 @@
 //! Producer messages turned into frames: JSON text (one line of facewire's JSONL) or binary
-//! `FWP1`, both validated by the core's frame checks, and every refusal named by code,
+//! `FWP2` or `FWP1`, all validated by the core's frame checks, and every refusal named by code,
 //! field and sequence number, the same whichever format the frame came in.
 
 use crate::mask::Mask;
 use crate::stream::{Frame, StreamError};
 use facewire_proto::codes::ErrorCode;
 use facewire_proto::messages::{ProducerMessage, ServerMessage};
-use facewire_proto::params::ParamFrame;
+use facewire_proto::param_frame::ParamFrame;
 
 /// A refused producer message: machine code, field (when known), message for people,
 /// and the refused frame's sequence number once it was parsed far enough to have one.
@@ -47,7 +47,11 @@ impl Refusal {
 
 /// What a producer message asks for.
 pub enum Incoming {
-    Frame(Box<Frame>),
+    /// A frame, with the section kinds of an `FWP2` frame the server skipped (for its ack).
+    Frame {
+        frame: Box<Frame>,
+        ignored: Vec<u8>,
+    },
     End,
 }
 
@@ -62,7 +66,10 @@ pub fn parse_text(text: &str, number: u64, mask: &Mask) -> Result<Incoming, Refu
         return Ok(Incoming::End);
     }
     crate::stream::jsonl::parse_message(&format!("message {number}"), text, mask)
-        .map(|f| Incoming::Frame(Box::new(f)))
+        .map(|f| Incoming::Frame {
+            frame: Box::new(f),
+            ignored: Vec::new(),
+        })
         .map_err(|e| {
             let refusal = bad_frame(&e);
             match seq_of(text) {
@@ -81,12 +88,16 @@ fn seq_of(text: &str) -> Option<u64> {
     serde_json::from_str::<Seq>(text).ok()?.seq
 }
 
-/// A binary `FWP1` message, checked as a JSON frame is.
+/// A binary `FWP2` or `FWP1` message, checked as a JSON frame is.
 pub fn parse_binary(bytes: &[u8], mask: &Mask) -> Result<Incoming, Refusal> {
-    let params =
+    let mut params =
         ParamFrame::decode(bytes).map_err(|e| Refusal::new(ErrorCode::BadFrame, e.field(), e.to_string()))?;
     let seq = params.seq;
+    let ignored = std::mem::take(&mut params.ignored);
     Frame::from_param_frame(params, mask)
-        .map(|f| Incoming::Frame(Box::new(f)))
+        .map(|f| Incoming::Frame {
+            frame: Box::new(f),
+            ignored,
+        })
         .map_err(|e| bad_frame(&e).with_seq(seq))
 }

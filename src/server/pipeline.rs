@@ -17,6 +17,7 @@ use super::telemetry::Telemetry;
 use super::timeline::{Step, Timeline};
 use super::trim::Trimmer;
 use crate::animate::{FrameJob, FrameTimes, Heat};
+use facewire_proto::viewer_frame::FrameLayout;
 
 /// What a pipeline computes: an algorithm (canonical spec), the per-vertex values its
 /// frames carry and how they go on the wire.
@@ -30,10 +31,22 @@ pub struct PipelineKey {
 /// How a pipeline's frames go on the wire.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum FrameFormat {
-    /// FWF1 binary frames (proto/PROTOCOL.md): what the page and the clients use.
-    Fwf1,
-    /// Every position as JSON text, the naive baseline FWF1 is measured against.
+    /// Binary frames (proto/PROTOCOL.md): `FWF2` for the page and today's clients, the
+    /// frozen `FWF1` for clients built before it.
+    Binary(FrameLayout),
+    /// Every position as JSON text, the naive baseline the binary frames are measured
+    /// against.
     Json,
+}
+
+impl FrameFormat {
+    /// Its name in a viewer's `format=` and the snapshot's `format`.
+    pub fn name(self) -> &'static str {
+        match self {
+            FrameFormat::Binary(layout) => layout.name(),
+            FrameFormat::Json => "json",
+        }
+    }
 }
 
 /// An encoded viewer frame, shared by every viewer of a pipeline.
@@ -229,11 +242,11 @@ fn process(
         send_us: super::now_us(),
     };
     let encoded = match format {
-        FrameFormat::Fwf1 => job.encode(&received.frame, times),
+        FrameFormat::Binary(layout) => job.encode(&received.frame, times, layout),
         FrameFormat::Json => job.encode_json(&received.frame),
     };
     let message = match encoded.map(Bytes::copy_from_slice) {
-        Ok(bytes) if format == FrameFormat::Fwf1 => Message::Binary(bytes),
+        Ok(bytes) if format != FrameFormat::Json => Message::Binary(bytes),
         Ok(bytes) => Message::Text(Utf8Bytes::try_from(bytes).expect("serde_json writes UTF-8")),
         Err(e) => {
             tracing::warn!(error = %e, "frame not shown");

@@ -151,17 +151,21 @@ where
         };
         let reply = match incoming.and_then(|incoming| match incoming {
             Incoming::End => Ok(None),
-            Incoming::Frame(frame) => match gate.admit(&frame) {
-                Ok(()) => Ok(Some(*frame)),
+            Incoming::Frame { frame, ignored } => match gate.admit(&frame) {
+                Ok(()) => Ok(Some((*frame, ignored))),
                 Err(refusal) => Err(refusal.with_seq(frame.seq)),
             },
         }) {
             Ok(None) => return Ending::Ended,
-            Ok(Some(frame)) => {
+            Ok(Some((frame, ignored))) => {
                 let seq = frame.seq;
                 permit.publish(frame, received_us);
                 state.telemetry.frames_in.inc();
-                ServerMessage::Ack { seq, received_us }
+                ServerMessage::Ack {
+                    seq,
+                    received_us,
+                    ignored,
+                }
             }
             Err(refusal) => {
                 state.telemetry.reject(refusal.code.as_str());

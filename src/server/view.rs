@@ -27,7 +27,8 @@ use crate::animate::{FrameJob, Heat};
 use crate::deform::AlgoSpec;
 use crate::mask::LIP_VERTICES;
 use facewire_proto::codes::{CloseCode, EndReason, ErrorCode};
-use facewire_proto::messages::{ServerMessage, Snapshot};
+use facewire_proto::messages::{SectionInfo, ServerMessage, Snapshot};
+use facewire_proto::viewer_frame::{self, FrameLayout};
 
 #[derive(Debug, Deserialize)]
 pub struct ViewQuery {
@@ -37,17 +38,19 @@ pub struct ViewQuery {
     pub face: Option<String>,
     /// `roughness` or `folds`: what the frames' per-vertex values measure.
     pub heat: Option<String>,
-    /// `fwf1` (the default) or `json`: every position as JSON text, the naive baseline.
+    /// `fwf2`, `fwf1` (the default, for clients built before `FWF2`) or `json`: every
+    /// position as JSON text, the naive baseline.
     pub format: Option<String>,
 }
 
 impl ViewQuery {
     fn format(&self) -> Result<FrameFormat, ApiError> {
         match self.format.as_deref() {
-            None | Some("" | "fwf1") => Ok(FrameFormat::Fwf1),
+            None | Some("" | "fwf1") => Ok(FrameFormat::Binary(FrameLayout::Fwf1)),
+            Some("fwf2") => Ok(FrameFormat::Binary(FrameLayout::Fwf2)),
             Some("json") => Ok(FrameFormat::Json),
             Some(other) => Err(ApiError::BadRequest(format!(
-                "format={}: expected fwf1 or json",
+                "format={}: expected fwf2, fwf1 or json",
                 crate::quote::clip(other)
             ))),
         }
@@ -191,6 +194,12 @@ async fn open_view(
         heat: heat.name().map(str::to_string),
         mouth: ready.animated.mouth().to_array(),
         parts: ready.part_infos(id),
+        format: Some(format.name().to_string()),
+        messages: ["frame", "end"].map(String::from).to_vec(),
+        sections: match format {
+            FrameFormat::Binary(FrameLayout::Fwf2) => SectionInfo::list(&viewer_frame::SECTIONS),
+            _ => Vec::new(),
+        },
     };
     Ok(View {
         _slot: slot,
@@ -218,7 +227,7 @@ impl View {
     async fn run(mut self, socket: WebSocket, state: &AppState) {
         state.telemetry.viewers.inc();
         let (mut sink, stream) = socket.split();
-        let snapshot = text(&ServerMessage::Snapshot(self.snapshot.clone()));
+        let snapshot = text(&ServerMessage::Snapshot(Box::new(self.snapshot.clone())));
         if sink.send(snapshot).await.is_ok() {
             let stop = CancellationToken::new();
             let listener = tokio::spawn(listen(

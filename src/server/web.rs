@@ -10,9 +10,8 @@ const HTML: &str = "text/html; charset=utf-8";
 const CSS: &str = "text/css; charset=utf-8";
 const JS: &str = "text/javascript; charset=utf-8";
 
-/// `(path, content type, body)` of every embedded file. `web/decode.test.mjs`,
-/// `web/nodes.test.mjs`, `web/fit.test.mjs` and `web/package.json` are for the tests (`tests/web_decode.rs`),
-/// not served.
+/// `(path, content type, body)` of every embedded file. The `web/*.test.mjs` scripts and
+/// `web/package.json` are for the tests (`tests/web_decode.rs`), not served.
 const ASSETS: [(&str, &str, &str); 12] = [
     ("/", HTML, include_str!("../../web/index.html")),
     ("/style.css", CSS, include_str!("../../web/style.css")),

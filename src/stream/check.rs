@@ -11,7 +11,7 @@
 
 use std::f32::consts::TAU;
 
-use facewire_proto::params::{ParamFrame, ParamViseme};
+use facewire_proto::param_frame::{ParamFrame, ParamViseme};
 
 use super::blendshapes::ARKIT_BLENDSHAPES;
 use super::error::{Location, StreamError};
@@ -26,7 +26,8 @@ pub const MAX_SEQ: u64 = (1 << 53) - 1;
 /// Largest timestamp, seconds: room for clocks counted from the stream's start and for
 /// Unix-epoch seconds (1.7e9 in 2025) until the year 2286.
 pub const MAX_TIME_S: f64 = 1e10;
-/// Longest label, UTF-8 bytes: what the binary formats (FWP1, FWF1) can carry.
+/// Longest label, UTF-8 bytes: what the binary formats (FWP2, FWF2 and the frozen FWP1,
+/// FWF1) can carry.
 pub const MAX_LABEL_BYTES: usize = 255;
 /// Largest |weight| of an animation unit (mask units along its direction) or an ARKit
 /// blendshape: ten times a full expression. CANDIDE-3 units move a vertex at most 1.42
@@ -115,6 +116,7 @@ impl Frame {
             faps: p.faps,
             arkit: p.arkit,
             head_rotation_rad: p.head_rotation_rad,
+            head_translation: p.head_translation,
             viseme,
             ..Frame::at(p.seq, p.time_s)
         };
@@ -523,10 +525,13 @@ mod tests {
             faps: vec![(48, 10.0), (3, 120.0)],
             arkit: vec![(24, 1.0), (17, 0.5)],
             head_rotation_rad: Some([0.1, 0.0, 0.0]),
+            head_translation: Some([0.0, 0.01, 0.0]),
             label: Some("pa".into()),
             viseme: Some(ParamViseme::Microsoft(18)),
+            ignored: Vec::new(),
         };
         let frame = Frame::from_param_frame(p.clone(), &mask).unwrap();
+        assert_eq!(frame.head_translation, Some([0.0, 0.01, 0.0]));
         assert_eq!(frame.viseme, Some(crate::stream::visemes::single(2)));
         let unknown = ParamFrame {
             viseme: Some(ParamViseme::Oculus(15)),

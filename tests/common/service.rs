@@ -5,8 +5,8 @@ use std::net::SocketAddr;
 use std::time::Duration;
 
 use facewire::server::{serve, AppState, Config};
-use facewire_proto::frame::{decode, ViewerFrame};
 use facewire_proto::messages::{HeadInfo, ServerMessage};
+use facewire_proto::viewer_frame::{decode, ViewerFrame};
 use futures_util::StreamExt;
 use tokio_tungstenite::tungstenite::Message;
 

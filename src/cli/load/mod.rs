@@ -70,8 +70,9 @@ pub struct Args {
     /// Algorithm spec the viewers ask for [default: the server's].
     #[arg(long)]
     algo: Option<String>,
-    /// Viewer frames: `fwf1` (quantized binary deltas) or `json` (every position as JSON
-    /// text, the naive baseline).
+    /// Viewer frames: `fwf1` (quantized binary deltas, the frozen layout the tables in
+    /// docs/PERFORMANCE.md were measured with), `fwf2` (the same in sections) or `json`
+    /// (every position as JSON text, the naive baseline).
     #[arg(long, value_enum, default_value_t = WireFormat::Fwf1)]
     format: WireFormat,
     /// A registered head to use; without it the MakeHuman head is registered for the run
@@ -94,6 +95,7 @@ pub struct Args {
 #[serde(rename_all = "lowercase")]
 pub enum WireFormat {
     Fwf1,
+    Fwf2,
     Json,
 }
 
@@ -101,6 +103,7 @@ impl WireFormat {
     pub fn name(self) -> &'static str {
         match self {
             WireFormat::Fwf1 => "fwf1",
+            WireFormat::Fwf2 => "fwf2",
             WireFormat::Json => "json",
         }
     }

@@ -14,8 +14,8 @@ use tokio_tungstenite::tungstenite::Message;
 
 use super::latency::Latencies;
 use super::send_times::SendTimes;
-use facewire_proto::frame::decode_header;
 use facewire_proto::messages::ServerMessage;
+use facewire_proto::viewer_frame::decode_header;
 
 /// Most stall gaps one viewer keeps for [`super::pauses`]; later stalls are counted but
 /// not set against the machine's pauses.
