@@ -37,6 +37,7 @@ use facewire::stream::{
     ArkitBasis, AuTextOptions, AuTextReader, FapReader, Frame, FramePoser, JsonlReader, JsonlWriter,
     StreamError,
 };
+use facewire_proto::audio_chunk::AudioChunk;
 use facewire_proto::param_frame::{ParamFrame, ParamViseme};
 
 /// Generous guard against inputs that make a parser crawl, in CPU time of the thread; the
@@ -720,6 +721,20 @@ fn param_frame() {
                 .inspect(pose)
                 .inspect(param_frame_round_trip)
                 .is_ok()
+        })
+    });
+}
+
+#[test]
+fn audio_chunk() {
+    fuzz("audio_chunk", 4 << 10, true, |bytes| {
+        AudioChunk::decode(bytes).is_ok_and(|chunk| {
+            // What the server does next: time the chunk, encode it for its viewers, and
+            // that encoding reads back as the same chunk.
+            let _ = chunk.body.samples();
+            let back = AudioChunk::decode(&chunk.encode()).expect("an accepted chunk encodes back");
+            assert_eq!((back.t_s, &back.body), (chunk.t_s, &chunk.body));
+            true
         })
     });
 }

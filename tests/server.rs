@@ -3,7 +3,9 @@
 
 mod common;
 
-use common::service::{connect, memory_config, next_frame, next_json, Server, Socket};
+use common::service::{
+    connect, jaw_line, memory_config, next_frame, next_json, next_message, Server, Socket,
+};
 use common::{data, register};
 
 use std::time::Duration;
@@ -632,5 +634,146 @@ async fn viewers_can_colour_by_folds() {
         );
     }
     drop((viewer, producer, bad));
+    server.stop().await;
+}
+
+/// A 20 ms chunk of 16 kHz PCM at `t_s`, each sample naming the chunk.
+fn pcm_chunk(t_s: f64, tag: i16) -> facewire_proto::audio_chunk::AudioChunk {
+    facewire_proto::audio_chunk::AudioChunk {
+        t_s,
+        server_receive_us: 0,
+        body: facewire_proto::audio_chunk::AudioBody::Pcm {
+            sample_rate: 16_000,
+            samples: (0..320).map(|i| tag * 100 + (i % 100) as i16).collect(),
+        },
+        ignored: Vec::new(),
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_producer_s_audio_reaches_the_viewers_that_ask_for_it() {
+    use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
+    let server = Server::start(memory_config()).await;
+    server.register("mh", "makehuman_head", "").await;
+    let mut listener = connect(&server.ws("/v1/heads/mh/streams/s/view?format=fwf2&audio=pcm")).await;
+    match next_json(&mut listener).await {
+        ServerMessage::Snapshot(snapshot) => {
+            assert_eq!(snapshot.audio.as_deref(), Some("pcm"));
+            assert_eq!(snapshot.messages, ["frame", "end", "audio"]);
+        }
+        other => panic!("{other:?}"),
+    }
+    let mut deaf = connect(&server.ws("/v1/heads/mh/streams/s/view?format=fwf2")).await;
+    match next_json(&mut deaf).await {
+        ServerMessage::Snapshot(snapshot) => {
+            assert_eq!(snapshot.audio, None);
+            assert_eq!(snapshot.messages, ["frame", "end"]);
+        }
+        other => panic!("{other:?}"),
+    }
+    let mut opus = connect(&server.ws("/v1/heads/mh/streams/s/view?format=fwf2&audio=opus")).await;
+    assert!(matches!(next_json(&mut opus).await, ServerMessage::Snapshot(_)));
+    let mut producer = connect(&server.ws("/v1/heads/mh/streams/s/produce")).await;
+    producer
+        .send(Message::Text(jaw_line(0, 0.0).into()))
+        .await
+        .unwrap();
+    assert!(matches!(
+        next_json(&mut producer).await,
+        ServerMessage::Ack { seq: 0, .. }
+    ));
+
+    // Five chunks back to back: accepted without an answer.
+    let sent: Vec<AudioChunk> = (0..5).map(|i| pcm_chunk(0.02 * f64::from(i), i as i16)).collect();
+    for chunk in &sent {
+        producer
+            .send(Message::Binary(chunk.encode().into()))
+            .await
+            .unwrap();
+    }
+    // Refused, each by code and field, and the stream runs on: a chunk overlapping the
+    // last, another sample rate, another codec, a broken message.
+    let overlapping = pcm_chunk(0.09, 9);
+    let other_rate = AudioChunk {
+        body: AudioBody::Pcm {
+            sample_rate: 48_000,
+            samples: vec![0; 960],
+        },
+        ..pcm_chunk(0.2, 0)
+    };
+    let other_codec = AudioChunk {
+        body: AudioBody::Opus {
+            packet: vec![31 << 3, 1, 2],
+        },
+        ..pcm_chunk(0.2, 0)
+    };
+    let mut broken = pcm_chunk(0.2, 0).encode();
+    broken[26..30].copy_from_slice(&44_100u32.to_le_bytes());
+    for (message, code, field) in [
+        (overlapping.encode(), "out_of_order", "t"),
+        (other_rate.encode(), "bad_frame", "sound"),
+        (other_codec.encode(), "bad_frame", "sound"),
+        (broken, "bad_frame", "sample_rate"),
+    ] {
+        producer.send(Message::Binary(message.into())).await.unwrap();
+        match next_json(&mut producer).await {
+            ServerMessage::Error {
+                code: got, field: f, ..
+            } => assert_eq!((got.as_str(), f.as_deref()), (code, Some(field))),
+            other => panic!("expected {code}, got {other:?}"),
+        }
+    }
+    producer
+        .send(Message::Text(jaw_line(1, 0.1).into()))
+        .await
+        .unwrap();
+    assert!(matches!(
+        next_json(&mut producer).await,
+        ServerMessage::Ack { seq: 1, .. }
+    ));
+
+    // The listener hears every chunk, in order, as sent and stamped with its receipt.
+    let mut heard = Vec::new();
+    while heard.len() < sent.len() {
+        match next_message(&mut listener).await {
+            Some(Message::Binary(bytes)) if bytes.starts_with(b"FWA1") => {
+                heard.push(AudioChunk::decode(&bytes).unwrap())
+            }
+            Some(Message::Binary(_) | Message::Text(_)) => {}
+            other => panic!("expected audio, got {other:?}"),
+        }
+    }
+    for (got, want) in heard.iter().zip(&sent) {
+        assert_eq!((got.t_s, &got.body), (want.t_s, &want.body));
+        assert!(
+            got.server_receive_us > 1_700_000_000_000_000,
+            "{}",
+            got.server_receive_us
+        );
+    }
+    // The viewers that asked for none, or for another codec, get frames and no audio.
+    for viewer in [&mut deaf, &mut opus] {
+        loop {
+            match next_message(viewer).await {
+                Some(Message::Binary(bytes)) => {
+                    assert!(!bytes.starts_with(b"FWA1"), "audio to a viewer that did not ask");
+                    if facewire_proto::viewer_frame::decode(&bytes).unwrap().header.seq == 1 {
+                        break;
+                    }
+                }
+                Some(Message::Text(_)) => {}
+                other => panic!("{other:?}"),
+            }
+        }
+    }
+    // A viewer asking for a codec there is no such thing as is refused by name.
+    let mut bad = connect(&server.ws("/v1/heads/mh/streams/s/view?audio=mp3")).await;
+    match next_json(&mut bad).await {
+        ServerMessage::Error { code, message, .. } => {
+            assert_eq!(code.as_str(), "bad_request");
+            assert!(message.contains("audio=mp3"), "{message}");
+        }
+        other => panic!("{other:?}"),
+    }
     server.stop().await;
 }

@@ -9,11 +9,14 @@
 //! - [`param_frame`]: the binary per-frame message a producer may send instead of JSON,
 //!   `FWP2` or the frozen `FWP1`.
 //! - [`mesh`]: the binary rest mesh a viewer downloads once.
+//! - [`audio_chunk`]: a piece of a stream's voice on its timeline (`FWA1`), from producers
+//!   and to viewers.
 //!
 //! Inside: [`Reader`] and `Writer` (little-endian fields), `sections` (the kind-length-body
 //! framing both sectioned layouts share), `delta_block` (the quantized delta codec) and
 //! `varint`.
 
+pub mod audio_chunk;
 pub mod codes;
 mod delta_block;
 pub mod mesh;

@@ -45,6 +45,10 @@ pub struct Snapshot {
     /// The kinds of message that may follow the snapshot (`frame`, `end`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub messages: Vec<String>,
+    /// The codec of the audio chunks (`FWA1`) this viewer gets (`pcm` or `opus`); absent
+    /// when it asked for none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub audio: Option<String>,
     /// Every section kind the frames may carry (`fwf2` only), by number and name.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub sections: Vec<SectionInfo>,

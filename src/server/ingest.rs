@@ -4,9 +4,13 @@
 
 use crate::mask::Mask;
 use crate::stream::{Frame, StreamError};
+use facewire_proto::audio_chunk::AudioChunk;
 use facewire_proto::codes::ErrorCode;
 use facewire_proto::messages::{ProducerMessage, ServerMessage};
 use facewire_proto::param_frame::ParamFrame;
+
+use super::stream::RelayedAudio;
+use axum::extract::ws::Message;
 
 /// A refused producer message: machine code, field (when known), message for people,
 /// and the refused frame's sequence number once it was parsed far enough to have one.
@@ -86,6 +90,19 @@ fn seq_of(text: &str) -> Option<u64> {
         seq: Option<u64>,
     }
     serde_json::from_str::<Seq>(text).ok()?.seq
+}
+
+/// A binary audio message (`FWA1`): the chunk, and the message viewers get (stamped with
+/// `received_us`, the server's receipt).
+pub fn parse_audio(bytes: &[u8], received_us: u64) -> Result<(AudioChunk, RelayedAudio), Refusal> {
+    let mut chunk =
+        AudioChunk::decode(bytes).map_err(|e| Refusal::new(ErrorCode::BadFrame, e.field(), e.to_string()))?;
+    chunk.server_receive_us = received_us;
+    let relayed = RelayedAudio {
+        codec: chunk.body.codec(),
+        message: Message::Binary(chunk.encode().into()),
+    };
+    Ok((chunk, relayed))
 }
 
 /// A binary `FWP2` or `FWP1` message, checked as a JSON frame is.

@@ -15,6 +15,7 @@
 //!   [`view`], [`socket`].
 
 mod app;
+mod audio_gate;
 mod auth;
 mod batch;
 mod bindings;

@@ -13,13 +13,15 @@ use axum::response::Response;
 use futures_util::{Sink, SinkExt, StreamExt};
 use tokio_util::sync::CancellationToken;
 
+use super::audio_gate::AudioGate;
 use super::error::ApiError;
 use super::head::HeadEntry;
-use super::ingest::{parse_binary, parse_text, Incoming};
+use super::ingest::{parse_audio, parse_binary, parse_text, Incoming};
 use super::rate::ProducerGate;
 use super::socket::{close, close_for, error, refuse, text};
 use super::stream::{ProducerPermit, Stream};
 use super::{now_us, AppState};
+use facewire_proto::audio_chunk::AUDIO_MAGIC;
 use facewire_proto::codes::{CloseCode, EndReason, ErrorCode};
 use facewire_proto::messages::ServerMessage;
 
@@ -127,6 +129,9 @@ where
     let idle = Duration::from_secs_f64(state.config.limits.producer_idle_s);
     let mask = &state.mask;
     let mut gate = ProducerGate::new(state.config.limits.max_fps);
+    let mut audio = AudioGate::new();
+    // The newest accepted frame's `t`, which audio must stay near.
+    let mut last_t = None;
     let mut messages = 0u64;
     loop {
         let next = tokio::select! {
@@ -147,6 +152,19 @@ where
             Message::Close(_) => return Ending::Gone(None),
             Message::Ping(_) | Message::Pong(_) => continue,
             Message::Text(t) => parse_text(&t, messages, mask),
+            Message::Binary(b) if b.starts_with(&AUDIO_MAGIC) => {
+                match parse_audio(&b, received_us).and_then(|(chunk, relayed)| {
+                    audio.admit(&chunk, last_t)?;
+                    Ok(relayed)
+                }) {
+                    Ok(relayed) => {
+                        permit.publish_audio(relayed);
+                        state.telemetry.audio_in.inc();
+                        continue;
+                    }
+                    Err(refusal) => Err(refusal),
+                }
+            }
             Message::Binary(b) => parse_binary(&b, mask),
         };
         let reply = match incoming.and_then(|incoming| match incoming {
@@ -159,6 +177,7 @@ where
             Ok(None) => return Ending::Ended,
             Ok(Some((frame, ignored))) => {
                 let seq = frame.seq;
+                last_t = Some(frame.time_s);
                 permit.publish(frame, received_us);
                 state.telemetry.frames_in.inc();
                 ServerMessage::Ack {

@@ -1,4 +1,5 @@
-//! One named stream of one head: the timeline of its parameter frames, the single
+//! One named stream of one head: the timeline of its parameter frames, its audio (relayed
+//! to the viewers that ask for it, never skipped for one that keeps up), the single
 //! producer slot, and the pipelines its viewers watch (one per algorithm and face-roughness
 //! choice, however many viewers). A stream lives while it has a producer, a viewer, or a
 //! frame newer than `stream_linger_s`; the head's sweep drops it after that.
@@ -8,7 +9,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use tokio::sync::{watch, Notify};
+use axum::extract::ws::Message;
+use tokio::sync::{broadcast, watch, Notify};
 use tokio::time::Instant;
 use tokio_util::sync::CancellationToken;
 
@@ -27,6 +29,19 @@ pub struct ReceivedFrame {
 
 pub type ParamTimeline = Timeline<ReceivedFrame>;
 
+/// A producer's audio chunk as viewers receive it, encoded once for all of them.
+#[derive(Debug)]
+pub struct RelayedAudio {
+    /// `pcm` or `opus`, as a viewer's `audio=` names it.
+    pub codec: &'static str,
+    /// The `FWA1` message, stamped with the server's receipt: cloning it shares the bytes.
+    pub message: Message,
+}
+
+/// Audio chunks a viewer may fall behind by before it is resynchronised to the newest
+/// (64 chunks of 20 ms: 1.3 s).
+const AUDIO_BACKLOG: usize = 64;
+
 /// Where a producer's frames and end go besides this node's viewers: the cluster bus
 /// (`super::cluster`), attached to a permit once the stream's cluster-wide lease is held.
 /// Both calls return at once; they never wait on the network.
@@ -38,6 +53,7 @@ pub trait Relay: Send + Sync {
 pub struct Stream {
     pub name: String,
     params: watch::Sender<ParamTimeline>,
+    audio: broadcast::Sender<Arc<RelayedAudio>>,
     /// Cancels the current producer (`DELETE .../producer`); a new token per producer.
     producer: Mutex<Option<CancellationToken>>,
     /// Told when a producer gives the slot back.
@@ -52,6 +68,7 @@ impl Stream {
         Stream {
             name: name.to_string(),
             params: watch::Sender::new(Timeline::default()),
+            audio: broadcast::Sender::new(AUDIO_BACKLOG),
             producer: Mutex::new(None),
             released: Notify::new(),
             pipelines: Mutex::new(HashMap::new()),
@@ -134,6 +151,11 @@ impl Stream {
         self.params.subscribe()
     }
 
+    /// The stream's audio from now on.
+    pub fn subscribe_audio(&self) -> broadcast::Receiver<Arc<RelayedAudio>> {
+        self.audio.subscribe()
+    }
+
     fn touch(&self) {
         *self.last_activity.lock().expect("activity lock") = Instant::now();
     }
@@ -196,6 +218,13 @@ impl ProducerPermit {
             relay.frame(&frame);
         }
         self.stream.publish_relayed(frame);
+    }
+
+    /// Publishes an audio chunk to this node's viewers that asked for audio (a chunk with
+    /// none listening is dropped: audio has no history).
+    pub fn publish_audio(&self, audio: RelayedAudio) {
+        let _ = self.stream.audio.send(Arc::new(audio));
+        self.stream.touch();
     }
 
     /// Ends the stream with `reason` and gives the slot back.

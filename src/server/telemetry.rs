@@ -41,6 +41,13 @@ pub struct Telemetry {
     pub frames_out: Counter,
     /// Bytes of frames sent to viewers.
     pub bytes_out: Counter,
+    /// Producer audio chunks accepted.
+    pub audio_in: Counter,
+    /// Audio chunks sent to viewers (one per viewer per chunk).
+    pub audio_out: Counter,
+    /// Times a viewer fell more than the backlog behind a stream's audio and was moved to
+    /// its newest chunk.
+    pub audio_resyncs: Counter,
     /// Frames skipped: `deform` (a pipeline was busy when newer parameters came) or
     /// `viewer` (a viewer was slower than the stream).
     pub frames_skipped: Family<StageLabel, Counter>,
@@ -82,6 +89,9 @@ impl Default for Telemetry {
             frames_rejected: Family::default(),
             frames_out: Counter::default(),
             bytes_out: Counter::default(),
+            audio_in: Counter::default(),
+            audio_out: Counter::default(),
+            audio_resyncs: Counter::default(),
             frames_skipped: Family::default(),
             deform_seconds: seconds_histogram(),
             encode_seconds: seconds_histogram(),
@@ -106,6 +116,13 @@ impl Default for Telemetry {
             t.frames_rejected.clone(),
         );
         registry.register("frames_out", "Frames sent to viewers", t.frames_out.clone());
+        registry.register("audio_in", "Producer audio chunks accepted", t.audio_in.clone());
+        registry.register("audio_out", "Audio chunks sent to viewers", t.audio_out.clone());
+        registry.register(
+            "audio_resyncs",
+            "Viewers moved to a stream's newest audio after falling behind",
+            t.audio_resyncs.clone(),
+        );
         registry.register(
             "bytes_out",
             "Bytes of frames sent to viewers",

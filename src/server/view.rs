@@ -13,7 +13,7 @@ use axum::response::Response;
 use futures_util::stream::{SplitSink, SplitStream};
 use futures_util::{SinkExt, StreamExt};
 use serde::Deserialize;
-use tokio::sync::watch;
+use tokio::sync::{broadcast, watch};
 use tokio::task::JoinHandle;
 use tokio_util::sync::CancellationToken;
 
@@ -21,6 +21,7 @@ use super::error::ApiError;
 use super::head::HeadEntry;
 use super::pipeline::{Encoded, FrameFormat, Pipeline, PipelineKey};
 use super::socket::{close, close_for, refuse, text};
+use super::stream::RelayedAudio;
 use super::timeline::{Step, Timeline};
 use super::AppState;
 use crate::animate::{FrameJob, Heat};
@@ -41,6 +42,9 @@ pub struct ViewQuery {
     /// `fwf2`, `fwf1` (the default, for clients built before `FWF2`) or `json`: every
     /// position as JSON text, the naive baseline.
     pub format: Option<String>,
+    /// `pcm` or `opus`: the stream's audio chunks in that codec come on the socket too;
+    /// `none` or absent, no audio.
+    pub audio: Option<String>,
 }
 
 impl ViewQuery {
@@ -51,6 +55,19 @@ impl ViewQuery {
             Some("json") => Ok(FrameFormat::Json),
             Some(other) => Err(ApiError::BadRequest(format!(
                 "format={}: expected fwf2, fwf1 or json",
+                crate::quote::clip(other)
+            ))),
+        }
+    }
+
+    /// The audio codec asked for, if any.
+    fn audio(&self) -> Result<Option<&'static str>, ApiError> {
+        match self.audio.as_deref() {
+            None | Some("" | "none") => Ok(None),
+            Some("pcm") => Ok(Some("pcm")),
+            Some("opus") => Ok(Some("opus")),
+            Some(other) => Err(ApiError::BadRequest(format!(
+                "audio={}: expected opus, pcm or none",
                 crate::quote::clip(other)
             ))),
         }
@@ -115,6 +132,8 @@ struct View {
     head: Arc<HeadEntry>,
     snapshot: Snapshot,
     frames: watch::Receiver<Timeline<Encoded>>,
+    /// The stream's audio and the codec this viewer takes, when it asked for audio.
+    audio: Option<(broadcast::Receiver<Arc<RelayedAudio>>, &'static str)>,
 }
 
 fn close_code_for(error: &ApiError) -> CloseCode {
@@ -147,6 +166,7 @@ async fn open_view(
     let spec = state.viewer_algorithm(query.algo.as_deref()).map_err(refused)?;
     let heat = query.heat().map_err(refused)?;
     let format = query.format().map_err(refused)?;
+    let audio_codec = query.audio().map_err(refused)?;
     let ready = tokio::select! {
         ready = head.wait_ready(REGISTRATION_WAIT) => ready.map_err(refused)?,
         _ = head.deleted.cancelled() => return Err(refused(ApiError::UnknownHead(id.to_string()))),
@@ -195,7 +215,12 @@ async fn open_view(
         mouth: ready.animated.mouth().to_array(),
         parts: ready.part_infos(id),
         format: Some(format.name().to_string()),
-        messages: ["frame", "end"].map(String::from).to_vec(),
+        messages: ["frame", "end"]
+            .into_iter()
+            .chain(audio_codec.map(|_| "audio"))
+            .map(String::from)
+            .collect(),
+        audio: audio_codec.map(String::from),
         sections: match format {
             FrameFormat::Binary(FrameLayout::Fwf2) => SectionInfo::list(&viewer_frame::SECTIONS),
             _ => Vec::new(),
@@ -204,6 +229,7 @@ async fn open_view(
     Ok(View {
         _slot: slot,
         _hold: hold,
+        audio: audio_codec.map(|codec| (stream.subscribe_audio(), codec)),
         head,
         snapshot,
         frames,
@@ -272,6 +298,15 @@ impl View {
                 changed = self.frames.changed() => if changed.is_err() {
                     break ViewEnding::Ended(EndReason::ServerShutdown, CloseCode::TryLater);
                 },
+                audio = next_audio(&mut self.audio, state) => {
+                    if let Some(message) = audio {
+                        if sink.send(message).await.is_err() {
+                            break ViewEnding::Left;
+                        }
+                        state.telemetry.audio_out.inc();
+                    }
+                    continue;
+                }
             }
             // The steps own their frames: the channel's lock is released before any await.
             let steps = self.frames.borrow_and_update().steps_after(done);
@@ -324,6 +359,28 @@ impl View {
             sink.send(message).await?;
         }
         Ok(())
+    }
+}
+
+/// The next audio chunk of the viewer's codec; never ready for a viewer without audio. A
+/// viewer that fell more than the stream's backlog behind is moved to the newest chunk
+/// (counted), rather than fed a backlog; `None` for a chunk of another codec or a resync.
+async fn next_audio(
+    audio: &mut Option<(broadcast::Receiver<Arc<RelayedAudio>>, &'static str)>,
+    state: &AppState,
+) -> Option<Message> {
+    let Some((receiver, codec)) = audio else {
+        return std::future::pending().await;
+    };
+    match receiver.recv().await {
+        Ok(chunk) => (chunk.codec == *codec).then(|| chunk.message.clone()),
+        Err(broadcast::error::RecvError::Lagged(_)) => {
+            *receiver = receiver.resubscribe();
+            state.telemetry.audio_resyncs.inc();
+            None
+        }
+        // The stream is gone: its viewers end with it.
+        Err(broadcast::error::RecvError::Closed) => std::future::pending().await,
     }
 }
 
