@@ -751,19 +751,43 @@ async fn a_producer_s_audio_reaches_the_viewers_that_ask_for_it() {
             got.server_receive_us
         );
     }
-    // The viewers that asked for none, or for another codec, get frames and no audio.
-    for viewer in [&mut deaf, &mut opus] {
-        loop {
+    // The viewer that asked for Opus hears the same voice encoded once by the server: five
+    // 20 ms packets starting where the PCM chunks did. The one that asked for none gets
+    // frames and no audio.
+    let (mut packets, mut deaf_heard) = (Vec::new(), 0);
+    for (viewer, heard) in [(&mut opus, Some(&mut packets)), (&mut deaf, None)] {
+        let mut heard = heard;
+        let mut seen_last_frame = false;
+        while !seen_last_frame || heard.as_ref().is_some_and(|h| h.len() < sent.len()) {
             match next_message(viewer).await {
+                Some(Message::Binary(bytes)) if bytes.starts_with(b"FWA1") => match heard.as_mut() {
+                    Some(heard) => heard.push(AudioChunk::decode(&bytes).unwrap()),
+                    None => deaf_heard += 1,
+                },
                 Some(Message::Binary(bytes)) => {
-                    assert!(!bytes.starts_with(b"FWA1"), "audio to a viewer that did not ask");
-                    if facewire_proto::viewer_frame::decode(&bytes).unwrap().header.seq == 1 {
-                        break;
-                    }
+                    seen_last_frame |= facewire_proto::viewer_frame::decode(&bytes).unwrap().header.seq == 1;
                 }
                 Some(Message::Text(_)) => {}
                 other => panic!("{other:?}"),
             }
+        }
+    }
+    assert_eq!(deaf_heard, 0, "audio to a viewer that did not ask");
+    for (packet, pcm) in packets.iter().zip(&sent) {
+        assert!(
+            (packet.t_s - pcm.t_s).abs() < 1e-9,
+            "{} vs {}",
+            packet.t_s,
+            pcm.t_s
+        );
+        match &packet.body {
+            AudioBody::Opus { packet } => {
+                assert_eq!(
+                    facewire_proto::audio_chunk::opus_packet_samples(packet, 0),
+                    Ok(960)
+                )
+            }
+            other => panic!("an Opus viewer got {other:?}"),
         }
     }
     // A viewer asking for a codec there is no such thing as is refused by name.

@@ -8,20 +8,24 @@ need:
 - :class:`Producer` pushes parameter frames (facewire's JSONL objects, ``docs/STREAMS.md``)
   to ``/v1/heads/{id}/streams/{stream}/produce`` as JSON text or binary ``FWP2`` (or the
   frozen ``FWP1``), reads the server's answer to each (an :class:`Ack`, with the section
-  kinds the server ignored) and raises :class:`Refused` (code, field, seq) on a refusal.
+  kinds the server ignored) and raises :class:`Refused` (code, field, seq) on a refusal. It
+  also sends the stream's voice as ``FWA1`` audio chunks (16-bit PCM, or Opus packets), from
+  samples or a WAV file, and raises :class:`AudioRefused` for chunks the server refused.
 - :class:`Viewer` watches ``/v1/heads/{id}/streams/{stream}/view``: it reads the snapshot,
   downloads the rest mesh (``FWM1``) and decodes every frame, sectioned ``FWF2`` (asked
   for by default) or the frozen ``FWF1``, into seq, time, label, lip roughness and folds
   and per-vertex positions (plain lists, no numpy), the head's and the jaw's motion and the
   parts' (the tongue's) deltas; it places the head's parts (teeth, gums, tongue) for a
   frame; ``end`` and ``error`` messages come out as :class:`StreamEnd` and
-  :class:`ServerError` events.
+  :class:`ServerError` events, and, for a viewer that asks for audio, the stream's audio
+  chunks as :class:`AudioChunk` events between the frames.
 - :class:`Client` wraps the HTTP resources: register a head, wait until it is ready, list
   heads, download the rest mesh and the parts' meshes, post a batch.
 
 The binary formats have pure functions of their own (:func:`encode_fwp2`,
 :func:`encode_fwp1`, :func:`decode_viewer_frame` with :func:`decode_fwf2` and
-:func:`decode_fwf1`, :func:`decode_mesh`). Nothing is kept in globals: every connection is
+:func:`decode_fwf1`, :func:`decode_mesh`, :func:`encode_fwa1` and :func:`decode_fwa1` with
+:func:`opus_packet_samples`). Nothing is kept in globals: every connection is
 an object the caller owns.
 
 Run ``python3 facewire_client.py --help`` for the command line (produce, view, register,
@@ -33,13 +37,16 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import struct
 import sys
 import time
 import urllib.error
 import urllib.parse
 import urllib.request
+import wave
 import zlib
+from array import array
 from dataclasses import dataclass, field
 from typing import (Any, Dict, Iterable, Iterator, List, Mapping, Optional, Sequence, Tuple, Union,
                     cast)
@@ -50,6 +57,8 @@ __all__ = [
     "ARKIT_BLENDSHAPES",
     "FAP_NAMES",
     "Ack",
+    "AudioChunk",
+    "AudioRefused",
     "Client",
     "ConnectionClosed",
     "FacewireError",
@@ -71,14 +80,17 @@ __all__ = [
     "ViewerFrame",
     "animation_unit_index",
     "arkit_index",
+    "decode_fwa1",
     "decode_fwf1",
     "decode_fwf2",
     "decode_mesh",
     "decode_viewer_frame",
+    "encode_fwa1",
     "encode_fwp1",
     "encode_fwp2",
     "encode_json",
     "fap_number",
+    "opus_packet_samples",
     "read_jsonl",
 ]
 
@@ -87,6 +99,13 @@ PROTOCOL_VERSION = "v1"
 DEFAULT_MAX_MESSAGE_BYTES = 64 * 1024
 #: The server's default ``max_fps``: frames per second a producer may send on average.
 DEFAULT_MAX_FPS = 240.0
+#: The sample rates a PCM audio chunk may have, Hz (PROTOCOL.md, "Audio (FWA1)").
+PCM_RATES: Tuple[int, ...] = (16000, 24000, 48000)
+#: Opus packets are timed (and decoded) at 48 kHz.
+OPUS_RATE = 48000
+#: The length of the chunks :meth:`Producer.send_audio` and :meth:`Producer.send_wav` cut
+#: PCM into, seconds: what WebRTC sends, well inside the server's 200 ms per chunk.
+AUDIO_CHUNK_S = 0.02
 
 # ---------------------------------------------------------------------------------------
 # Names: CANDIDE-3 animation units, MPEG-4 FAPs, ARKit blendshapes (docs/STREAMS.md).
@@ -213,6 +232,25 @@ class Refused(FacewireError):
         self.message = message
         self.seq = seq
         self.field = field
+
+
+class AudioRefused(Refused):
+    """The server refused one or more of the audio chunks a :class:`Producer` sent.
+
+    Accepted chunks get no answer, so a refusal arrives whenever the server got to the
+    chunk, and names no chunk: ``seq`` is None, and ``code`` (``bad_frame``,
+    ``out_of_order``, ``rate_limited``), ``field`` and ``message`` are the first refusal's;
+    the message usually gives the chunk's ``t``. ``refusals`` lists every refusal read
+    since the last :class:`AudioRefused` was raised, oldest first (a rate or codec that does
+    not fit the stream refuses every chunk after it too). :class:`Producer` says when it
+    raises one."""
+
+    def __init__(self, refusals: Sequence[Refused]):
+        first = refusals[0]
+        super().__init__(first.code, first.message, None, first.field)
+        self.refusals = list(refusals)
+        more = "" if len(refusals) == 1 else " (and %d more audio refusals)" % (len(refusals) - 1)
+        self.args = ("audio %s%s" % (self.args[0], more),)
 
 
 class ConnectionClosed(FacewireError):
@@ -831,18 +869,19 @@ _FWF2_SECTIONS: Dict[int, str] = {
 }
 
 
-def _next_section(r: _Reader, number: int, count: int) -> Tuple[int, int, _Reader]:
+def _next_section(r: _Reader, number: int, count: int,
+                  names: Mapping[int, str] = _FWF2_SECTIONS) -> Tuple[int, int, _Reader]:
     """Section ``number`` (0-based) of ``count``: its kind, where it starts, and a reader
-    bounded to its body, which knows the section's name (``section K`` for a kind this
-    client does not know). Framing errors are the field ``section``, as PROTOCOL.md names
-    them (the message says which kind): a section that runs past the message, or a
-    message that ends where a counted section should start."""
+    bounded to its body, which knows the section's name from ``names`` (the layout's kinds;
+    ``section K`` for a kind this client does not know). Framing errors are the field
+    ``section``, as PROTOCOL.md names them (the message says which kind): a section that
+    runs past the message, or a message that ends where a counted section should start."""
     at = r.at
     if at >= r.end:
         raise ProtocolError("the message ends after %d of its %d sections" % (number, count),
                             field="section", at=at)
     (kind,) = r.unpack("B", "section")
-    name = _FWF2_SECTIONS.get(kind, "section %d" % kind)
+    name = names.get(kind, "section %d" % kind)
     (length,) = r.unpack("I", "section")
     left = r.end - r.at
     if length > left:
@@ -1152,6 +1191,221 @@ def decode_mesh(data: bytes) -> RestMesh:
 
 
 # ---------------------------------------------------------------------------------------
+# Audio chunks: FWA1 (PROTOCOL.md, "Audio (FWA1)"; proto/src/audio_chunk.rs)
+
+#: FWA1's section kinds, and their names as errors and a viewer's ``audio=`` give them.
+_FWA1_PCM, _FWA1_OPUS = 1, 2
+_FWA1_SECTIONS: Dict[int, str] = {_FWA1_PCM: "pcm", _FWA1_OPUS: "opus"}
+#: RFC 6716's largest packet, bytes.
+_MAX_OPUS_PACKET = 1275
+#: The longest an Opus packet plays, in 48 kHz samples (120 ms).
+_MAX_OPUS_SAMPLES = 5760
+
+
+@dataclass
+class AudioChunk:
+    """A piece of a stream's voice (``FWA1``). ``t_s`` is the stream time of its first
+    sample in the producer's seconds, the clock of the parameter frames' ``t``: a player
+    lines the voice up with :attr:`ViewerFrame.producer_time_s` by it. ``server_receive_us``
+    is when the server received it (µs since the Unix epoch), 0 in what a producer sends.
+
+    ``codec`` is ``"pcm"``, with ``samples`` (16-bit mono, at ``sample_rate``: 16000, 24000
+    or 48000 Hz), or ``"opus"``, with ``packet`` (one Opus packet, mono, timed at 48 kHz,
+    its ``sample_rate``); the other of the two is empty. ``ignored`` lists the section kinds
+    :func:`decode_fwa1` skipped because it does not know them (from a later sender)."""
+
+    t_s: float
+    server_receive_us: int
+    codec: str
+    sample_rate: int
+    samples: List[int] = field(default_factory=list)
+    packet: bytes = b""
+    ignored: List[int] = field(default_factory=list)
+
+    @property
+    def duration_s(self) -> float:
+        """How long the chunk plays, seconds: its samples, or what its Opus packet's table
+        of contents says (:func:`opus_packet_samples`); the next chunk may start here."""
+        if self.codec == "opus":
+            return opus_packet_samples(self.packet) / OPUS_RATE
+        return len(self.samples) / self.sample_rate
+
+
+def opus_packet_samples(packet: bytes, at: Optional[int] = None) -> int:
+    """How many 48 kHz samples an Opus packet plays for, read from its table of contents
+    (RFC 6716, section 3.1) as the server times it: the frame size its configuration (the
+    first byte's top five bits) names, times its frame count (code 0: one frame; codes 1
+    and 2: two; code 3: the low six bits of the second byte). Nothing past that is read: the
+    server relays packets without decoding them, so this is all it checks.
+
+    Raises :class:`ProtocolError` with field ``opus`` (at byte ``at`` when given) for an
+    empty packet, a code 3 packet without its frame count, no frames, or more than 120 ms."""
+    if not packet:
+        raise ProtocolError("an empty packet", field="opus", at=at)
+    config = packet[0] >> 3
+    # Frame sizes at 48 kHz: SILK-only (configs 0-11) 10, 20, 40, 60 ms; hybrid (12-15)
+    # 10, 20 ms; CELT-only (16-31) 2.5, 5, 10, 20 ms.
+    if config < 12:
+        frame = (480, 960, 1920, 2880)[config % 4]
+    elif config < 16:
+        frame = (480, 960)[config % 2]
+    else:
+        frame = (120, 240, 480, 960)[config % 4]
+    code = packet[0] & 3
+    if code == 0:
+        frames = 1
+    elif code in (1, 2):
+        frames = 2
+    elif len(packet) < 2:
+        raise ProtocolError("code 3 packet without its frame count", field="opus", at=at)
+    else:
+        frames = packet[1] & 0x3F
+    if frames == 0 or frame * frames > _MAX_OPUS_SAMPLES:
+        raise ProtocolError("%d frame(s) of %d samples: a packet holds 1 to 120 ms"
+                            % (frames, frame), field="opus", at=at)
+    return frame * frames
+
+
+def _pcm_bytes(t_s: float, samples: Sequence[int]) -> bytes:
+    """Samples as little-endian i16, refusing what 16-bit PCM cannot hold."""
+    try:
+        return struct.pack("<%dh" % len(samples), *samples)
+    except struct.error as e:
+        raise FrameError("audio at t %s s: PCM samples are integers -32768..32767 (%s)"
+                         % (t_s, e)) from None
+
+
+def encode_fwa1(chunk: AudioChunk) -> bytes:
+    """Encodes an audio chunk as an ``FWA1`` message: magic, ``t_s`` (f64),
+    ``server_receive_us`` (u64), a section count of 1, then one ``pcm`` section (sample
+    rate u32, count u32, count x i16) or one ``opus`` section (length u16, the packet).
+
+    Raises :class:`FrameError` for what the layout cannot carry or :func:`decode_fwa1`
+    (and the server) would refuse: a ``t_s`` that is not finite, a codec other than
+    ``pcm`` and ``opus``, a PCM rate not in :data:`PCM_RATES`, a sample outside 16 bits, an
+    Opus chunk not at 48 kHz, a packet over 1275 bytes or whose table of contents does not
+    parse, and a chunk giving both samples and a packet. ``ignored`` is not written (the
+    decoder keeps only the kinds it skipped, not their bodies)."""
+    t_s = chunk.t_s
+    if isinstance(t_s, bool) or not isinstance(t_s, (int, float)) or not math.isfinite(t_s):
+        raise FrameError("audio chunk: t_s %r is not a finite number of seconds" % (t_s,))
+    receive_us = chunk.server_receive_us
+    if isinstance(receive_us, bool) or not isinstance(receive_us, int) \
+            or not 0 <= receive_us <= _U64_MAX:
+        raise FrameError("audio at t %s s: server_receive_us %r is not a u64"
+                         % (t_s, receive_us))
+    if chunk.codec == "pcm":
+        if chunk.packet:
+            raise FrameError("audio at t %s s: a pcm chunk carries samples, not a packet" % t_s)
+        if chunk.sample_rate not in PCM_RATES:
+            raise FrameError("audio at t %s s: PCM at %r Hz; the protocol takes %s"
+                             % (t_s, chunk.sample_rate, ", ".join(map(str, PCM_RATES))))
+        kind = _FWA1_PCM
+        body = (struct.pack("<II", chunk.sample_rate, len(chunk.samples))
+                + _pcm_bytes(t_s, chunk.samples))
+    elif chunk.codec == "opus":
+        packet = bytes(chunk.packet)
+        if chunk.samples:
+            raise FrameError("audio at t %s s: an opus chunk carries a packet, not samples" % t_s)
+        if chunk.sample_rate != OPUS_RATE:
+            raise FrameError("audio at t %s s: Opus is timed at %d Hz, not %r"
+                             % (t_s, OPUS_RATE, chunk.sample_rate))
+        if len(packet) > _MAX_OPUS_PACKET:
+            raise FrameError("audio at t %s s: an Opus packet of %d bytes; at most %d"
+                             % (t_s, len(packet), _MAX_OPUS_PACKET))
+        try:
+            opus_packet_samples(packet)
+        except ProtocolError as e:
+            raise FrameError("audio at t %s s: %s" % (t_s, e)) from None
+        kind, body = _FWA1_OPUS, struct.pack("<H", len(packet)) + packet
+    else:
+        raise FrameError("audio at t %s s: codec %r: expected 'pcm' or 'opus'"
+                         % (t_s, chunk.codec))
+    return b"FWA1" + struct.pack("<dQBBI", t_s, receive_us, 1, kind, len(body)) + body
+
+
+def decode_fwa1(data: bytes) -> AudioChunk:
+    """Decodes one ``FWA1`` audio message with the Rust decoder's checks, in its order,
+    and its names for what is wrong (:class:`ProtocolError`'s ``field``, PROTOCOL.md's
+    table of refusals): ``magic``; a header cut short (``t_s``, ``server_receive_us``,
+    ``section count``) or a ``t_s`` that is not finite (``t_s``); a section that runs past
+    the message or fewer sections than counted (``section``), bytes after the last one
+    (``end``, as :func:`decode_fwf2` names them); in a ``pcm`` section a rate not in
+    :data:`PCM_RATES` (``sample_rate``) or a body cut short (``sample_rate``, ``pcm count``,
+    ``pcm``); in an ``opus`` section a packet over 1275 bytes or whose table of contents
+    does not parse (``opus``) or a body cut short (``opus length``, ``opus``); and neither,
+    both, or one of them twice (``sound``).
+
+    The layout grows as every sectioned one does: a section of a kind this decoder does not
+    know is skipped (its kind goes to ``ignored``), and so is the end of a known section
+    past the fields read here."""
+    r = _Reader(bytes(data))
+    magic = r.take(4, "magic")
+    if magic != b"FWA1":
+        raise ProtocolError("bad magic %r: expected b'FWA1'" % magic, field="magic", at=0)
+    (t_s,) = r.unpack("d", "t_s")
+    if not math.isfinite(t_s):
+        raise ProtocolError("%r is not a time" % t_s, field="t_s", at=4)
+    (receive_us,) = r.unpack("Q", "server_receive_us")
+    (count,) = r.unpack("B", "section count")
+    # The framing of every section first, then their bodies, as the Rust decoder reads them,
+    # so that a message wrong in both ways is refused by the same name.
+    sections = [_next_section(r, number, count, _FWA1_SECTIONS) for number in range(count)]
+    if r.at != r.end:
+        raise ProtocolError("%d byte(s) after the last of %d sections" % (r.end - r.at, count),
+                            field="end", at=r.at)
+    sound: Optional[AudioChunk] = None
+    seen: Dict[int, int] = {}
+    ignored: List[int] = []
+    for kind, at, body in sections:
+        if kind == _FWA1_PCM:
+            read = _read_pcm(body, t_s, receive_us)
+        elif kind == _FWA1_OPUS:
+            read = _read_opus(body, t_s, receive_us)
+        else:
+            ignored.append(kind)
+            continue
+        if kind in seen:
+            raise ProtocolError("section %s (kind %d) given twice, first at byte %d"
+                                % (body.section, kind, seen[kind]), field="sound", at=at)
+        seen[kind] = at
+        if sound is not None:
+            raise ProtocolError("a chunk carries one of pcm and opus, not both",
+                                field="sound", at=at)
+        sound = read
+    if sound is None:
+        raise ProtocolError("the chunk has neither a pcm nor an opus section",
+                            field="sound", at=20)
+    sound.ignored = ignored
+    return sound
+
+
+def _read_pcm(r: _Reader, t_s: float, receive_us: int) -> AudioChunk:
+    """A ``pcm`` section's body: rate, count, samples; what follows is a later sender's."""
+    at = r.at
+    (sample_rate,) = r.unpack("I", "sample_rate")
+    if sample_rate not in PCM_RATES:
+        raise ProtocolError("%d Hz: expected 16000, 24000 or 48000" % sample_rate,
+                            field="sample_rate", at=at)
+    (count,) = r.unpack("I", "pcm count")
+    raw = r.take(2 * count, "pcm")
+    return AudioChunk(t_s, receive_us, "pcm", sample_rate,
+                      samples=list(struct.unpack("<%dh" % count, raw)))
+
+
+def _read_opus(r: _Reader, t_s: float, receive_us: int) -> AudioChunk:
+    """An ``opus`` section's body: length, packet; what follows is a later sender's."""
+    (length,) = r.unpack("H", "opus length")
+    at = r.at
+    if length > _MAX_OPUS_PACKET:
+        raise ProtocolError("%d bytes: an Opus packet has at most %d" % (length, _MAX_OPUS_PACKET),
+                            field="opus", at=at)
+    packet = r.take(length, "opus")
+    opus_packet_samples(packet, at)
+    return AudioChunk(t_s, receive_us, "opus", OPUS_RATE, packet=packet)
+
+
+# ---------------------------------------------------------------------------------------
 # HTTP
 
 
@@ -1354,6 +1608,12 @@ class Client:
 # WebSocket plumbing
 
 
+#: The shortest wait of :meth:`_Socket.receive_within`, seconds: the socket layer's own
+#: (it rounds up to milliseconds), so that looking for what has arrived costs a producer
+#: nothing.
+_READY_S = 0.001
+
+
 class _Socket:
     """A websocket-client connection with close codes, timeouts and HTTP refusals turned
     into this module's errors."""
@@ -1430,6 +1690,20 @@ class _Socket:
             self.closed = ConnectionClosed(None, str(e))
             raise self.closed from None
 
+    def receive_within(self, timeout: float) -> Optional[Union[str, bytes]]:
+        """The next message if one arrives within ``timeout`` seconds, else None: for answers
+        that may never come (the server answers an audio chunk only to refuse it). A message
+        caught halfway is kept by websocket-client and finished by the next read. The
+        socket's timeout is put back, since sends use it too."""
+        previous = self._ws.gettimeout()
+        try:
+            return self.receive(max(timeout, _READY_S))
+        except TimeoutError:
+            return None
+        finally:
+            if self.closed is None:
+                self._ws.settimeout(previous)
+
     def shutdown(self) -> None:
         try:
             self._ws.close(timeout=1.0)
@@ -1482,6 +1756,34 @@ def _binary_layout(binary: Union[bool, str, None]) -> Optional[str]:
                         % (binary,))
 
 
+#: The codes a refused audio chunk gets (PROTOCOL.md, "Audio (FWA1)").
+_AUDIO_REFUSALS = ("bad_frame", "out_of_order", "rate_limited")
+
+
+def _pcm_samples(t_s: float, samples: Union[Sequence[int], bytes, bytearray]) -> Sequence[int]:
+    """PCM as integers: ``bytes`` are read as little-endian i16, anything else is taken as
+    a sequence of samples (checked when encoded)."""
+    if isinstance(samples, (bytes, bytearray)):
+        if len(samples) % 2:
+            raise FrameError("audio at t %s s: %d bytes of PCM is not a whole number of "
+                             "16-bit samples" % (t_s, len(samples)))
+        return struct.unpack("<%dh" % (len(samples) // 2), samples)
+    return samples
+
+
+def _pcm_chunks(t_s: float, samples: Sequence[int], sample_rate: int) -> List[AudioChunk]:
+    """PCM cut into :data:`AUDIO_CHUNK_S` chunks, the one starting at sample ``i`` at
+    ``t_s + i / sample_rate``."""
+    if isinstance(t_s, bool) or not isinstance(t_s, (int, float)) or not math.isfinite(t_s):
+        raise FrameError("audio: t_s %r is not a finite number of seconds" % (t_s,))
+    if sample_rate not in PCM_RATES:
+        raise FrameError("audio at t %s s: PCM at %r Hz; the protocol takes %s"
+                         % (t_s, sample_rate, ", ".join(map(str, PCM_RATES))))
+    per = round(sample_rate * AUDIO_CHUNK_S)
+    return [AudioChunk(t_s + i / sample_rate, 0, "pcm", sample_rate, list(samples[i:i + per]))
+            for i in range(0, len(samples), per)]
+
+
 class Producer:
     """Pushes frames to ``/v1/heads/{head}/streams/{stream}/produce``.
 
@@ -1497,10 +1799,37 @@ class Producer:
     and non-decreasing ``t``.
 
     As a context manager it sends ``{"type":"end"}`` on a normal exit (viewers get
-    ``end``) and closes the socket either way::
+    ``end``), then raises :class:`AudioRefused` for audio refusals not raised yet, and
+    closes the socket either way::
 
         with Producer("http://127.0.0.1:8480", "scan", "main") as producer:
             producer.send({"seq": 0, "t": 0.0, "label": "pa", "au": {"jaw_drop": 0.3}})
+            producer.send_wav("pa.wav", t_s=0.0)
+
+    **Audio.** :meth:`send_audio` (PCM samples), :meth:`send_opus` (an Opus packet) and
+    :meth:`send_wav` (a WAV file) send the stream's voice as ``FWA1`` chunks on the same
+    socket, with or without frames, on the frames' clock. The server answers an audio chunk
+    only when it refuses it, so they do not wait for answers. The producer reads refusals
+    whenever it reads the socket: after each chunk it sends (taking only what has arrived)
+    and while :meth:`send` or :meth:`end` waits for its answer. It tells them from a frame's
+    answer by order (the server answers every message before it reads the next, so what
+    comes before a frame's answer is about what was sent before the frame) and by ``seq``
+    (a frame's answer names it; an audio refusal names none). A refusal surfaces as an
+    :class:`AudioRefused`, which is a :class:`Refused`:
+
+    - from the next :meth:`send_audio` or :meth:`send_opus`, before it sends anything: the
+      call had no effect and may be made again;
+    - from :meth:`send_wav` as soon as one is read, which stops it (as :meth:`play` stops at
+      a refused frame);
+    - from :meth:`check_audio`, which reads what has arrived, or arrives within a timeout;
+    - on leaving the ``with`` block normally: the server answers ``end`` after every message
+      before it, so no refusal is left unread then.
+
+    :meth:`send` never raises one: it returns its frame's :class:`Ack`, and keeps the
+    refusals it read for those. (A frame that :meth:`send_encoded` sends in a form the
+    server cannot read a ``seq`` from, right after audio, would be taken for audio's
+    refusal, and its own answer waited for until ``timeout``: send such test frames apart
+    from audio. Frames :meth:`send` encodes always have a readable ``seq``.)
     """
 
     def __init__(self, url: str, head: str, stream: str = "main", *, token: Optional[str] = None,
@@ -1516,6 +1845,15 @@ class Producer:
         self.max_message_bytes = max_message_bytes
         self.ended = False
         self._last_send: Optional[float] = None
+        #: Audio chunks sent since the server last answered a frame or ``end``: as many
+        #: refusals naming no ``seq`` may still come for them.
+        self._audio_unanswered = 0
+        #: Audio refusals read and not raised yet, oldest first.
+        self._audio_refusals: List[Refused] = []
+        #: When the first audio chunk went out (monotonic seconds) and its ``t_s``: the
+        #: server measures how far audio runs ahead of real time from there, and paced
+        #: chunks keep to the same clock.
+        self._audio_start: Optional[Tuple[float, float]] = None
         self._socket = _Socket(self.url, token, timeout)
 
     def __enter__(self) -> "Producer":
@@ -1525,6 +1863,8 @@ class Producer:
         try:
             if kind is None and not self.ended and self._socket.closed is None:
                 self.end()
+            if kind is None:
+                self.check_audio()
         finally:
             self.close()
 
@@ -1596,10 +1936,109 @@ class Producer:
             acks.append(self.send(frame))
         return acks
 
+    def send_audio(self, t_s: float, samples: Union[Sequence[int], bytes, bytearray],
+                   sample_rate: int = 16000, *, realtime: bool = False) -> float:
+        """Sends 16-bit mono PCM whose first sample plays at stream time ``t_s`` (seconds, the
+        frames' clock), cut into chunks of :data:`AUDIO_CHUNK_S` (20 ms) at consecutive
+        times: the chunk starting at sample ``i`` has ``t_s + i / sample_rate`` (the last
+        may be shorter). ``samples`` are integers (a list, an ``array('h')``, ...) or
+        ``bytes`` of little-endian i16; ``sample_rate`` is 16000, 24000 or 48000 Hz, the same
+        over a stream (the server refuses a change with field ``sound``).
+
+        Returns the stream time just past the last sample, where the next audio starts:
+        ``t = producer.send_audio(t, block)`` in a capture loop leaves neither gap nor
+        overlap (the server refuses a chunk that starts before the previous one ends).
+
+        It does not wait for answers (see :class:`Producer`): before sending anything it
+        raises :class:`AudioRefused` for chunks refused earlier. The server refuses audio
+        more than 2 s ahead of real time since the stream's first chunk: a live capture
+        keeps to that by itself; for recorded audio pass ``realtime=True``, which sends each
+        chunk when its time comes on that clock (its ``t_s`` after the first chunk's, in
+        real time). Raises :class:`FrameError`, having sent nothing, for a ``t_s`` that is
+        not finite, a rate not in :data:`PCM_RATES`, samples that are not 16-bit integers,
+        or an odd number of bytes."""
+        pcm = _pcm_samples(t_s, samples)
+        messages = [self._audio_message(chunk) for chunk in _pcm_chunks(t_s, pcm, sample_rate)]
+        self.check_audio()
+        for chunk_t, message in messages:
+            self._send_audio_message(chunk_t, message, realtime)
+        return t_s + len(pcm) / sample_rate
+
+    def send_opus(self, t_s: float, packet: bytes, *, realtime: bool = False) -> float:
+        """Sends one Opus packet (RFC 6716, mono, as an encoder or WebRTC gives it; 20 ms is
+        usual, 2.5 to 120 ms allowed) whose sound starts at stream time ``t_s``, and returns
+        the time just past it (its table of contents says how long it plays:
+        :func:`opus_packet_samples`). Answers, refusals and ``realtime`` as
+        :meth:`send_audio`. Raises :class:`FrameError`, having sent nothing, for a packet
+        over 1275 bytes or whose table of contents does not parse."""
+        chunk = AudioChunk(t_s, 0, "opus", OPUS_RATE, packet=bytes(packet))
+        chunk_t, message = self._audio_message(chunk)
+        self.check_audio()
+        self._send_audio_message(chunk_t, message, realtime)
+        return t_s + chunk.duration_s
+
+    def send_wav(self, path: Union[str, "os.PathLike[str]"], t_s: float = 0.0,
+                 realtime: bool = True) -> float:
+        """Sends a WAV file's sound from stream time ``t_s`` in 20 ms chunks, as
+        :meth:`send_audio` sends samples, read a chunk at a time (a long file is never held
+        whole). The file must be uncompressed 16-bit PCM, mono, at 16000, 24000 or 48000 Hz,
+        read with the standard ``wave`` module: anything else raises :class:`FrameError`
+        saying what differs, before anything is sent (convert first, e.g. ``ffmpeg -i in
+        -ac 1 -ar 16000 -sample_fmt s16 out.wav``).
+
+        With ``realtime`` (the default) it sends at the sound's own pace, which the server
+        requires of audio beyond its 2 s lead, so it returns about when the sound ends;
+        ``realtime=False`` sends as fast as the socket takes it, for files of at most 2 s.
+        It stops at the first refusal it reads and raises :class:`AudioRefused` (the rest
+        of the file is not sent). Returns the stream time just past the last sample."""
+        name = os.fspath(path)
+        try:
+            wav = wave.open(name, "rb")
+        except (wave.Error, EOFError) as e:
+            raise FrameError("%s: not a WAV file of uncompressed PCM (%s)" % (name, e)) from None
+        with wav:
+            channels, width, rate = wav.getnchannels(), wav.getsampwidth(), wav.getframerate()
+            problems = []
+            if channels != 1:
+                problems.append("%d channels, send_wav takes mono" % channels)
+            if width != 2:
+                problems.append("%d-bit samples, send_wav takes 16-bit" % (8 * width))
+            if rate not in PCM_RATES:
+                problems.append("%d Hz, the protocol takes %s Hz"
+                                % (rate, ", ".join(map(str, PCM_RATES))))
+            if problems:
+                raise FrameError("%s: %s" % (name, "; ".join(problems)))
+            per = round(rate * AUDIO_CHUNK_S)
+            self.check_audio()
+            sent = 0
+            while True:
+                raw = wav.readframes(per)
+                raw = raw[:len(raw) - len(raw) % 2]  # a file cut inside its last sample
+                if not raw:
+                    return t_s + sent / rate
+                chunk_t = t_s + sent / rate
+                # wave gives samples in the machine's byte order, which array reads.
+                samples = array("h", raw).tolist()
+                _, message = self._audio_message(AudioChunk(chunk_t, 0, "pcm", rate, samples))
+                self._send_audio_message(chunk_t, message, realtime)  # reads what came
+                self._raise_audio_refusals()
+                sent += len(samples)
+
+    def check_audio(self, timeout: float = 0.0) -> None:
+        """Raises :class:`AudioRefused` for the audio refusals read and not raised yet,
+        reading first what has arrived, and what arrives within ``timeout`` seconds; returns
+        when there are none. A refusal takes the server a round trip: to learn of the last
+        chunks' fate without sending more, wait a little (``check_audio(0.2)``), or send a
+        frame (everything before its answer has been answered) or end the stream."""
+        if not self.ended and self._socket.closed is None:
+            self._read_audio_answers(timeout)
+        self._raise_audio_refusals()
+
     def end(self) -> "StreamEnd":
         """Sends ``{"type":"end"}``: viewers get ``end`` after the last frame sent. The
         server answers ``end`` (returned) and closes the socket with code 1000; connect
-        again to start a new run of frames."""
+        again to start a new run of frames. Audio refusals read on the way are kept for
+        :meth:`check_audio` (which leaving the ``with`` block calls)."""
         self._socket.send_text('{"type":"end"}')
         self.ended = True
         while True:
@@ -1625,11 +2064,76 @@ class Producer:
         self._last_send = now
 
     def _answer(self) -> Dict[str, Any]:
+        """The server's answer to the frame or ``end`` just sent. Audio refusals come before
+        it (the server answers in order) and are kept; once it has come, every audio chunk
+        sent before has been answered."""
         while True:
-            message = self._socket.receive(self.timeout)
-            if isinstance(message, bytes):
-                raise ProtocolError("a producer socket got a binary message (%d bytes)" % len(message))
-            return _server_message(message, self.url)
+            message = self._message(self._socket.receive(self.timeout))
+            if not self._keep_audio_refusal(message):
+                self._audio_unanswered = 0
+                return message
+
+    def _message(self, message: Union[str, bytes]) -> Dict[str, Any]:
+        if isinstance(message, bytes):
+            raise ProtocolError("a producer socket got a binary message (%d bytes)" % len(message))
+        return _server_message(message, self.url)
+
+    def _keep_audio_refusal(self, message: Mapping[str, Any]) -> bool:
+        """Keeps ``message`` if it refuses an audio chunk: an ``error`` naming no ``seq``
+        with a code audio is refused with, while a chunk sent since the last answer may
+        still be answered. A frame's refusal names its ``seq``; ``idle`` and
+        ``producer_busy`` end the session whatever was sent."""
+        if (self._audio_unanswered and message.get("type") == "error"
+                and message.get("seq") is None and message.get("code") in _AUDIO_REFUSALS):
+            self._audio_unanswered -= 1
+            self._audio_refusals.append(_refused(message))
+            return True
+        return False
+
+    def _read_audio_answers(self, timeout: float) -> None:
+        """Reads what arrives within ``timeout`` seconds (what has arrived already, for 0),
+        when no frame waits for its answer: audio refusals, kept, or an ``error`` that ends
+        the session (``idle``, ...), raised as :class:`Refused`."""
+        deadline = time.monotonic() + timeout
+        while True:
+            arrived = self._socket.receive_within(deadline - time.monotonic())
+            if arrived is None:
+                return
+            message = self._message(arrived)
+            if self._keep_audio_refusal(message):
+                continue
+            if message.get("type") == "error":
+                raise _refused(message)
+            raise ProtocolError("expected nothing or an audio refusal, got %r" % message)
+
+    def _raise_audio_refusals(self) -> None:
+        """Raises :class:`AudioRefused` for the refusals read and not raised yet."""
+        if self._audio_refusals:
+            refusals, self._audio_refusals = self._audio_refusals, []
+            raise AudioRefused(refusals)
+
+    def _audio_message(self, chunk: AudioChunk) -> Tuple[float, bytes]:
+        """A chunk encoded and checked against ``max_message_bytes``: ``(t_s, message)``."""
+        message = encode_fwa1(chunk)
+        if len(message) > self.max_message_bytes:
+            raise FrameError("audio at t %s s is %d bytes; the server takes at most %d "
+                             "(max_message_bytes)"
+                             % (chunk.t_s, len(message), self.max_message_bytes))
+        return chunk.t_s, message
+
+    def _send_audio_message(self, t_s: float, message: bytes, realtime: bool) -> None:
+        """Sends one encoded chunk, when its time comes if ``realtime``, then reads what has
+        arrived (so that refusals are known early and never pile up unread)."""
+        if realtime and self._audio_start is not None:
+            started, first_t = self._audio_start
+            wait = started + (t_s - first_t) - time.monotonic()
+            if wait > 0:
+                time.sleep(wait)
+        self._socket.send_binary(message)
+        if self._audio_start is None:
+            self._audio_start = (time.monotonic(), t_s)
+        self._audio_unanswered += 1
+        self._read_audio_answers(0.0)
 
 
 # ---------------------------------------------------------------------------------------
@@ -1678,8 +2182,11 @@ class Snapshot:
     ``parts`` lists the head's parts in the order frames index them (empty for a head
     without parts). ``format`` is the frames' layout (``fwf2`` or ``fwf1``; a server
     before ``FWF2`` names none and sends ``fwf1``), ``messages`` the kinds of message that
-    may follow the snapshot (empty when the server does not say), and ``sections`` every
-    section kind the server may put in ``fwf2`` frames (empty for ``fwf1``)."""
+    may follow the snapshot (empty when the server does not say; ``audio`` among them for a
+    viewer that asked for audio), ``sections`` every section kind the server may put in
+    ``fwf2`` frames (empty for ``fwf1``), and ``audio`` the codec of the audio chunks that
+    come between the frames (``pcm`` or ``opus``; None when the viewer asked for none, or
+    the server is older than audio)."""
 
     protocol: str
     head: str
@@ -1697,6 +2204,7 @@ class Snapshot:
     format: str = "fwf1"
     messages: List[str] = field(default_factory=list)
     sections: List[SectionInfo] = field(default_factory=list)
+    audio: Optional[str] = None
 
     @staticmethod
     def from_message(message: Mapping[str, Any]) -> "Snapshot":
@@ -1714,6 +2222,10 @@ class Snapshot:
         if not isinstance(messages, list) or not all(isinstance(x, str) for x in messages):
             raise ProtocolError("malformed snapshot: messages is not a list of names: %r"
                                 % (messages,), field="messages")
+        audio = message.get("audio")
+        if audio is not None and not isinstance(audio, str):
+            raise ProtocolError("malformed snapshot: audio is not a codec's name: %r" % (audio,),
+                                field="audio")
         try:
             return Snapshot(
                 protocol=str(message["protocol"]),
@@ -1732,6 +2244,7 @@ class Snapshot:
                 format=str(message.get("format", "fwf1")),
                 messages=list(messages),
                 sections=[SectionInfo(x["kind"], x["name"]) for x in sections],
+                audio=audio,
             )
         except (KeyError, TypeError, ValueError) as e:
             raise ProtocolError("malformed snapshot (%s): %r" % (e, dict(message))) from None
@@ -1759,7 +2272,7 @@ class ServerError:
     field: Optional[str] = None
 
 
-ViewerEvent = Union[ViewerFrame, StreamEnd, ServerError]
+ViewerEvent = Union[ViewerFrame, AudioChunk, StreamEnd, ServerError]
 
 
 def _check_layout(snapshot: Snapshot) -> None:
@@ -1794,14 +2307,25 @@ class Viewer:
     another name than this client's. ``fetch_parts=True`` also
     downloads the rest meshes of the snapshot's parts into ``parts`` (in its order), which
     :meth:`place_parts` places for a frame. A viewer that reads slowly skips to the newest
-    frame: the server never queues a backlog."""
+    frame: the server never queues a backlog.
+
+    ``audio="pcm"`` or ``"opus"`` asks for the stream's audio in that codec: the chunks a
+    producer sends in it come as :class:`AudioChunk` events (``FWA1``, decoded by
+    :func:`decode_fwa1`) between the frames, in order, each as soon as the server has it.
+    Connecting then checks that the snapshot's ``audio`` names that codec (a server older
+    than audio names none: :class:`ProtocolError`, field ``audio``). The server does not
+    re-encode: a producer sending the other codec is not heard. Audio is never skipped for a
+    viewer that keeps up; one that falls more than 64 chunks (1.3 s) behind is moved on to
+    the newest, which leaves a gap in ``t_s``."""
 
     def __init__(self, url: str, head: str, stream: str = "main", *, algo: Optional[str] = None,
                  face: bool = False, token: Optional[str] = None, timeout: float = 30.0,
                  fetch_mesh: bool = True, fetch_parts: bool = False,
-                 frame_format: str = "fwf2"):
+                 frame_format: str = "fwf2", audio: Optional[str] = None):
         if frame_format not in ("fwf2", "fwf1"):
             raise FacewireError("frame_format=%r: expected 'fwf2' or 'fwf1'" % (frame_format,))
+        if audio not in (None, "pcm", "opus"):
+            raise FacewireError("audio=%r: expected None, 'pcm' or 'opus'" % (audio,))
         http_base, ws_base = _base_urls(url)
         query = {}
         if algo:
@@ -1809,6 +2333,10 @@ class Viewer:
         if face:
             query["face"] = "1"
         query["format"] = frame_format
+        if audio is not None:
+            query["audio"] = audio
+        #: The audio codec asked for, None for none.
+        self.audio = audio
         self.url = "%s/v1/heads/%s/streams/%s/view" % (ws_base, _segment(head), _segment(stream))
         if query:
             self.url += "?" + urllib.parse.urlencode(query)
@@ -1826,6 +2354,10 @@ class Viewer:
                 raise ProtocolError("expected a snapshot first, got %r" % message)
             self.snapshot = Snapshot.from_message(message)
             _check_layout(self.snapshot)
+            if self.snapshot.audio != audio:
+                raise ProtocolError("asked for audio %s, the snapshot announces %s"
+                                    % (audio or "none", self.snapshot.audio or "none"),
+                                    field="audio")
             self.rest: Optional[RestMesh] = None
             self.parts: List[RestMesh] = []
             client = Client(http_base, token, timeout)
@@ -1856,15 +2388,22 @@ class Viewer:
         return self.events()
 
     def recv(self, timeout: Optional[float] = None) -> Optional[ViewerEvent]:
-        """The next event, or None once the server has closed the socket. Raises
-        :class:`TimeoutError` when nothing arrives within ``timeout`` seconds (default: the
-        viewer's ``timeout``)."""
+        """The next event (a :class:`ViewerFrame`, an :class:`AudioChunk` for a viewer that
+        asked for audio, a :class:`StreamEnd` or a :class:`ServerError`), or None once the
+        server has closed the socket. Raises :class:`TimeoutError` when nothing arrives
+        within ``timeout`` seconds (default: the viewer's ``timeout``)."""
         try:
             message = self._socket.receive(self.timeout if timeout is None else timeout)
         except ConnectionClosed as closed:
             self.close_code = closed.code
             return None
         if isinstance(message, bytes):
+            if message[:4] == b"FWA1":
+                chunk = decode_fwa1(message)
+                if chunk.codec != self.audio:
+                    raise ProtocolError("the server sent %s audio to a viewer that asked for %s"
+                                        % (chunk.codec, self.audio or "none"), field="audio")
+                return chunk
             frame = decode_viewer_frame(message)
             if self.rest is not None:
                 frame.positions = frame.apply(self.rest.positions)
@@ -2073,7 +2612,7 @@ def _run(args: argparse.Namespace) -> int:
                           else "end: %s" % event.reason)
                     if args.until_end:
                         return 0
-                else:
+                elif isinstance(event, ServerError):
                     print("error %s: %s" % (event.code, event.message), file=sys.stderr)
                 sys.stdout.flush()
 

@@ -16,7 +16,10 @@ digest, and so must the same frame as a later server might send it (:func:`futur
 with its sections in another order, with a plain delta block, or with an unknown kind given
 twice; malformed variants must raise ``ProtocolError`` naming the field PROTOCOL.md names (as
 the Rust and JavaScript decoders name it);
-and ``encode_fwp2`` is read back by a decoder written here from PROTOCOL.md alone.
+``encode_fwp2`` is read back by a decoder written here from PROTOCOL.md alone; and
+``encode_fwa1``, ``decode_fwa1`` and ``opus_packet_samples`` hold the cases of the Rust unit
+tests in proto/src/audio_chunk.rs (the layout byte by byte, PCM and Opus round trips, the
+refusals by field, a later section skipped, Opus durations), and a few more refusals.
 
 One line per directory and per group of checks; the exit status is 1 when anything failed.
 ``proto/fixtures/capture.py`` imports :func:`digest` and :func:`future_frame` from here, so
@@ -249,9 +252,10 @@ class Checks:
             return
         self.check(name, differences(got, expected))
 
-    def refused(self, name: str, data: bytes, field: str) -> None:
+    def refused(self, name: str, data: bytes, field: str,
+                decode: Callable[[bytes], Any] = fw.decode_viewer_frame) -> None:
         try:
-            fw.decode_viewer_frame(data)
+            decode(data)
         except fw.ProtocolError as e:
             self.check(name, [] if e.field == field else
                        ["field %r, expected %r (%s)" % (e.field, field, e)])
@@ -451,6 +455,122 @@ def check_fwp2() -> bool:
 
 
 # ---------------------------------------------------------------------------------------
+# FWA1 (PROTOCOL.md, "Audio (FWA1)"), on the cases of proto/src/audio_chunk.rs's tests
+
+
+def pcm_chunk(t_s: float, samples: List[int]) -> fw.AudioChunk:
+    """A chunk of 16 kHz PCM, as a producer sends it."""
+    return fw.AudioChunk(t_s, 0, "pcm", 16000, samples)
+
+
+def build_fwa1(sections: Sections) -> bytes:
+    """``FWA1`` at t 1 s from a producer (no receipt), then the sections given."""
+    out = bytearray(b"FWA1" + struct.pack("<dQB", 1.0, 0, len(sections)))
+    for kind, body in sections:
+        out += struct.pack("<BI", kind, len(body)) + body
+    return bytes(out)
+
+
+def decoded_as(data: bytes, want: fw.AudioChunk) -> List[str]:
+    """Problems with ``data`` decoding to ``want``."""
+    try:
+        got = fw.decode_fwa1(data)
+    except fw.ProtocolError as e:
+        return ["ProtocolError: %s" % e]
+    return [] if got == want else ["decoded %r, expected %r" % (got, want)]
+
+
+def check_fwa1() -> bool:
+    """The Rust unit tests' cases (round trips with their layout, Opus durations from the
+    table of contents, malformed chunks by field and a later section skipped), then more
+    refusals of the decoder, and what the encoder will not write."""
+    c = Checks("fwa1")
+    chunk = pcm_chunk(0.25, [0, -1, 32767, -32768])
+    data = fw.encode_fwa1(chunk)
+    # Header 21, section 5 + rate 4 + count 4 + 8 bytes of samples.
+    c.check("the pcm layout", differences(
+        [len(data), list(data[:4]), list(data[21:26]), list(data[34:36])],
+        [21 + 5 + 8 + 8, list(b"FWA1"), [1, 16, 0, 0, 0], [0, 0]]))
+    c.check("pcm round trip", decoded_as(data, chunk) + differences(chunk.duration_s, 4 / 16000))
+    # 20 ms of CELT (config 31: 20 ms, code 0: one frame).
+    opus = fw.AudioChunk(0.25, 0, "opus", 48000, packet=bytes([31 << 3, 0xAA, 0xBB]))
+    c.check("opus round trip", decoded_as(fw.encode_fwa1(opus), opus)
+            + differences(fw.opus_packet_samples(opus.packet), 960))
+
+    # SILK 10 ms x1, SILK 60 ms x2 (code 1), hybrid 20 ms, CELT 2.5 ms x 48 (code 3).
+    # And CELT 2.5 ms x 2 with the count byte's VBR and padding bits set (not the count).
+    for packet, samples in (([0], 480), ([(3 << 3) | 1], 5760), ([13 << 3], 960),
+                            ([(16 << 3) | 3, 48], 5760), ([(16 << 3) | 3, 0xC2], 240)):
+        try:
+            problems = differences(fw.opus_packet_samples(bytes(packet)), samples)
+        except fw.ProtocolError as e:
+            problems = ["ProtocolError: %s" % e]
+        c.check("opus duration of %r" % packet, problems)
+    for packet in ([], [(16 << 3) | 3], [(16 << 3) | 3, 0], [(19 << 3) | 3, 7]):
+        c.refused("opus duration of %r" % packet, bytes(packet), "opus", fw.opus_packet_samples)
+
+    good = fw.encode_fwa1(pcm_chunk(1.0, [5] * 3))
+    decode = fw.decode_fwa1
+    both = bytearray(good)
+    both[20] = 2
+    both += bytes([2, 3, 0, 0, 0, 1, 0, 0])
+    pcm_twice = bytearray(good)
+    pcm_twice[20] = 2
+    pcm_twice += good[21:]
+    bad: List[Tuple[str, bytes, str]] = [
+        ("a rate not listed", patched(good, 26, "I", 44100), "sample_rate"),
+        ("more samples counted than given", patched(good, 30, "I", 4), "pcm"),
+        ("a t_s not finite", patched(good, 4, "d", float("nan")), "t_s"),
+        ("no section", patched(good[:21], 20, "B", 0), "sound"),
+        ("pcm and opus", bytes(both), "sound"),
+        ("not FWA1", b"FWP2xxxx", "magic"),
+        ("pcm twice", bytes(pcm_twice), "sound"),
+        ("cut in the header", good[:15], "server_receive_us"),
+        ("no section count", good[:20], "section count"),
+        ("a section past the message", good[:-1], "section"),
+        ("a section header cut", patched(good, 20, "B", 2) + b"\x01\x00", "section"),
+        ("bytes after the last section", good + b"\x00", "end"),
+        ("pcm without its count", build_fwa1([(1, struct.pack("<I", 16000))]), "pcm count"),
+        ("opus without its length", build_fwa1([(2, b"\x01")]), "opus length"),
+        ("an opus packet cut short", build_fwa1([(2, struct.pack("<H", 3) + b"\x00")]), "opus"),
+        ("an opus packet over 1275 bytes",
+         build_fwa1([(2, struct.pack("<H", 1276) + bytes(1276))]), "opus"),
+        ("an opus packet of 49 frames",
+         build_fwa1([(2, struct.pack("<H", 2) + bytes([(16 << 3) | 3, 49]))]), "opus"),
+    ]
+    for name, data, field in bad:
+        c.refused(name, data, field, decode)
+    later = bytearray(good)
+    later[20] = 2
+    later += bytes([77, 1, 0, 0, 0, 9])
+    c.check("a later section skipped", decoded_as(bytes(later), fw.AudioChunk(
+        1.0, 0, "pcm", 16000, [5] * 3, ignored=[77])))
+    c.check("a pcm section grown at its end", decoded_as(
+        build_fwa1([(1, good[26:] + b"new")]), pcm_chunk(1.0, [5] * 3)))
+    c.check("an opus section grown at its end", decoded_as(
+        build_fwa1([(2, struct.pack("<H", 1) + b"\x00" + b"new")]),
+        fw.AudioChunk(1.0, 0, "opus", 48000, packet=b"\x00")))
+
+    for name, unwritable in [
+            ("a rate not listed", fw.AudioChunk(0.0, 0, "pcm", 44100, [0])),
+            ("a t_s not finite", pcm_chunk(float("inf"), [0])),
+            ("a sample past 16 bits", pcm_chunk(0.0, [32768])),
+            ("a sample that is not an integer", pcm_chunk(0.0, [0.5])),  # type: ignore[list-item]
+            ("pcm with a packet", fw.AudioChunk(0.0, 0, "pcm", 16000, [0], packet=b"\x00")),
+            ("opus not at 48 kHz", fw.AudioChunk(0.0, 0, "opus", 16000, packet=b"\x00")),
+            ("an opus packet over 1275 bytes", fw.AudioChunk(0.0, 0, "opus", 48000,
+                                                             packet=bytes(1276))),
+            ("an empty opus packet", fw.AudioChunk(0.0, 0, "opus", 48000)),
+            ("another codec", fw.AudioChunk(0.0, 0, "mp3", 16000, [0]))]:
+        try:
+            fw.encode_fwa1(unwritable)
+            c.check("encode " + name, ["encoded, expected a FrameError"])
+        except fw.FrameError:
+            c.check("encode " + name, [])
+    return c.summary()
+
+
+# ---------------------------------------------------------------------------------------
 
 
 def check_directory(directory: str) -> bool:
@@ -491,6 +611,7 @@ def main(argv: Sequence[str]) -> int:
     with open(os.path.join(fwf1, "expected.json"), encoding="utf-8") as f:
         ok = check_fwf2(fwf1, json.load(f)) and ok
     ok = check_fwp2() and ok
+    ok = check_fwa1() and ok
     print("fixtures_test: %s" % ("ok" if ok else "FAILED"))
     return 0 if ok else 1
 

@@ -2,19 +2,29 @@
 """End-to-end check of facewire_client.py against a running server.
 
 Registers a head over HTTP, connects two viewers (one asking for FWF2 frames, the
-default, one for the frozen FWF1), pushes the frames of a JSONL file with a producer
-(even-numbered frames as JSON text, odd-numbered ones as binary, alternately FWP2 and the
-frozen FWP1; the first FWP2 frame carries an extra section of kind 99, which no server
-knows), repeats one frame to provoke an ``out_of_order`` refusal, ends the stream, collects
-both viewers' decoded frames until ``end``, posts the same frames as a batch, and writes
-everything (acks, the refusal, seq/label/step/positions/head motion/tongue of every frame
-the FWF2 viewer decoded, the client's name tables) to a JSON file.
+default, and for PCM audio, one for the frozen FWF1 and no audio), pushes the frames of a
+JSONL file with a producer (even-numbered frames as JSON text, odd-numbered ones as binary,
+alternately FWP2 and the frozen FWP1; the first FWP2 frame carries an extra section of kind
+99, which no server knows), repeats one frame to provoke an ``out_of_order`` refusal, ends
+the stream, collects both viewers' decoded frames until ``end``, posts the same frames as a
+batch, and writes everything (acks, the refusal, seq/label/step/positions/head motion/tongue
+of every frame the FWF2 viewer decoded, the client's name tables, the audio sent and heard)
+to a JSON file.
+
+Alongside the first frames the producer sends the stream's voice, 20 ms chunks of 16 kHz
+PCM (:func:`send_audio_along`): from integers, from bytes, a call cut into two chunks, a
+WAV file, and one chunk overlapping the one before it, sent just before a parameter frame,
+so that the server's refusal of it arrives ahead of that frame's ack. The frame must still
+get its own ack, and the refusal must come out of the next audio call as ``AudioRefused``.
 
 tests/python_client.rs runs it against an in-process server and compares the decoded
 positions with what the library computes. What needs no library to check, this script
-checks itself, and exits 1 naming what failed: the snapshots announce the layouts asked
-for, the ack of the frame with kind 99 says ``"ignored": [99]`` and no other ack ignores
-anything, and every frame both viewers got decodes the same from FWF2 as from FWF1.
+checks itself, and exits 1 naming what failed: the snapshots announce the layouts and the
+audio asked for, the ack of the frame with kind 99 says ``"ignored": [99]`` and no other
+ack ignores anything, every frame both viewers got decodes the same from FWF2 as from FWF1,
+the audio viewer heard every accepted chunk and nothing else, in order and byte for byte
+(stamped with the server's receipt), the other viewer heard none, and the overlapping chunk
+was refused as ``out_of_order`` (field ``t``) by the next audio call.
 
     python3 clients/python/selftest.py --url http://127.0.0.1:PORT --head mh \\
         --obj data/heads/makehuman_head.obj --fit data/heads/makehuman_head.fit.toml \\
@@ -26,11 +36,14 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
 import struct
 import sys
+import tempfile
 import threading
 import time
-from typing import Any, Dict, List, Optional
+import wave
+from typing import Any, Dict, List, Optional, Tuple
 
 import facewire_client as fw
 
@@ -39,8 +52,10 @@ def collect(viewer: fw.Viewer, result: Dict[str, Any], timeout_s: float) -> None
     """Reads viewer events until ``end`` (or a close, or ``timeout_s`` of silence)."""
     frames: List[Dict[str, Any]] = []
     errors: List[Dict[str, Any]] = []
+    audio: List[Dict[str, Any]] = []
     result["frames"] = frames
     result["viewer_errors"] = errors
+    result["audio"] = audio
     result["end"] = None
     try:
         while True:
@@ -64,6 +79,8 @@ def collect(viewer: fw.Viewer, result: Dict[str, Any], timeout_s: float) -> None
                     "placed_first": list(event.place(event.positions[:1])[0]),
                     "tongue": None if event.tongue is None else len(event.tongue.moved),
                 })
+            elif isinstance(event, fw.AudioChunk):  # PCM, as asked: no packet to keep
+                audio.append({k: v for k, v in dataclasses.asdict(event).items() if k != "packet"})
             elif isinstance(event, fw.StreamEnd):
                 result["end"] = event.reason
                 return
@@ -78,6 +95,123 @@ def with_unknown_section(fwp2: bytes) -> bytes:
     producer newer than the server might send. The server must skip it and say so."""
     count = fwp2[20]
     return fwp2[:20] + bytes([count + 1]) + fwp2[21:] + struct.pack("<BI", 99, 3) + b"new"
+
+
+#: The audio's sample rate, and the samples in one of the producer's 20 ms chunks.
+RATE = 16000
+CHUNK = 320
+
+
+def pcm(tag: int, count: int) -> List[int]:
+    """``count`` samples that differ from one call (``tag``) to the next and reach both
+    ends of 16 bits, so that a sample decoded wrong or out of order shows."""
+    return [32767 if i == 1 else -32768 if i == 2 else (tag * 7919 + i * 263) % 65536 - 32768
+            for i in range(count)]
+
+
+def write_wav(path: str, samples: List[int], channels: int = 1) -> None:
+    """A 16-bit WAV at :data:`RATE` (each sample repeated on every channel)."""
+    with wave.open(path, "wb") as w:
+        w.setnchannels(channels)
+        w.setsampwidth(2)
+        w.setframerate(RATE)
+        w.writeframes(struct.pack("<%dh" % (len(samples) * channels),
+                                  *[x for x in samples for _ in range(channels)]))
+
+
+def send_audio_along(producer: fw.Producer, i: int, t: float, wav_dir: str,
+                     audio: Dict[str, Any]) -> float:
+    """The audio sent after frame ``i`` (the first six), starting at stream time ``t``;
+    returns where the next starts. Every call the server should accept goes to
+    ``audio["calls"]`` as ``(t, samples)``; what an audio call raised goes to
+    ``audio["refused"]``, ``audio["wav_refused"]``."""
+    calls: List[Tuple[float, List[int]]] = audio["calls"]
+    if i == 0:
+        block = pcm(i, CHUNK)
+        calls.append((t, block))
+        return producer.send_audio(t, block, RATE)
+    if i == 1:  # the same as little-endian bytes
+        block = pcm(i, CHUNK)
+        calls.append((t, block))
+        return producer.send_audio(t, struct.pack("<%dh" % len(block), *block), RATE)
+    if i == 2:  # 40 ms, which goes as two chunks
+        block = pcm(i, 2 * CHUNK)
+        calls.append((t, block))
+        return producer.send_audio(t, block, RATE)
+    if i == 3:  # then half a chunk back: refused, the answer on its way as frame 4 goes
+        block = pcm(i, CHUNK)
+        calls.append((t, block))
+        end = producer.send_audio(t, block, RATE)
+        producer.send_audio(end - 0.01, pcm(99, CHUNK), RATE)
+        return end
+    if i == 4:  # frame 4's ack came after the refusal: this call raises it, sending nothing
+        block = pcm(i, CHUNK)
+        try:
+            producer.send_audio(t, block, RATE)
+        except fw.AudioRefused as e:
+            audio["refused"] = {"code": e.code, "field": e.field, "seq": e.seq,
+                                "count": len(e.refusals), "message": e.message}
+        calls.append((t, block))
+        return producer.send_audio(t, block, RATE)
+    # i == 5: a WAV file, 62.5 ms (three chunks and a short one), at its own pace; a
+    # stereo one is refused before anything is sent.
+    block = pcm(i, 1000)
+    mono, stereo = os.path.join(wav_dir, "mono.wav"), os.path.join(wav_dir, "stereo.wav")
+    write_wav(mono, block)
+    write_wav(stereo, block, channels=2)
+    try:
+        producer.send_wav(stereo, t_s=t)
+    except fw.FrameError as e:
+        audio["wav_refused"] = str(e)
+    calls.append((t, block))
+    return producer.send_wav(mono, t_s=t)
+
+
+def expected_audio(calls: List[Tuple[float, List[int]]]) -> List[bytes]:
+    """Every chunk the accepted calls send, encoded as a producer sends it: each call cut
+    into 20 ms chunks at ``t + i / rate`` (:meth:`Producer.send_audio`)."""
+    return [fw.encode_fwa1(fw.AudioChunk(t + i / RATE, 0, "pcm", RATE, block[i:i + CHUNK]))
+            for t, block in calls for i in range(0, len(block), CHUNK)]
+
+
+def check_audio(viewer: fw.Viewer, viewer_fwf1: fw.Viewer, audio: Dict[str, Any],
+                seen: Dict[str, Any], seen_fwf1: Dict[str, Any]) -> List[str]:
+    """The audio: announced to the viewer that asked for it only, heard by it as sent
+    (but for the server's receipt) and in order, the overlapping chunk refused by name."""
+    problems: List[str] = []
+    if viewer.snapshot.audio != "pcm" or "audio" not in viewer.snapshot.messages:
+        problems.append("asked for pcm audio, the snapshot announces %r with messages %r"
+                        % (viewer.snapshot.audio, viewer.snapshot.messages))
+    if viewer_fwf1.snapshot.audio is not None or "audio" in viewer_fwf1.snapshot.messages:
+        problems.append("asked for no audio, the snapshot announces %r with messages %r"
+                        % (viewer_fwf1.snapshot.audio, viewer_fwf1.snapshot.messages))
+    want = expected_audio(audio["calls"])
+    heard = [fw.AudioChunk(**chunk) for chunk in seen.get("audio", [])]
+    got = [fw.encode_fwa1(dataclasses.replace(chunk, server_receive_us=0, ignored=[]))
+           for chunk in heard]
+    if got != want:
+        first = next((k for k, (g, w) in enumerate(zip(got, want)) if g != w),
+                     min(len(got), len(want)))
+        problems.append("the audio viewer heard %d chunks, %d were sent and accepted; the "
+                        "first to differ is number %d" % (len(got), len(want), first))
+    for chunk in heard:
+        if chunk.server_receive_us < 1_700_000_000_000_000 or chunk.ignored:
+            problems.append("chunk at t %s: server_receive_us %d, ignored %r"
+                            % (chunk.t_s, chunk.server_receive_us, chunk.ignored))
+    if seen_fwf1.get("audio"):
+        problems.append("the viewer that asked for no audio heard %d chunks"
+                        % len(seen_fwf1["audio"]))
+    refused = audio.get("refused")
+    if refused is None:
+        problems.append("the chunk overlapping the one before it was not refused by the next "
+                        "audio call")
+    elif (refused["code"], refused["field"], refused["seq"], refused["count"]) \
+            != ("out_of_order", "t", None, 1):
+        problems.append("the overlapping chunk: expected one out_of_order refusal of field t, "
+                        "got %r" % refused)
+    if "wav_refused" not in audio:
+        problems.append("send_wav sent a stereo file")
+    return problems
 
 
 def check(viewer: fw.Viewer, viewer_fwf1: fw.Viewer, sent: List[Dict[str, Any]],
@@ -135,7 +269,7 @@ def main() -> int:
     heads = [info["id"] for info in client.list_heads()]
     frames = list(fw.read_jsonl(args.frames))
 
-    viewer = fw.Viewer(args.url, args.head, args.stream, timeout=30.0)
+    viewer = fw.Viewer(args.url, args.head, args.stream, timeout=30.0, audio="pcm")
     assert viewer.rest is not None
     viewer_fwf1 = fw.Viewer(args.url, args.head, args.stream, timeout=30.0, frame_format="fwf1")
     seen: Dict[str, Any] = {}
@@ -148,6 +282,9 @@ def main() -> int:
     sent: List[Dict[str, Any]] = []
     refusal: Optional[Dict[str, Any]] = None
     repeat_at = len(frames) // 2
+    audio: Dict[str, Any] = {"calls": []}
+    audio_t = frames[0]["t"]
+    wav_dir = tempfile.mkdtemp(prefix="facewire-selftest-")
     producer = fw.Producer(args.url, args.head, args.stream, timeout=30.0)
     try:
         for i, frame in enumerate(frames):
@@ -168,11 +305,17 @@ def main() -> int:
                     producer.send(frame, binary=False)
                 except fw.Refused as e:
                     refusal = {"code": e.code, "field": e.field, "seq": e.seq, "message": e.message}
+            if i < 6:
+                audio_t = send_audio_along(producer, i, audio_t, wav_dir, audio)
         ended = producer.end()
         if ended.reason != "producer_ended":
             raise SystemExit("the server answered end with %r" % ended)
+        producer.check_audio()  # nothing refused since the overlapping chunk
     finally:
         producer.close()
+        for name in os.listdir(wav_dir):
+            os.remove(os.path.join(wav_dir, name))
+        os.rmdir(wav_dir)
     for reader in readers:
         reader.join(60.0)
     viewer.close()
@@ -194,6 +337,8 @@ def main() -> int:
         },
         "sent": sent,
         "refusal": refusal,
+        "audio_sent": {"chunks": len(expected_audio(audio["calls"])),
+                       "refused": audio.get("refused"), "wav_refused": audio.get("wav_refused")},
         "batch": batch,
         "tables": {
             "animation_units": [list(names) for names in fw.ANIMATION_UNIT_NAMES],
@@ -202,7 +347,8 @@ def main() -> int:
         },
     }
     result.update(seen)
-    problems = check(viewer, viewer_fwf1, sent, seen, seen_fwf1)
+    problems = (check(viewer, viewer_fwf1, sent, seen, seen_fwf1)
+                + check_audio(viewer, viewer_fwf1, audio, seen, seen_fwf1))
     result["problems"] = problems
     with open(args.out, "w", encoding="utf-8") as f:
         json.dump(result, f)
@@ -211,6 +357,9 @@ def main() -> int:
           % (len(sent), sum(s["layout"] == "fwp2" for s in sent),
              sum(s["layout"] == "fwp1" for s in sent), len(seen.get("frames", [])),
              len(seen_fwf1.get("frames", [])), seen.get("end")))
+    print("sent %d audio chunks and one refused (%s), the audio viewer heard %d, the other "
+          "viewer %d" % (result["audio_sent"]["chunks"], (audio.get("refused") or {}).get("code"),
+                         len(seen.get("audio", [])), len(seen_fwf1.get("audio", []))))
     for problem in problems:
         print("selftest: %s" % problem, file=sys.stderr)
     return 1 if problems else 0

@@ -30,6 +30,7 @@ mod ids;
 mod ingest;
 mod listen;
 mod ops;
+mod opus_encode;
 mod pipeline;
 pub mod process;
 mod producer;

@@ -1,0 +1,153 @@
+//! A stream's PCM voice as Opus packets, for the viewers that ask for Opus while the
+//! producer sends PCM: encoded once per stream (never per viewer) in 20 ms packets, as
+//! WebRTC sends them, at 20 kbit/s in libopus's VoIP mode. Chunks of any length are cut into
+//! 20 ms frames on the stream's timeline; a gap in it (silence the producer did not send)
+//! closes the pending frame with zeros, so every packet's `t` is where its first sample
+//! plays.
+
+use facewire_proto::audio_chunk::MAX_OPUS_PACKET;
+
+/// Opus's bit rate for speech here, bits per second: 2.5 kB/s of packets, which with
+/// 28 bytes of FWA1 framing per 20 ms packet stays under 4 kB/s a viewer.
+pub const OPUS_BITRATE: i32 = 20_000;
+/// Samples a packet covers, as a fraction of a second.
+const FRAME_S: f64 = 0.02;
+/// Slack when a chunk starts where the pending samples end, seconds.
+const CONTIGUOUS_S: f64 = 1e-3;
+
+#[derive(Debug, thiserror::Error)]
+#[error("encoding the stream's PCM as Opus: {0}")]
+pub struct OpusEncodeError(#[from] opus::Error);
+
+pub struct OpusStreamEncoder {
+    encoder: opus::Encoder,
+    rate: f64,
+    /// Samples of a 20 ms frame at the stream's rate.
+    frame: usize,
+    /// Samples of the frame being filled, and the stream time of its first.
+    pending: Vec<i16>,
+    pending_t: f64,
+    packet: Vec<u8>,
+}
+
+impl OpusStreamEncoder {
+    /// An encoder for mono PCM at `sample_rate` (16, 24 or 48 kHz).
+    pub fn new(sample_rate: u32) -> Result<OpusStreamEncoder, OpusEncodeError> {
+        let mut encoder = opus::Encoder::new(sample_rate, opus::Channels::Mono, opus::Application::Voip)?;
+        encoder.set_bitrate(opus::Bitrate::Bits(OPUS_BITRATE))?;
+        let frame = (f64::from(sample_rate) * FRAME_S).round() as usize;
+        Ok(OpusStreamEncoder {
+            encoder,
+            rate: f64::from(sample_rate),
+            frame,
+            pending: Vec::with_capacity(frame),
+            pending_t: 0.0,
+            packet: vec![0; MAX_OPUS_PACKET],
+        })
+    }
+
+    /// Adds a chunk of `samples` whose first plays at stream time `t_s`; `emit` gets each
+    /// packet completed, with the stream time of its first sample.
+    pub fn push(
+        &mut self,
+        t_s: f64,
+        samples: &[i16],
+        mut emit: impl FnMut(f64, &[u8]),
+    ) -> Result<(), OpusEncodeError> {
+        let pending_end = self.pending_t + self.pending.len() as f64 / self.rate;
+        if !self.pending.is_empty() && (t_s - pending_end).abs() > CONTIGUOUS_S {
+            self.pending.resize(self.frame, 0);
+            self.encode_pending(&mut emit)?;
+        }
+        let mut t = t_s;
+        let mut rest = samples;
+        while !rest.is_empty() {
+            if self.pending.is_empty() {
+                self.pending_t = t;
+            }
+            let take = (self.frame - self.pending.len()).min(rest.len());
+            self.pending.extend_from_slice(&rest[..take]);
+            rest = &rest[take..];
+            t += take as f64 / self.rate;
+            if self.pending.len() == self.frame {
+                self.encode_pending(&mut emit)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn encode_pending(&mut self, emit: &mut impl FnMut(f64, &[u8])) -> Result<(), OpusEncodeError> {
+        let length = self.encoder.encode(&self.pending, &mut self.packet)?;
+        emit(self.pending_t, &self.packet[..length]);
+        self.pending.clear();
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use facewire_proto::audio_chunk::opus_packet_samples;
+
+    /// A 440 Hz tone at 16 kHz from sample `from`, `n` samples.
+    fn tone(from: usize, n: usize) -> Vec<i16> {
+        (from..from + n)
+            .map(|i| (8_000.0 * (i as f64 * 440.0 * std::f64::consts::TAU / 16_000.0).sin()) as i16)
+            .collect()
+    }
+
+    #[test]
+    fn chunks_of_any_length_become_20_ms_packets_on_the_stream_s_timeline() {
+        let mut encoder = OpusStreamEncoder::new(16_000).unwrap();
+        let mut packets: Vec<(f64, Vec<u8>)> = Vec::new();
+        let mut at = 0;
+        for n in [100, 250, 290, 10] {
+            let t = at as f64 / 16_000.0;
+            encoder
+                .push(t, &tone(at, n), |t, p| packets.push((t, p.to_vec())))
+                .unwrap();
+            at += n;
+        }
+        // 650 samples: two full frames; 10 pending.
+        assert_eq!(packets.len(), 2);
+        assert!((packets[0].0 - 0.0).abs() < 1e-12 && (packets[1].0 - 0.02).abs() < 1e-12);
+        // A chunk half a second later: the pending 10 samples close with silence first.
+        encoder
+            .push(0.5, &tone(8_000, 320), |t, p| packets.push((t, p.to_vec())))
+            .unwrap();
+        let times: Vec<f64> = packets.iter().map(|p| p.0).collect();
+        assert_eq!(times.len(), 4);
+        assert!(
+            (times[2] - 0.04).abs() < 1e-12 && (times[3] - 0.5).abs() < 1e-12,
+            "{times:?}"
+        );
+
+        // Every packet is 20 ms and decodes to the tone.
+        let mut decoder = opus::Decoder::new(16_000, opus::Channels::Mono).unwrap();
+        let mut out = vec![0i16; 320];
+        for (i, (_, packet)) in packets.iter().enumerate() {
+            assert_eq!(opus_packet_samples(packet, 0), Ok(960));
+            assert_eq!(decoder.decode(packet, &mut out, false).unwrap(), 320);
+            if i == 1 {
+                let energy = out.iter().map(|&s| f64::from(s).powi(2)).sum::<f64>() / 320.0;
+                // The tone's mean square is 8000^2 / 2; a voice codec keeps most of it.
+                assert!(energy > 0.5 * 32e6 && energy < 1.5 * 32e6, "{energy}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_second_of_voice_costs_a_viewer_under_4_kb() {
+        let mut encoder = OpusStreamEncoder::new(16_000).unwrap();
+        let mut bytes = 0;
+        for i in 0..50 {
+            encoder
+                .push(i as f64 * 0.02, &tone(i * 320, 320), |_, p| bytes += p.len() + 26)
+                .unwrap();
+        }
+        // Packets and their FWA1 framing (21 header + 5 section + 2 length bytes, minus the
+        // packet's own 2 counted above): the budget is 4 kB/s per viewer.
+        eprintln!("Opus for one viewer: {bytes} bytes a second with FWA1 framing");
+        assert!(bytes < 4_000, "{bytes} bytes a second");
+    }
+}
