@@ -790,6 +790,47 @@ async fn a_producer_s_audio_reaches_the_viewers_that_ask_for_it() {
             other => panic!("an Opus viewer got {other:?}"),
         }
     }
+    // An Opus producer is heard by a PCM viewer: each packet decoded once, at its own t.
+    let mut pcm_viewer = connect(&server.ws("/v1/heads/mh/streams/o/view?format=fwf2&audio=pcm")).await;
+    assert!(matches!(
+        next_json(&mut pcm_viewer).await,
+        ServerMessage::Snapshot(_)
+    ));
+    let mut opus_producer = connect(&server.ws("/v1/heads/mh/streams/o/produce")).await;
+    let mut encoder = opus::Encoder::new(48_000, opus::Channels::Mono, opus::Application::Voip).unwrap();
+    for i in 0..3 {
+        let tone: Vec<i16> = (0..960)
+            .map(|k| (6_000.0 * (f64::from(i * 960 + k) * 0.06).sin()) as i16)
+            .collect();
+        let chunk = AudioChunk {
+            body: AudioBody::Opus {
+                packet: encoder.encode_vec(&tone, 1275).unwrap(),
+            },
+            ..pcm_chunk(0.02 * f64::from(i), 0)
+        };
+        opus_producer
+            .send(Message::Binary(chunk.encode().into()))
+            .await
+            .unwrap();
+    }
+    let mut decoded = Vec::new();
+    while decoded.len() < 3 {
+        if let Some(Message::Binary(bytes)) = next_message(&mut pcm_viewer).await {
+            if bytes.starts_with(b"FWA1") {
+                decoded.push(AudioChunk::decode(&bytes).unwrap());
+            }
+        }
+    }
+    for (i, chunk) in decoded.iter().enumerate() {
+        assert!((chunk.t_s - 0.02 * i as f64).abs() < 1e-9, "{}", chunk.t_s);
+        match &chunk.body {
+            AudioBody::Pcm { sample_rate, samples } => {
+                assert_eq!((*sample_rate, samples.len()), (48_000, 960))
+            }
+            other => panic!("a PCM viewer got {other:?}"),
+        }
+    }
+
     // A viewer asking for a codec there is no such thing as is refused by name.
     let mut bad = connect(&server.ws("/v1/heads/mh/streams/s/view?audio=mp3")).await;
     match next_json(&mut bad).await {

@@ -17,13 +17,12 @@ use super::audio_gate::AudioGate;
 use super::error::ApiError;
 use super::head::HeadEntry;
 use super::ingest::{parse_audio, parse_binary, parse_text, Incoming};
-use super::opus_encode::OpusStreamEncoder;
 use super::rate::ProducerGate;
 use super::socket::{close, close_for, error, refuse, text};
-use super::stream::RelayedAudio;
 use super::stream::{ProducerPermit, Stream};
+use super::transcode::Transcoder;
 use super::{now_us, AppState};
-use facewire_proto::audio_chunk::{AudioBody, AudioChunk, AUDIO_MAGIC};
+use facewire_proto::audio_chunk::AUDIO_MAGIC;
 use facewire_proto::codes::{CloseCode, EndReason, ErrorCode};
 use facewire_proto::messages::ServerMessage;
 
@@ -132,8 +131,8 @@ where
     let mask = &state.mask;
     let mut gate = ProducerGate::new(state.config.limits.max_fps);
     let mut audio = AudioGate::new();
-    // The stream's PCM as Opus, once for every viewer that asks for Opus.
-    let mut opus: Option<OpusStreamEncoder> = None;
+    // The stream's voice in the other codec, once for every viewer that asks for it.
+    let mut transcoder = Transcoder::default();
     // The newest accepted frame's `t`, which audio must stay near.
     let mut last_t = None;
     let mut messages = 0u64;
@@ -164,7 +163,7 @@ where
                     Ok((chunk, relayed)) => {
                         permit.publish_audio(relayed);
                         state.telemetry.audio_in.inc();
-                        publish_as_opus(&chunk, &mut opus, permit, state);
+                        transcoder.publish(&chunk, permit, &state.telemetry);
                         continue;
                     }
                     Err(refusal) => Err(refusal),
@@ -199,50 +198,6 @@ where
         if socket.send(text(&reply)).await.is_err() {
             return Ending::Gone(None);
         }
-    }
-}
-
-/// An accepted PCM chunk encoded into the stream's Opus packets (20 ms each, stamped with
-/// the chunk's receipt) for the viewers that asked for Opus. An encoder that fails is
-/// logged, counted and dropped (the next chunk makes a new one); the PCM goes on.
-fn publish_as_opus(
-    chunk: &AudioChunk,
-    opus: &mut Option<OpusStreamEncoder>,
-    permit: &ProducerPermit,
-    state: &AppState,
-) {
-    let AudioBody::Pcm { sample_rate, samples } = &chunk.body else {
-        return;
-    };
-    let encoder = match opus {
-        Some(encoder) => encoder,
-        None => match OpusStreamEncoder::new(*sample_rate) {
-            Ok(encoder) => opus.insert(encoder),
-            Err(e) => {
-                tracing::warn!(error = %e, "no Opus for this stream");
-                state.telemetry.reject("opus_encoder");
-                return;
-            }
-        },
-    };
-    let pushed = encoder.push(chunk.t_s, samples, |t_s, packet| {
-        let opus_chunk = AudioChunk {
-            t_s,
-            server_receive_us: chunk.server_receive_us,
-            body: AudioBody::Opus {
-                packet: packet.to_vec(),
-            },
-            ignored: Vec::new(),
-        };
-        permit.publish_audio(RelayedAudio {
-            codec: "opus",
-            message: Message::Binary(opus_chunk.encode().into()),
-        });
-    });
-    if let Err(e) = pushed {
-        tracing::warn!(error = %e, "Opus encoding stopped for this stream");
-        state.telemetry.reject("opus_encoder");
-        *opus = None;
     }
 }
 

@@ -1,0 +1,91 @@
+//! A producer's voice in the other codec, for the viewers that ask for it: PCM chunks are
+//! encoded to Opus and Opus packets decoded to PCM, once per stream (in the producer's
+//! task), and published beside the chunks as sent. A codec that fails is logged, counted
+//! (`facewire_frames_rejected_total{code="transcode"}`) and made anew at the next chunk;
+//! the chunks as sent go on.
+
+use axum::extract::ws::Message;
+
+use super::opus_decode::OpusStreamDecoder;
+use super::opus_encode::OpusStreamEncoder;
+use super::stream::{ProducerPermit, RelayedAudio};
+use super::telemetry::Telemetry;
+use facewire_proto::audio_chunk::{AudioBody, AudioChunk, OPUS_RATE};
+
+/// One producer connection's codecs, made at the first chunk that needs them.
+#[derive(Default)]
+pub struct Transcoder {
+    encoder: Option<OpusStreamEncoder>,
+    decoder: Option<OpusStreamDecoder>,
+}
+
+impl Transcoder {
+    /// Publishes `chunk` (accepted, stamped with its receipt) in the other codec.
+    pub fn publish(&mut self, chunk: &AudioChunk, permit: &ProducerPermit, telemetry: &Telemetry) {
+        let publish = |t_s: f64, body: AudioBody| {
+            let codec = body.codec();
+            let out = AudioChunk {
+                t_s,
+                server_receive_us: chunk.server_receive_us,
+                body,
+                ignored: Vec::new(),
+            };
+            permit.publish_audio(RelayedAudio {
+                codec,
+                message: Message::Binary(out.encode().into()),
+            });
+        };
+        let failed = match &chunk.body {
+            AudioBody::Pcm { sample_rate, samples } => {
+                let encoder = match self.encoder.take() {
+                    Some(encoder) => Ok(encoder),
+                    None => OpusStreamEncoder::new(*sample_rate),
+                };
+                match encoder.and_then(|mut encoder| {
+                    encoder.push(chunk.t_s, samples, |t_s, packet| {
+                        publish(
+                            t_s,
+                            AudioBody::Opus {
+                                packet: packet.to_vec(),
+                            },
+                        )
+                    })?;
+                    Ok(encoder)
+                }) {
+                    Ok(encoder) => {
+                        self.encoder = Some(encoder);
+                        None
+                    }
+                    Err(e) => Some(e.to_string()),
+                }
+            }
+            AudioBody::Opus { packet } => {
+                let decoder = match self.decoder.take() {
+                    Some(decoder) => Ok(decoder),
+                    None => OpusStreamDecoder::new(),
+                };
+                match decoder.and_then(|mut decoder| {
+                    let samples = decoder.decode(packet)?.to_vec();
+                    publish(
+                        chunk.t_s,
+                        AudioBody::Pcm {
+                            sample_rate: OPUS_RATE,
+                            samples,
+                        },
+                    );
+                    Ok(decoder)
+                }) {
+                    Ok(decoder) => {
+                        self.decoder = Some(decoder);
+                        None
+                    }
+                    Err(e) => Some(e.to_string()),
+                }
+            }
+        };
+        if let Some(error) = failed {
+            tracing::warn!(%error, "a chunk was not transcoded for this stream");
+            telemetry.reject("transcode");
+        }
+    }
+}
