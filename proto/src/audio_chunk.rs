@@ -30,9 +30,6 @@ pub const OPUS_RATE: u32 = 48_000;
 /// RFC 6716's largest packet, bytes.
 pub const MAX_OPUS_PACKET: usize = 1275;
 
-/// Every section kind an audio message may carry, by number and name.
-pub const SECTIONS: [(u8, &str); 2] = [(PCM, "pcm"), (OPUS, "opus")];
-
 /// The sound of one chunk.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum AudioBody {
