@@ -25,3 +25,4 @@ pub mod server;
 pub mod stream;
 pub mod targets;
 pub mod text_table;
+pub mod voice;

@@ -5,8 +5,8 @@
 //! sending shows as stalled and a new stream appears in the picker, that the heat-map's
 //! scale is picked and kept in the URL, that a head posted with neither a fit nor landmarks
 //! is fitted, shown with its fit report and talks, that an unknown head shows the error
-//! state, and that a page given two cluster nodes moves to the second when the first is
-//! killed.
+//! state, that a page given two cluster nodes moves to the second when the first is
+//! killed, and that with the sound on the face is seen when its voice is heard.
 //! WebDriver is plain HTTP and JSON, spoken here with reqwest; the test's own producer
 //! speaks WebSocket with tokio-tungstenite.
 
@@ -214,6 +214,22 @@ impl Browser {
         false
     }
 
+    /// Clicks the element as a user would (WebDriver's trusted click: it counts as the
+    /// user's gesture that lets a page play sound).
+    async fn click(&self, css: &str) {
+        let found = self
+            .command("/element", Some(json!({ "using": "css selector", "value": css })))
+            .await;
+        let id = found
+            .as_object()
+            .and_then(|o| o.values().next())
+            .and_then(Value::as_str)
+            .unwrap()
+            .to_string();
+        self.command(&format!("/element/{id}/click"), Some(json!({})))
+            .await;
+    }
+
     async fn quit(self) {
         let _ = self.http.delete(&self.session).send().await;
     }
@@ -394,6 +410,7 @@ async fn check_the_page(browser: &Browser) {
     check_the_inner_mouth_close_up(browser, &url, long).await;
     check_a_stalled_stream(browser, &url, long).await;
     check_a_head_posted_with_no_fit(browser, &url, long).await;
+    check_the_face_is_seen_when_its_voice_is_heard(browser, &url, long).await;
 
     // An unknown head: the server's error and close 4404 end in the error state.
     browser.open(&format!("{url}?head=nosuch")).await;
@@ -726,4 +743,190 @@ async fn check_the_heat_map_scale(browser: &Browser, url: &str, long: Duration) 
             .await,
         "the folds view does not move"
     );
+}
+
+/// Seconds of clicks the A/V sync check measures (`FACEWIRE_SYNC_S`, default 60; the
+/// drift goal is over 600).
+fn sync_seconds() -> u64 {
+    std::env::var("FACEWIRE_SYNC_S")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(60)
+}
+
+/// A/V sync: the test's producer sends a voice of silence with a click at `k + 0.5` s and
+/// frames (30 fps) whose jaw opens at the same `t` and stays open 0.3 s. With the sound on,
+/// for each click, (when the page drew the first open frame) - (when the click's `t` was
+/// heard, by the page's audio clock: `getOutputTimestamp`) must be within +/-15 ms
+/// (median), under 30 ms at the 95th percentile, and drift under 5 ms from the first
+/// clicks to the last.
+async fn check_the_face_is_seen_when_its_voice_is_heard(browser: &Browser, url: &str, long: Duration) {
+    use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
+    const RATE: u32 = 16_000;
+    const FPS: f64 = 30.0;
+    const OPEN_S: f64 = 0.3;
+    let seconds = sync_seconds();
+    // Software WebGL draws a smaller window faster; the page is what is measured, not SwiftShader.
+    browser
+        .command("/window/rect", Some(json!({ "width": 800, "height": 600 })))
+        .await;
+    let producer = connect_producer(url, "makehuman", "clicks").await;
+    let (mut tx, mut rx) = producer.split();
+    let drain = tokio::spawn(async move {
+        let mut refusals = Vec::new();
+        while let Some(Ok(message)) = rx.next().await {
+            if let Ok(text) = message.to_text() {
+                if text.contains("\"error\"") {
+                    refusals.push(text.to_string());
+                }
+            }
+        }
+        refusals
+    });
+    let total_s = seconds as f64 + 12.0;
+    let frames = (total_s * FPS) as u64;
+    let chunk = (RATE / 50) as usize;
+    let chunks = (total_s * 50.0) as u64;
+    // (t, message) in time order, frames before chunks at the same t.
+    let mut messages: Vec<(f64, Message)> = Vec::new();
+    let mut clicks = Vec::new();
+    for i in 0..frames {
+        let t = i as f64 / FPS;
+        let into = t - t.floor();
+        let (jaw, label) = if (0.5..0.5 + OPEN_S).contains(&into) {
+            (
+                0.5,
+                if (into - 0.5).abs() < 1e-9 {
+                    "click"
+                } else {
+                    "open"
+                },
+            )
+        } else {
+            (0.0, "rest")
+        };
+        if label == "click" {
+            clicks.push(t);
+        }
+        let line = format!(r#"{{"seq":{i},"t":{t},"label":"{label}","au":{{"jaw_drop":{jaw}}}}}"#);
+        messages.push((t, Message::Text(line.into())));
+    }
+    for c in 0..chunks {
+        let first = c as usize * chunk;
+        let mut samples = vec![0i16; chunk];
+        for &click in &clicks {
+            let at = (click * f64::from(RATE)).round() as usize;
+            // A 2 ms click from its first sample on.
+            for (k, sample) in samples.iter_mut().enumerate() {
+                if (at..at + 32).contains(&(first + k)) {
+                    *sample = 24_000;
+                }
+            }
+        }
+        let body = AudioBody::Pcm {
+            sample_rate: RATE,
+            samples,
+        };
+        let t_s = first as f64 / f64::from(RATE);
+        let bytes = AudioChunk {
+            t_s,
+            server_receive_us: 0,
+            body,
+            ignored: Vec::new(),
+        }
+        .encode();
+        messages.push((t_s, Message::Binary(bytes.into())));
+    }
+    messages.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let send = tokio::spawn(async move {
+        let start = tokio::time::Instant::now();
+        for (t, message) in messages {
+            tokio::time::sleep_until(start + Duration::from_secs_f64(t)).await;
+            if tx.send(message).await.is_err() {
+                break;
+            }
+        }
+        let _ = tx.send(Message::Text(r#"{"type":"end"}"#.into())).await;
+        tokio::time::sleep(Duration::from_millis(200)).await;
+        let _ = tx.close().await;
+    });
+    browser.open(&format!("{url}?head=makehuman&stream=clicks")).await;
+    browser
+        .wait_for("the clicks view live", &state_is("status-0", "live"), long)
+        .await;
+    browser.click("#sound").await;
+    let started = browser
+        .wait_for(
+            "the voice to be heard",
+            "return window.facewireSound.heardTime(performance.now())",
+            long,
+        )
+        .await;
+    send.await.unwrap();
+    let refusals = drain.await.unwrap();
+    assert!(refusals.is_empty(), "the producer was refused: {refusals:?}");
+    let log = browser
+        .js("return window.facewireSound.syncLog.filter(e => e.view === 0)")
+        .await;
+    let log: Vec<(f64, String, f64)> = log
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| {
+            (
+                e["t"].as_f64().unwrap(),
+                e["label"].as_str().unwrap_or("").to_string(),
+                e["offsetMs"].as_f64().unwrap(),
+            )
+        })
+        .collect();
+    // Clicks from 2 s after the sound started (the playout delay settles), to the end.
+    let from = started.as_f64().unwrap_or(0.0) + 2.0;
+    let measured: Vec<f64> = clicks
+        .iter()
+        .filter(|&&click| click >= from)
+        .filter_map(|&click| {
+            log.iter()
+                .find(|(t, label, _)| *t >= click - 1e-6 && *t < click + OPEN_S && label != "rest")
+                .map(|(t, _, offset)| offset + (t - click) * 1e3)
+        })
+        .collect();
+    let expected = clicks.iter().filter(|&&c| c >= from).count();
+    assert!(
+        measured.len() * 10 >= expected * 9 && measured.len() >= seconds as usize * 9 / 10,
+        "{} of {expected} clicks were seen",
+        measured.len()
+    );
+    let mut sorted = measured.clone();
+    sorted.sort_by(f64::total_cmp);
+    let quantile = |p: f64| sorted[((p * sorted.len() as f64) as usize).min(sorted.len() - 1)];
+    let mut magnitudes: Vec<f64> = measured.iter().map(|m| m.abs()).collect();
+    magnitudes.sort_by(f64::total_cmp);
+    let p95_abs = magnitudes[((0.95 * magnitudes.len() as f64) as usize).min(magnitudes.len() - 1)];
+    let tenth = (measured.len() / 10).max(1);
+    let median_of = |part: &[f64]| {
+        let mut part = part.to_vec();
+        part.sort_by(f64::total_cmp);
+        part[part.len() / 2]
+    };
+    let drift = median_of(&measured[measured.len() - tenth..]) - median_of(&measured[..tenth]);
+    let sound = browser.js(&text_of("sound-0")).await;
+    println!(
+        "A/V sync over {} clicks ({seconds} s): face minus voice median {:+.1} ms, p5 {:+.1}, p95 {:+.1}, \
+         |p95| {p95_abs:.1} ms, drift {drift:+.1} ms (last tenth's median minus the first's); the page: {sound}",
+        measured.len(),
+        quantile(0.5),
+        quantile(0.05),
+        quantile(0.95),
+    );
+    assert!(
+        quantile(0.5).abs() <= 15.0,
+        "median offset {:+.1} ms",
+        quantile(0.5)
+    );
+    assert!(p95_abs < 30.0, "|offset| p95 {p95_abs:.1} ms");
+    assert!(drift.abs() < 5.0, "drift {drift:+.1} ms");
+    browser
+        .command("/window/rect", Some(json!({ "width": 1280, "height": 1000 })))
+        .await;
 }

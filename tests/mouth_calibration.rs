@@ -16,7 +16,7 @@ use facewire::deform::{bind, AlgoSpec, Registration};
 use facewire::fit::{fit_from_landmarks, mouth_opening, FitFile, FittedMask, Landmarks};
 use facewire::head::Head;
 use facewire::mask::Mask;
-use facewire::stream::syllables::{KEYFRAMES, SYLLABLE_S};
+use facewire::stream::syllables::{self, SYLLABLE_S};
 use facewire::stream::{open_stream, ArkitBasis};
 
 /// Lips this far apart or less meet (mm).
@@ -70,8 +70,9 @@ fn closes(name: &str, target: &str, share: f32) {
 
     let closed = speak(reg);
     eprintln!("closed: {closed:?}");
-    // 9 syllables, 5 frames each from the start through the hold at 30 fps.
-    assert_eq!(closed.closing_frames, 45);
+    // The 9 bilabial syllables' frames from their slot's start through the consonant's
+    // hold at 30 fps, as the voice times them (data/streams/syllables.phonemes.tsv).
+    assert_eq!(closed.closing_frames, 54);
     assert!(closed.widest_closing_gap_mm <= MEET_MM, "{closed:?}");
     assert!(closed.widest_a_mm > 10.0, "{closed:?}");
 
@@ -108,8 +109,11 @@ fn speak(reg: Registration) -> Speech {
         Heat::None,
     )
     .unwrap();
-    let consonant_held_until = KEYFRAMES[2].0;
-    let vowel_held = KEYFRAMES[3].0..=KEYFRAMES[4].0;
+    let keyframes: Vec<_> = syllables::timings()
+        .unwrap()
+        .iter()
+        .map(syllables::keyframes)
+        .collect();
     let mut speech = Speech {
         closing_frames: 0,
         widest_closing_gap_mm: 0.0,
@@ -119,7 +123,10 @@ fn speak(reg: Registration) -> Speech {
         let frame = frame.unwrap();
         let label = frame.label.clone().unwrap();
         // Time into the syllable; a frame on a boundary (0.6 s = 18 / 30 s) starts the next.
-        let into_syllable = frame.time_s - (frame.time_s / SYLLABLE_S + 1e-9).floor() * SYLLABLE_S;
+        let slot = (frame.time_s / SYLLABLE_S + 1e-9).floor();
+        let into_syllable = frame.time_s - slot * SYLLABLE_S;
+        let timing = &keyframes[(slot as usize).min(keyframes.len() - 1)];
+        let (consonant_held_until, vowel_held) = (timing[2].0, timing[3].0..=timing[4].0);
         let gap = gap_mm(job.deform(&frame), &reg.head, &reg.fitted);
         if label.starts_with(['p', 'b', 'm']) && into_syllable <= consonant_held_until + 1e-9 {
             speech.closing_frames += 1;

@@ -73,9 +73,10 @@ fn the_population_sample_is_fitted_as_measured() {
 /// beyond what the head has at rest, the tongue at most this deep in them (mm).
 const MAX_TONGUE_DEPTH_MM: f32 = 0.55;
 /// Lip folds are not solved on every head yet (docs/METRICS.md, "On a population"): the
-/// sample's sum over its heads as measured (seeds 11, 21, 1001 and 1006 fold 129, 476,
-/// 269 and 108 lip triangle-frames), so that a change that adds folds fails. The goal is 0.
-const MAX_SAMPLE_LIP_FOLDS: u64 = 982;
+/// sample's sum over its heads as measured on the syllable stream timed by its voice (seeds
+/// 11, 21, 1001 and 1006 fold 127, 485, 275 and 103 lip triangle-frames), so that a change
+/// that adds folds fails. The goal is 0.
+const MAX_SAMPLE_LIP_FOLDS: u64 = 990;
 
 #[test]
 fn the_whole_heads_animate_within_the_contact_goals() {

@@ -1,11 +1,14 @@
-//! The Python client (`clients/python/facewire_client.py`) against a real server: a
-//! facewire server runs in this process on an ephemeral port, and
-//! `clients/python/selftest.py` registers the shipped MakeHuman head through the client,
+//! The Python client (the `facewire_client` package, `clients/python/`) against a real
+//! server: the package is installed into a fresh virtual environment (`pip install
+//! ./clients/python`, as the audio team installs it), a facewire server runs in this
+//! process on an ephemeral port, and `clients/python/selftest.py`, run with the installed
+//! package, registers the shipped MakeHuman head through the client,
 //! watches a stream with its `Viewer` while its `Producer` pushes frames of the recorded
 //! syllable stream (alternately as JSON text and binary FWP1, some with ARKit weights, FAPs
 //! and a head rotation), ends the stream and writes what it decoded. This test then holds
 //! the decoded positions to what the library computes for the same frames, within half a
-//! quantization step, so a decoding (or encoding) mistake in Python fails here.
+//! quantization step, so a decoding (or encoding) mistake in Python fails here. The script
+//! also drives the asyncio interface (`facewire_client.aio`) with frames and their voice.
 //!
 //! Needs `python3` with `websocket-client` (`pip install websocket-client`; `.ci/run`
 //! installs it): without them the test fails and says so.
@@ -40,7 +43,7 @@ fn require_python() {
              needs Python 3.8 or newer on PATH, with websocket-client (pip install websocket-client)"
         ),
         Ok(out) if !out.status.success() => panic!(
-            "python3 cannot import websocket-client, which clients/python/facewire_client.py needs: \
+            "python3 cannot import websocket-client, which clients/python/facewire_client needs: \
              pip install websocket-client (.ci/run installs it)\n{}",
             String::from_utf8_lossy(&out.stderr)
         ),
@@ -161,15 +164,50 @@ struct Outcome {
     frames: Vec<Decoded>,
     end: Option<String>,
     viewer_errors: Vec<serde_json::Value>,
+    /// Where the script imported `facewire_client` from.
+    module: String,
+}
+
+/// A virtual environment in `dir` with the package installed from the checkout (and
+/// websocket-client from the package index): its Python interpreter.
+fn install_package(dir: &Path) -> std::path::PathBuf {
+    let venv = dir.join("venv");
+    let made = Command::new("python3")
+        .arg("-m")
+        .arg("venv")
+        .arg(&venv)
+        .output()
+        .expect("python3 runs");
+    assert!(
+        made.status.success(),
+        "python3 -m venv failed (Debian: apt-get install python3-venv):\n{}",
+        String::from_utf8_lossy(&made.stderr)
+    );
+    let python = venv.join("bin/python");
+    let installed = Command::new(&python)
+        .args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check"])
+        .arg(repo_path("clients/python"))
+        .output()
+        .expect("pip runs");
+    assert!(
+        installed.status.success(),
+        "pip install ./clients/python failed:\n{}{}",
+        String::from_utf8_lossy(&installed.stdout),
+        String::from_utf8_lossy(&installed.stderr)
+    );
+    python
 }
 
 /// Runs the self-test script, its output going to files (no pipe to fill), and kills it if
 /// it runs longer than `limit`.
-fn run_selftest(args: &[String], dir: &Path, limit: Duration) -> Outcome {
+/// `python` runs it with `-P`: the script's own folder (the checkout's copy of the package)
+/// is not put on the path, so the installed package is the one imported.
+fn run_selftest(python: &Path, args: &[String], dir: &Path, limit: Duration) -> Outcome {
     let out_path = dir.join("outcome.json");
     let stdout_path = dir.join("selftest.stdout");
     let stderr_path = dir.join("selftest.stderr");
-    let mut child = Command::new("python3")
+    let mut child = Command::new(python)
+        .arg("-P")
         .arg(repo_path("clients/python/selftest.py"))
         .args(args)
         .arg("--out")
@@ -230,11 +268,20 @@ async fn the_python_client_decodes_what_the_library_computes() {
     ]
     .into();
     let dir_path = dir.path().to_path_buf();
-    let outcome =
-        tokio::task::spawn_blocking(move || run_selftest(&args, &dir_path, Duration::from_secs(300)))
-            .await
-            .unwrap();
+    let outcome = tokio::task::spawn_blocking(move || {
+        let python = install_package(&dir_path);
+        run_selftest(&python, &args, &dir_path, Duration::from_secs(300))
+    })
+    .await
+    .unwrap();
     server.stop().await;
+    assert!(
+        outcome
+            .module
+            .starts_with(&dir.path().join("venv").display().to_string()),
+        "the script imported the checkout's package, not the installed one: {}",
+        outcome.module
+    );
 
     // The client's name tables are the library's.
     let mask = Mask::candide3();

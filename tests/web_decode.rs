@@ -12,6 +12,7 @@ use common::repo_path;
 
 use std::process::Command;
 
+use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
 use facewire_proto::viewer_frame::{
     decode, FrameContent, FrameEncoder, FrameHeader, FrameLayout, LipFolds, LipRoughness, RigidMotion,
 };
@@ -519,6 +520,8 @@ fn cases() -> Value {
     json!({
         "frames": frames,
         "malformedFrames": malformed_frames,
+        "audio": audio_cases(),
+        "malformedAudio": malformed_audio(),
         "mesh": {
             "bytes": mesh,
             "expected": {
@@ -535,6 +538,80 @@ fn cases() -> Value {
             { "name": "frame, not mesh", "bytes": good, "field": "magic" },
         ],
     })
+}
+
+/// Audio chunks from the server's own encoder, with what they hold.
+fn audio_cases() -> Vec<Value> {
+    let pcm = AudioChunk {
+        t_s: 12.34,
+        server_receive_us: 1_700_000_000_123_456,
+        body: AudioBody::Pcm {
+            sample_rate: 24_000,
+            samples: vec![0, 1, -1, i16::MAX, i16::MIN, 300],
+        },
+        ignored: Vec::new(),
+    };
+    // Configuration 12 (SILK, wideband, 20 ms), one frame, then the packet's payload.
+    let opus = AudioChunk {
+        t_s: 0.02,
+        server_receive_us: 5,
+        body: AudioBody::Opus {
+            packet: vec![12 << 3, 0xde, 0xad, 0xbe, 0xef],
+        },
+        ignored: Vec::new(),
+    };
+    let mut grown = pcm.encode();
+    // A section of a kind from a later server, after the sound: skipped.
+    grown[20] += 1;
+    grown.extend_from_slice(&[9, 2, 0, 0, 0, 7, 7]);
+    vec![
+        json!({"name": "pcm", "bytes": pcm.encode(), "expected": {
+            "t": 12.34, "serverReceiveUs": 1_700_000_000_123_456u64, "codec": "pcm",
+            "sampleRate": 24_000, "samples": [0, 1, -1, 32767, -32768, 300]}}),
+        json!({"name": "opus", "bytes": opus.encode(), "expected": {
+            "t": 0.02, "serverReceiveUs": 5, "codec": "opus", "sampleRate": 48_000,
+            "packet": [96, 0xde, 0xad, 0xbe, 0xef]}}),
+        json!({"name": "pcm with a later section", "bytes": grown, "expected": {
+            "t": 12.34, "codec": "pcm", "samples": [0, 1, -1, 32767, -32768, 300]}}),
+    ]
+}
+
+/// Audio chunks the Rust decoder refuses, with the field it names.
+fn malformed_audio() -> Vec<Value> {
+    let good = AudioChunk {
+        t_s: 1.0,
+        server_receive_us: 0,
+        body: AudioBody::Pcm {
+            sample_rate: 16_000,
+            samples: vec![1, 2, 3],
+        },
+        ignored: Vec::new(),
+    }
+    .encode();
+    let mut bad_rate = good.clone();
+    bad_rate[26..30].copy_from_slice(&44_100u32.to_le_bytes());
+    let mut no_sound = good[..21].to_vec();
+    no_sound[20] = 0;
+    let mut both = good.clone();
+    both[20] = 2;
+    both.extend_from_slice(&[2, 3, 0, 0, 0, 1, 0, 96]);
+    let mut not_finite = good.clone();
+    not_finite[4..12].copy_from_slice(&f64::NAN.to_le_bytes());
+    let cases = [
+        ("truncated", good[..good.len() - 1].to_vec()),
+        ("44.1 kHz", bad_rate),
+        ("no sound", no_sound),
+        ("pcm and opus", both),
+        ("t not finite", not_finite),
+        ("a frame, not audio", b"FWF2".to_vec()),
+    ];
+    cases
+        .into_iter()
+        .map(|(name, bytes)| {
+            let error = AudioChunk::decode(&bytes).unwrap_err();
+            json!({ "name": name, "bytes": bytes, "field": error.field().unwrap_or("magic") })
+        })
+        .collect()
 }
 
 #[test]

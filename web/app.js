@@ -1,6 +1,9 @@
-// app.js: the page. Reads ?head=&stream=&algo=&algo2=&heat=&heat2=&heatmax=&heatmax2=&mouth=&token=&nodes=
+// app.js: the page. Reads ?head=&stream=&algo=&algo2=&heat=&heat2=&heatmax=&heatmax2=&mouth=&token=&nodes=&audio=
 // (heat=1 colours by roughness, heat=folds by folds; nodes: server base URLs to fail over
-// between, nodes.js),
+// between, nodes.js; audio=opus|pcm|none: the voice's codec, by default Opus where the
+// browser decodes it), one sound for both views (sound.js; the Sound button starts it, as
+// browsers want a click before a page plays audio; once it plays, the views draw the frame
+// being heard),
 // fills the pickers from /v1/heads (read again every few seconds, so new heads and streams
 // appear) and /v1/algorithms, runs one view or two side by side (one shared camera), and
 // the drawing loop: once per animation frame each view decodes only its newest frame, and
@@ -13,6 +16,7 @@ import { parseMesh } from "./decode.js";
 import { fitOutcome, fitPaths } from "./fit.js";
 import { Nodes } from "./nodes.js";
 import { DEFAULT_HEAT_MAX, Panel } from "./panel.js";
+import { audioCodec, Sound } from "./sound.js";
 
 /** A view whose last frame is older than this does not hold the other one back. */
 const STALE_MS = 300;
@@ -28,6 +32,8 @@ const controls = {
   zoomOut: byId("zoom-out"),
   resetView: byId("reset-view"),
   mouthView: byId("mouth-view"),
+  sound: byId("sound"),
+  volume: byId("volume"),
   views: byId("views"),
   message: byId("page-message"),
 };
@@ -59,6 +65,11 @@ const page = {
   panels: [],
 };
 const camera = new OrbitCamera();
+const sound = new Sound({ onChange: showSoundState });
+/** The codec view 1 asks for (null: none), chosen at start. */
+let soundCodec = null;
+// For tests and the curious: each drawn frame's distance from its sound (sound.syncLog).
+window.facewireSound = sound;
 const chart = new LiveChart(byId("chart"));
 const meshes = new Map();
 let framedMesh = null;
@@ -295,9 +306,33 @@ function heatMaxParam(name) {
   return params.has(name) && value > 0 && Number.isFinite(value) ? value : DEFAULT_HEAT_MAX;
 }
 
+/** The Sound button: starts the sound, then mutes and unmutes it. */
+async function toggleSound() {
+  if (!sound.playing) {
+    try {
+      await sound.enable();
+      sound.setMuted(false);
+    } catch (error) {
+      showPageMessage(`The sound cannot start: ${error.message}`);
+    }
+  } else {
+    sound.setMuted(!sound.muted);
+  }
+}
+
+function showSoundState() {
+  const on = sound.playing && !sound.muted;
+  controls.sound.setAttribute("aria-pressed", String(on));
+  controls.sound.textContent = on ? "Sound off" : "Sound on";
+  controls.sound.disabled = soundCodec === null;
+  controls.volume.disabled = !sound.playing;
+}
+
 function addPanel(algorithm, heat, heatMax) {
   const index = page.panels.length;
   const panel = new Panel({
+    sound,
+    audio: index === 0 ? soundCodec : null,
     index,
     container: controls.views,
     algorithms: page.algorithms,
@@ -366,24 +401,53 @@ function commonSeq(now) {
 let decoding = false;
 let cameraMoved = true;
 let statsAt = performance.now();
+/** Milliseconds from choosing frames to drawing them, the last DRAW_LAGS times. */
+const drawLags = [];
+const DRAW_LAGS = 31;
+
+function median(values) {
+  if (values.length === 0) {
+    return 0;
+  }
+  const sorted = [...values].sort((a, b) => a - b);
+  return sorted[Math.floor(sorted.length / 2)];
+}
+
+/**
+ * What the views draw next: while the sound plays, the frame nearest the stream time
+ * that will be heard when it is drawn (the heard time after the usual lag from choosing
+ * to drawing, plus half a frame interval: the newest frame no later than that); without
+ * sound, the newest frame both views have.
+ */
+function drawTarget(now) {
+  const heard = sound.heardTime(now + median(drawLags));
+  if (heard === null) {
+    return { seq: commonSeq(now) };
+  }
+  return { t: heard + page.panels[0].frameIntervalS() / 2 };
+}
 
 function animate(now) {
   requestAnimationFrame(animate);
   if (!decoding) {
     const panels = [...page.panels];
-    const target = commonSeq(now);
+    const target = drawTarget(now);
     const work = panels.map((panel) => panel.prepare(target));
     if (work.some(Boolean)) {
       decoding = true;
       Promise.all(work)
-        .then((frames) =>
+        .then((frames) => {
           frames.forEach((frame, i) => {
             if (frame) {
               panels[i].show(frame);
               panels[i].draw(camera, false);
             }
-          }),
-        )
+          });
+          drawLags.push(performance.now() - now);
+          if (drawLags.length > DRAW_LAGS) {
+            drawLags.shift();
+          }
+        })
         .finally(() => {
           decoding = false;
         });
@@ -415,6 +479,11 @@ async function start() {
   controls.zoomOut.addEventListener("click", () => camera.zoomOut());
   controls.resetView.addEventListener("click", () => camera.reset());
   controls.mouthView.addEventListener("click", () => setCloseUp(!camera.closeUp));
+  controls.sound.addEventListener("click", toggleSound);
+  controls.volume.addEventListener("input", () => sound.setVolume(Number(controls.volume.value)));
+  const asked = params.get("audio");
+  soundCodec = asked === "none" ? null : asked === "pcm" || asked === "opus" ? asked : await audioCodec();
+  showSoundState();
   camera.setCloseUp(params.get("mouth") === "1");
   controls.mouthView.setAttribute("aria-pressed", String(camera.closeUp));
   controls.compare.addEventListener("click", () =>

@@ -1,6 +1,7 @@
 // decode.js: reads the server's binary formats into typed arrays: the rest mesh
-// (`mesh.bin`, "FWM1") and the viewer frame, in either layout (proto/PROTOCOL.md): the
-// sectioned "FWF2" the page asks for, and the frozen "FWF1" that a server before FWF2 sends.
+// (`mesh.bin`, "FWM1"), the viewer frame, in either layout (proto/PROTOCOL.md): the
+// sectioned "FWF2" the page asks for, and the frozen "FWF1" that a server before FWF2 sends,
+// and the audio chunk ("FWA1").
 // Both decode to the same object, so the page does not care which arrived. It touches no
 // DOM, so node runs it in tests/web_decode.rs against frames from the server's own encoder
 // and in fixtures.test.mjs against frames captured from real servers. Every length is
@@ -11,6 +12,7 @@
 const MESH_MAGIC = "FWM1";
 const FWF1_MAGIC = "FWF1";
 const FWF2_MAGIC = "FWF2";
+const AUDIO_MAGIC = "FWA1";
 const FLAG_FACE = 1;
 const FLAG_LABEL = 2;
 const FLAG_DEFLATE = 4;
@@ -31,6 +33,16 @@ const SECTION_NAMES = new Map([
   [7, "part_deltas"],
   [8, "heat"],
 ]);
+/** FWA1's section kinds; exactly one of them is in a chunk. */
+const AUDIO_SECTION_NAMES = new Map([
+  [1, "pcm"],
+  [2, "opus"],
+]);
+/** The sample rates of a PCM chunk, Hz. */
+const PCM_RATES = [16000, 24000, 48000];
+/** Opus packets decode at 48 kHz; RFC 6716's largest packet, bytes. */
+export const OPUS_RATE = 48000;
+const MAX_OPUS_PACKET = 1275;
 /** An FWF2 delta block's `encoding` byte. */
 const ENCODING_PLAIN = 0;
 const ENCODING_DEFLATE = 1;
@@ -213,7 +225,13 @@ function readFwf1Header(r) {
  * given twice (its name), bytes after the last section (`end`), and a frame without
  * `deltas` or `lip_roughness`.
  */
-function readSections(r) {
+/**
+ * The sections after a message's fixed header: `{bodies, partBodies}`, readers over each
+ * known kind's body by name (`names`: kind to name; unknown kinds are skipped). A frame's
+ * part_deltas may repeat; every other kind is refused if given twice, and each of
+ * `required` must be there.
+ */
+function readSections(r, names = SECTION_NAMES, required = ["deltas", "lip_roughness"], what = "frame") {
   const countAt = r.at;
   const count = r.u8("section count");
   const bodies = new Map();
@@ -229,23 +247,66 @@ function readSections(r) {
       throw new DecodeError("section", at, `section of kind ${kind} claims ${length} bytes, ${r.end - r.at} are left`);
     }
     const body = r.take(length, "section");
-    const name = SECTION_NAMES.get(kind);
+    const name = names.get(kind);
     if (name === "part_deltas") {
       partBodies.push(body);
     } else if (name !== undefined) {
       if (bodies.has(name)) {
         throw new DecodeError(name, at, `section ${name} (kind ${kind}) given twice`);
       }
+      body.sectionAt = at;
       bodies.set(name, body);
     }
   }
   r.finish();
-  for (const name of ["deltas", "lip_roughness"]) {
+  for (const name of required) {
     if (!bodies.has(name)) {
-      throw new DecodeError(name, countAt, `the frame has no ${name} section`);
+      throw new DecodeError(name, countAt, `the ${what} has no ${name} section`);
     }
   }
-  return { bodies, partBodies };
+  return { bodies, partBodies, countAt };
+}
+
+/**
+ * Decodes an audio chunk ("FWA1"): `{t, serverReceiveUs, codec, sampleRate, samples}` for
+ * PCM (an Int16Array, mono) or `{..., codec: "opus", sampleRate: 48000, packet}` (a
+ * Uint8Array, one Opus packet). `t` is the stream time of its first sample, seconds: the
+ * clock of the frames' producerTimeS.
+ */
+export function decodeAudio(buffer) {
+  const r = new Reader(new Uint8Array(buffer));
+  r.magic(AUDIO_MAGIC);
+  const t = r.f64("t_s");
+  if (!Number.isFinite(t)) {
+    throw new DecodeError("t_s", 4, `${t} is not a time`);
+  }
+  const serverReceiveUs = r.u64("server_receive_us");
+  const { bodies, countAt } = readSections(r, AUDIO_SECTION_NAMES, [], "chunk");
+  if (bodies.size !== 1) {
+    const problem = bodies.size === 0 ? "the chunk has neither a pcm nor an opus section" : "a chunk carries one of pcm and opus, not both";
+    throw new DecodeError("sound", bodies.size === 0 ? countAt : bodies.get("opus").sectionAt, problem);
+  }
+  const [[codec, body]] = [...bodies];
+  if (codec === "pcm") {
+    const rateAt = body.at;
+    const sampleRate = body.u32("sample_rate");
+    if (!PCM_RATES.includes(sampleRate)) {
+      throw new DecodeError("sample_rate", rateAt, `${sampleRate} Hz: expected 16000, 24000 or 48000`);
+    }
+    const count = body.u32("pcm count");
+    const start = body.need(count * 2, "pcm");
+    const samples = new Int16Array(count);
+    for (let i = 0; i < count; i++) {
+      samples[i] = body.view.getInt16(start + 2 * i, true);
+    }
+    return { t, serverReceiveUs, codec, sampleRate, samples };
+  }
+  const length = body.u16("opus length");
+  if (length === 0 || length > MAX_OPUS_PACKET) {
+    throw new DecodeError("opus", body.at, `${length} bytes: an Opus packet has 1 to ${MAX_OPUS_PACKET}`);
+  }
+  const start = body.need(length, "opus");
+  return { t, serverReceiveUs, codec, sampleRate: OPUS_RATE, packet: body.bytes.slice(start, start + length) };
 }
 
 /**

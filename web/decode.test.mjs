@@ -4,7 +4,16 @@
 // verdict. Not served: the page never loads this file.
 
 import { readFileSync } from "node:fs";
-import { applyDeltas, applyFrame, decodeFrame, DecodeError, motionMatrix, parseMesh, readFrameHeader } from "./decode.js";
+import {
+  applyDeltas,
+  applyFrame,
+  decodeAudio,
+  decodeFrame,
+  DecodeError,
+  motionMatrix,
+  parseMesh,
+  readFrameHeader,
+} from "./decode.js";
 
 const cases = JSON.parse(readFileSync(process.argv[2], "utf8"));
 const failures = [];
@@ -102,6 +111,13 @@ for (const [i, c] of cases.malformedFrames.entries()) {
   await throwsOn(decodeFrame, c.bytes, c.field, `malformed frame ${i} (${c.name})`);
 }
 
+for (const c of cases.audio) {
+  same(decodeAudio(bufferOf(c.bytes)), c.expected, `audio (${c.name})`);
+}
+for (const c of cases.malformedAudio) {
+  await throwsOn(decodeAudio, c.bytes, c.field, `malformed audio (${c.name})`);
+}
+
 same(parseMesh(bufferOf(cases.mesh.bytes)), cases.mesh.expected, "mesh");
 for (const [i, c] of cases.malformedMeshes.entries()) {
   await throwsOn(parseMesh, c.bytes, c.field, `malformed mesh ${i} (${c.name})`);
@@ -111,4 +127,6 @@ if (failures.length > 0) {
   console.error(`${failures.length} mismatch(es):\n${failures.slice(0, 40).join("\n")}`);
   process.exit(1);
 }
-console.log(`decode.js agrees with the Rust encoder on ${cases.frames.length} frames and a mesh`);
+console.log(
+  `decode.js agrees with the Rust encoder on ${cases.frames.length} frames, ${cases.audio.length} audio chunks and a mesh`,
+);

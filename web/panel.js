@@ -5,14 +5,21 @@
 // for the numbers and the chart); the page decodes just the one it draws, so a slow
 // machine skips frames instead of falling behind. Given a list of nodes (nodes.js), each
 // reconnect after a lost connection goes to the next node, and the status line names it.
+// The view that carries the page's sound (sound.js) asks for audio and hands its chunks
+// over; while the sound plays, every view draws the frame whose `t` is being heard, keeping
+// frames until then, and shows how far each drawn frame was from its sound.
 
-import { applyFrame, decodeFrame, motionMatrix, readFrameHeader } from "./decode.js";
+import { applyFrame, decodeAudio, decodeFrame, motionMatrix, readFrameHeader } from "./decode.js";
 import { HeadRenderer } from "./render.js";
 import { CLOSE } from "./codes.js";
 import { VIEW_FORMAT, ViewerSocket } from "./stream.js";
 
 /** Raw frames kept while waiting to be drawn; older ones are dropped. */
 const KEEP_FRAMES = 8;
+/** While the sound plays frames wait for their `t` to be heard: up to 3 s of 30 fps. */
+const KEEP_FRAMES_FOR_SOUND = 90;
+/** Frame intervals kept for frameIntervalS. */
+const INTERVALS = 15;
 /** Face roughness (mean 1 - n·n around a vertex) at the top of the heat-map ramp, unless
  * the view picks another. */
 export const DEFAULT_HEAT_MAX = 0.1;
@@ -55,10 +62,14 @@ export class Panel {
    * `index`: 0 or 1; `algorithms`: the /v1/algorithms list; `loadMesh(url)`: a promise of
    * a parsed mesh; `onMesh(url, mesh)`: a mesh is shown; `onSettings()`: the user changed
    * this view's algorithm or heat-map; `nodes`: the page's Nodes (nodes.js), shared by
-   * both views and the fetches.
+   * both views and the fetches; `sound`: the page's Sound (sound.js), whose clock the view
+   * draws by, and `audio`: the codec this view asks for and feeds the sound with, or null
+   * (the other view, or no sound).
    */
-  constructor({ index, container, algorithms, chart, loadMesh, onMesh, onSettings, nodes }) {
+  constructor({ index, container, algorithms, chart, loadMesh, onMesh, onSettings, nodes, sound, audio }) {
     this.index = index;
+    this.sound = sound;
+    this.audio = audio;
     this.nodes = nodes;
     this.node = nodes.index;
     this.chart = chart;
@@ -111,12 +122,15 @@ export class Panel {
     this.socket = new ViewerSocket({
       onSnapshot: (snapshot) => this.snapshotArrived(snapshot),
       onFrame: (buffer, arrivalUs) => this.frameArrived(buffer, arrivalUs),
+      onAudio: (buffer) => this.audioArrived(buffer),
       onState: (state, detail) => this.stateChanged(state, detail),
     });
     this.mesh = null;
     this.meshUrl = null;
     this.pending = [];
     this.lastSeq = null;
+    this.lastT = null;
+    this.intervals = [];
     this.lastArrival = -Infinity;
     this.generation = 0;
     this.needsDraw = true;
@@ -173,6 +187,9 @@ export class Panel {
     if (token) {
       query.set("token", token);
     }
+    if (this.audio) {
+      query.set("audio", this.audio);
+    }
     const path = `/v1/heads/${encodeURIComponent(head)}/streams/${encodeURIComponent(stream)}/view`;
     this.generation += 1;
     this.pending = [];
@@ -215,6 +232,11 @@ export class Panel {
     this.chart.breakLine(this.index, performance.now());
     this.lastSeq = null;
     this.parts.algorithm.textContent = snapshot.algorithm;
+    if (this.audio) {
+      this.sound.reset();
+      this.soundProblem =
+        snapshot.audio === this.audio ? null : `this server sends no audio (asked for ${this.audio})`;
+    }
     if (snapshot.rest_mesh === this.meshUrl) {
       return;
     }
@@ -283,17 +305,49 @@ export class Panel {
     }
     if (this.lastSeq !== null && header.seq <= this.lastSeq) {
       this.pending = []; // a new producer started the stream over
+      if (this.audio) {
+        this.sound.reset(); // and its timeline
+      }
     }
     this.lastSeq = header.seq;
     this.lastArrival = performance.now();
     this.markStall(this.lastArrival);
     this.lip = header.lip;
     this.chart.push(this.index, this.lastArrival, header.lip.mean);
-    this.pending.push({ seq: header.seq, buffer });
-    if (this.pending.length > KEEP_FRAMES) {
+    if (this.lastT !== null && header.producerTimeS > this.lastT) {
+      this.intervals.push(header.producerTimeS - this.lastT);
+      if (this.intervals.length > INTERVALS) {
+        this.intervals.shift();
+      }
+    }
+    this.lastT = header.producerTimeS;
+    this.pending.push({ seq: header.seq, t: header.producerTimeS, buffer });
+    if (this.pending.length > (this.sound.playing ? KEEP_FRAMES_FOR_SOUND : KEEP_FRAMES)) {
       this.pending.shift();
       stats.skipped += 1;
     }
+  }
+
+  /** The stream's time between frames (median of the last few), seconds; 0 before two frames. */
+  frameIntervalS() {
+    if (this.intervals.length === 0) {
+      return 0;
+    }
+    const sorted = [...this.intervals].sort((a, b) => a - b);
+    return sorted[Math.floor(sorted.length / 2)];
+  }
+
+  /** An audio chunk for the page's sound. */
+  audioArrived(buffer) {
+    let chunk;
+    try {
+      chunk = decodeAudio(buffer);
+    } catch (error) {
+      this.showMessage(`Unreadable audio: ${error.message}`);
+      return;
+    }
+    this.stats.audioBytes += buffer.byteLength;
+    this.sound.push(chunk);
   }
 
   /** The newest sequence number received, for keeping two views on the same frame. */
@@ -302,17 +356,19 @@ export class Panel {
   }
 
   /**
-   * Decodes the newest waiting frame no newer than `targetSeq` (older ones are dropped and
-   * counted as skipped): a promise of the frame, or null when there is nothing to draw.
+   * Decodes the newest waiting frame no newer than `target` (older ones are dropped and
+   * counted as skipped): `{seq}`, a sequence number both views have, or `{t}`, the stream
+   * time being heard. A promise of the frame, or null when there is nothing to draw.
    */
-  prepare(targetSeq) {
+  prepare(target) {
     if (!this.mesh || this.pending.length === 0) {
       return null;
     }
-    let i = this.pending.findLastIndex((p) => p.seq <= targetSeq);
+    const due = target.t === undefined ? (p) => p.seq <= target.seq : (p) => p.t <= target.t;
+    let i = this.pending.findLastIndex(due);
     if (i < 0) {
-      if (this.pending.length < KEEP_FRAMES) {
-        return null; // the other view has not caught up yet
+      if (this.pending.length < (target.t === undefined ? KEEP_FRAMES : KEEP_FRAMES_FOR_SOUND)) {
+        return null; // not due yet, or the other view has not caught up
       }
       i = 0;
     }
@@ -347,6 +403,13 @@ export class Panel {
     this.parts.label.textContent = frame.label ?? "";
     this.folds = frame.folds;
     this.stats.drawn += 1;
+    this.stats.eyeUs += Date.now() * 1000 - frame.serverReceiveUs;
+    const heardMs = this.sound.heardAtMsForTime(frame.producerTimeS);
+    if (heardMs !== null) {
+      const offsetMs = performance.now() - heardMs;
+      this.stats.offsets.push(offsetMs);
+      this.sound.logSync(this.index, frame, offsetMs);
+    }
     this.needsDraw = true;
   }
 
@@ -407,7 +470,18 @@ export class Panel {
   }
 
   resetStats() {
-    this.stats = { since: performance.now(), received: 0, drawn: 0, skipped: 0, bytes: 0, serverUs: 0, deliveryUs: 0 };
+    this.stats = {
+      since: performance.now(),
+      received: 0,
+      drawn: 0,
+      skipped: 0,
+      bytes: 0,
+      audioBytes: 0,
+      serverUs: 0,
+      deliveryUs: 0,
+      eyeUs: 0,
+      offsets: [],
+    };
   }
 
   /** Writes the last second's numbers under the view and starts a new second. */
@@ -416,6 +490,7 @@ export class Panel {
     const s = this.stats;
     const seconds = (now - s.since) / 1000;
     const { fps, latency, bytes, lip, folds } = this.parts;
+    this.parts.sound.textContent = this.soundText(s, seconds, now);
     if (s.received === 0) {
       fps.textContent = "none in the last second";
       latency.textContent = bytes.textContent = "–";
@@ -423,7 +498,8 @@ export class Panel {
       const n = s.received;
       fps.textContent = `${(n / seconds).toFixed(1)} in, ${(s.drawn / seconds).toFixed(1)} drawn, ${s.skipped} skipped`;
       const ms = (us) => (us / n / 1000).toFixed(1);
-      latency.textContent = `server ${ms(s.serverUs)} ms, delivery ${ms(s.deliveryUs)} ms`;
+      const eye = s.drawn > 0 ? `, to eye ${(s.eyeUs / s.drawn / 1000).toFixed(0)} ms` : "";
+      latency.textContent = `server ${ms(s.serverUs)} ms, delivery ${ms(s.deliveryUs)} ms${eye}`;
       bytes.textContent = `${Math.round(s.bytes / n).toLocaleString("en")} B`;
     }
     if (this.lip) {
@@ -434,5 +510,37 @@ export class Panel {
       folds.textContent = foldsText(this.folds);
     }
     this.resetStats();
+  }
+
+  /** The "Sound" line: codec, playout delay, latency to the ear, and how far the face was from the voice. */
+  soundText(s, seconds, now) {
+    if (!this.audio) {
+      return this.sound.playing ? "the other view's (one sound for both)" : "off";
+    }
+    if (this.soundProblem) {
+      return this.soundProblem;
+    }
+    const summary = this.sound.summary(now);
+    if (!summary) {
+      const kbps = (s.audioBytes / 1024 / seconds).toFixed(1);
+      return this.sound.context ? `waiting for audio (${kbps} kB/s)` : `off: press Sound on (${kbps} kB/s arriving)`;
+    }
+    const parts = [
+      `${summary.codec}, ${(s.audioBytes / 1024 / seconds).toFixed(1)} kB/s`,
+      `delay ${summary.delayMs.toFixed(0)} ms (jitter needs ${summary.targetMs.toFixed(0)})`,
+      `output ${summary.outputMs.toFixed(0)} ms`,
+    ];
+    if (summary.earMs !== null) {
+      parts.push(`to ear ${summary.earMs.toFixed(0)} ms`);
+    }
+    if (s.offsets.length > 0) {
+      const sorted = [...s.offsets].sort((a, b) => a - b);
+      const median = sorted[Math.floor(sorted.length / 2)];
+      parts.push(`face ${median >= 0 ? "+" : ""}${median.toFixed(0)} ms from voice`);
+    }
+    if (summary.late > 0) {
+      parts.push(`${summary.late} late`);
+    }
+    return parts.join(" · ");
   }
 }

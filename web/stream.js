@@ -12,6 +12,13 @@
 import { END_REASONS, FINAL_CLOSE_CODES } from "./codes.js";
 
 const FIRST_RETRY_MS = 500;
+/** The first bytes of an audio chunk; every other binary message is a frame. */
+const AUDIO_MAGIC = [0x46, 0x57, 0x41, 0x31]; // "FWA1"
+
+function isAudio(buffer) {
+  const head = new Uint8Array(buffer, 0, Math.min(4, buffer.byteLength));
+  return head.length === 4 && AUDIO_MAGIC.every((b, i) => head[i] === b);
+}
 const MAX_RETRY_MS = 15_000;
 /** The frame layout the page asks for (`format=`). */
 export const VIEW_FORMAT = "fwf2";
@@ -29,8 +36,9 @@ function formatProblem({ format }) {
 
 export class ViewerSocket {
   /**
-   * `handlers`: onSnapshot(snapshot), onFrame(ArrayBuffer, arrivalUs), and
-   * onState(state, detail) where detail is { message, code, retryMs } as far as known.
+   * `handlers`: onSnapshot(snapshot), onFrame(ArrayBuffer, arrivalUs), onAudio(ArrayBuffer)
+   * for an audio chunk (asked for with `audio=`), and onState(state, detail) where detail
+   * is { message, code, retryMs } as far as known.
    */
   constructor(handlers) {
     this.handlers = handlers;
@@ -75,6 +83,10 @@ export class ViewerSocket {
     let refusal = null;
     socket.onmessage = (event) => {
       if (socket !== this.socket) {
+        return;
+      }
+      if (typeof event.data !== "string" && isAudio(event.data)) {
+        this.handlers.onAudio?.(event.data);
         return;
       }
       if (typeof event.data !== "string") {

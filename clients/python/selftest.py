@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""End-to-end check of facewire_client.py against a running server.
+"""End-to-end check of the facewire_client package against a running server.
 
 Registers a head over HTTP, connects two viewers (one asking for FWF2 frames, the
 default, and for PCM audio, one for the frozen FWF1 and no audio), pushes the frames of a
@@ -17,7 +17,11 @@ WAV file, and one chunk overlapping the one before it, sent just before a parame
 so that the server's refusal of it arrives ahead of that frame's ack. The frame must still
 get its own ack, and the refusal must come out of the next audio call as ``AudioRefused``.
 
-tests/python_client.rs runs it against an in-process server and compares the decoded
+Then the asyncio interface (:mod:`facewire_client.aio`) plays ten frames with their voice
+to a viewer of its own (:func:`asyncio_round`).
+
+tests/python_client.rs installs the package (``pip install ./clients/python``) and runs
+this script with the installed one against an in-process server and compares the decoded
 positions with what the library computes. What needs no library to check, this script
 checks itself, and exits 1 naming what failed: the snapshots announce the layouts and the
 audio asked for, the ack of the frame with kind 99 says ``"ignored": [99]`` and no other
@@ -45,7 +49,10 @@ import time
 import wave
 from typing import Any, Dict, List, Optional, Tuple
 
+import asyncio
+
 import facewire_client as fw
+from facewire_client import aio
 
 
 def collect(viewer: fw.Viewer, result: Dict[str, Any], timeout_s: float) -> None:
@@ -250,6 +257,51 @@ def check(viewer: fw.Viewer, viewer_fwf1: fw.Viewer, sent: List[Dict[str, Any]],
     return problems
 
 
+async def asyncio_round(url: str, head: str, stream: str,
+                        frames: List[Dict[str, Any]]) -> Tuple[Dict[str, Any], List[str]]:
+    """The asyncio interface: an :class:`aio.AsyncViewer` asking for PCM watches while an
+    :class:`aio.AsyncProducer` plays ``frames`` with their voice (``play(audio=...)``,
+    samples spanning the frames), then ends the stream. Returns what was seen and the
+    problems found: every frame acknowledged, the last frame and ``end`` seen, and every
+    audio chunk heard, in order and sample for sample."""
+    problems: List[str] = []
+    span_s = frames[-1]["t"] - frames[0]["t"] + 1 / 30
+    voice = pcm(11, int(span_s * RATE))
+    async with await aio.AsyncViewer.connect(url, head, stream, timeout=30.0, audio="pcm") as viewer:
+
+        async def watch() -> Dict[str, Any]:
+            seen: Dict[str, Any] = {"seqs": [], "samples": [], "chunk_times": [], "end": None}
+            async for event in viewer:
+                if isinstance(event, fw.ViewerFrame):
+                    seen["seqs"].append(event.seq)
+                elif isinstance(event, fw.AudioChunk):
+                    seen["samples"].extend(event.samples)
+                    seen["chunk_times"].append(event.t_s)
+                elif isinstance(event, fw.StreamEnd):
+                    seen["end"] = event.reason
+                    return seen
+            return seen
+
+        watching = asyncio.ensure_future(watch())
+        async with await aio.AsyncProducer.connect(url, head, stream, timeout=30.0) as producer:
+            acks = await producer.play(frames, audio=voice, sample_rate=RATE)
+        seen = await asyncio.wait_for(watching, 30.0)
+    if [a.seq for a in acks] != [f["seq"] for f in frames]:
+        problems.append("asyncio: acks %r for frames %r" % ([a.seq for a in acks], [f["seq"] for f in frames]))
+    if not seen["seqs"] or seen["seqs"][-1] != frames[-1]["seq"]:
+        problems.append("asyncio: the viewer's last frame is %r, not %r" % (seen["seqs"][-1:], frames[-1]["seq"]))
+    if seen["end"] != "producer_ended":
+        problems.append("asyncio: the viewer's end was %r" % seen["end"])
+    if seen["samples"] != voice:
+        problems.append("asyncio: heard %d samples of the %d played, or not the same"
+                        % (len(seen["samples"]), len(voice)))
+    expected_times = [frames[0]["t"] + i / RATE for i in range(0, len(voice), CHUNK)]
+    if any(abs(a - b) > 1e-9 for a, b in zip(seen["chunk_times"], expected_times)):
+        problems.append("asyncio: chunk times %r, expected %r" % (seen["chunk_times"][:4], expected_times[:4]))
+    return {"acks": len(acks), "frames_seen": len(seen["seqs"]), "samples_heard": len(seen["samples"]),
+            "samples_played": len(voice), "end": seen["end"]}, problems
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--url", required=True, help="server base URL, http://127.0.0.1:PORT")
@@ -324,6 +376,8 @@ def main() -> int:
         raise SystemExit("a viewer thread did not finish within 60 s")
 
     batch = client.post_batch(args.head, args.stream + "-batch", frames)
+    asyncio_seen, asyncio_problems = asyncio.run(
+        asyncio_round(args.url, args.head, args.stream + "-asyncio", frames[:10]))
 
     result: Dict[str, Any] = {
         "registered": registered,
@@ -340,6 +394,8 @@ def main() -> int:
         "audio_sent": {"chunks": len(expected_audio(audio["calls"])),
                        "refused": audio.get("refused"), "wav_refused": audio.get("wav_refused")},
         "batch": batch,
+        "module": fw.__file__,
+        "asyncio": asyncio_seen,
         "tables": {
             "animation_units": [list(names) for names in fw.ANIMATION_UNIT_NAMES],
             "faps": list(fw.FAP_NAMES),
@@ -348,7 +404,7 @@ def main() -> int:
     }
     result.update(seen)
     problems = (check(viewer, viewer_fwf1, sent, seen, seen_fwf1)
-                + check_audio(viewer, viewer_fwf1, audio, seen, seen_fwf1))
+                + check_audio(viewer, viewer_fwf1, audio, seen, seen_fwf1) + asyncio_problems)
     result["problems"] = problems
     with open(args.out, "w", encoding="utf-8") as f:
         json.dump(result, f)
@@ -360,6 +416,8 @@ def main() -> int:
     print("sent %d audio chunks and one refused (%s), the audio viewer heard %d, the other "
           "viewer %d" % (result["audio_sent"]["chunks"], (audio.get("refused") or {}).get("code"),
                          len(seen.get("audio", [])), len(seen_fwf1.get("audio", []))))
+    print("asyncio: %(acks)d frames acknowledged, %(frames_seen)d seen, %(samples_heard)d of "
+          "%(samples_played)d samples heard, end %(end)r" % asyncio_seen)
     for problem in problems:
         print("selftest: %s" % problem, file=sys.stderr)
     return 1 if problems else 0

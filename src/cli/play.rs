@@ -1,6 +1,6 @@
-//! `facewire play`: push a parameter stream file to a producer WebSocket in real time (or
-//! faster with `--speed`), reporting how many frames were acknowledged and why any were
-//! refused.
+//! `facewire play`: push a parameter stream file, and with `--audio` its voice, to a
+//! producer WebSocket in real time (frames faster with `--speed`), reporting how many
+//! frames were acknowledged and why any frame or audio chunk was refused.
 
 use std::time::Duration;
 
@@ -11,6 +11,8 @@ use super::serve::runtime;
 use super::{CliResult, FilePath};
 use crate::mask::Mask;
 use crate::stream::{open_stream, JsonlWriter};
+use crate::voice::read_wav;
+use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
 use facewire_proto::messages::ServerMessage;
 
 #[derive(Debug, clap::Args)]
@@ -26,7 +28,14 @@ pub struct Args {
     /// Producer token, if the server wants one.
     #[arg(long)]
     token: Option<String>,
+    /// A WAV file (16, 24 or 48 kHz; mixed to mono) sent with the stream in 20 ms PCM
+    /// chunks, its first sample at the stream's first frame's `t`.
+    #[arg(long)]
+    audio: Option<FilePath>,
 }
+
+/// Audio chunk length, seconds: an Opus packet's, as producers send them.
+const AUDIO_CHUNK_S: f64 = 0.02;
 
 pub(super) fn with_token(url: &str, token: Option<&str>) -> String {
     match token {
@@ -39,14 +48,37 @@ pub fn run(args: Args) -> CliResult {
     if !(args.speed.is_finite() && args.speed > 0.0) {
         return Err(format!("--speed {}: must be a positive number", args.speed).into());
     }
+    if args.audio.is_some() && args.speed != 1.0 {
+        return Err("--audio plays in real time: leave --speed at 1".into());
+    }
     let mask = Mask::candide3();
-    let mut lines = Vec::new();
+    // (t, message) in the order they are sent; a frame goes before a chunk at its `t`.
+    let mut messages = Vec::new();
     for frame in open_stream(&args.stream, &mask)? {
         let frame = frame?;
         let mut writer = JsonlWriter::new(Vec::new(), &mask);
         writer.write_frame(&frame)?;
         let line = String::from_utf8(writer.into_inner()?)?;
-        lines.push((frame.seq, frame.time_s, line.trim_end().to_string()));
+        messages.push((frame.time_s, Message::Text(line.trim_end().to_string().into())));
+    }
+    let frames = messages.len();
+    let first = messages.first().map_or(0.0, |m| m.0);
+    if let Some(path) = &args.audio {
+        let file = std::fs::File::open(path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
+        let voice = read_wav(std::io::BufReader::new(file), &path.display().to_string())?;
+        for (t_s, samples) in voice.chunks(AUDIO_CHUNK_S) {
+            let chunk = AudioChunk {
+                t_s: first + t_s,
+                server_receive_us: 0,
+                body: AudioBody::Pcm {
+                    sample_rate: voice.sample_rate,
+                    samples: samples.to_vec(),
+                },
+                ignored: Vec::new(),
+            };
+            messages.push((chunk.t_s, Message::Binary(chunk.encode().into())));
+        }
+        messages.sort_by(|a, b| a.0.total_cmp(&b.0));
     }
     let url = with_token(&args.url, args.token.as_deref());
     runtime()?.block_on(async move {
@@ -69,15 +101,19 @@ pub fn run(args: Args) -> CliResult {
             (acks, errors)
         });
         let start = tokio::time::Instant::now();
-        let first = lines.first().map_or(0.0, |l| l.1);
-        for (i, (_, time_s, line)) in lines.iter().enumerate() {
+        let mut sent_frames = 0;
+        for (i, (time_s, message)) in messages.into_iter().enumerate() {
             let at = start + Duration::from_secs_f64(((time_s - first) / args.speed).max(0.0));
             tokio::time::sleep_until(at).await;
-            tx.send(Message::Text(line.clone().into()))
+            let is_frame = matches!(message, Message::Text(_));
+            tx.send(message)
                 .await
-                .map_err(|e| format!("sending frame {i}: {e}"))?;
-            if (i + 1) % 30 == 0 {
-                eprint!("\r{} / {} frames", i + 1, lines.len());
+                .map_err(|e| format!("sending message {i} (t = {time_s} s): {e}"))?;
+            if is_frame {
+                sent_frames += 1;
+                if sent_frames % 30 == 0 {
+                    eprint!("\r{sent_frames} / {frames} frames");
+                }
             }
         }
         tx.send(Message::Text(r#"{"type":"end"}"#.into())).await?;
@@ -86,8 +122,7 @@ pub fn run(args: Args) -> CliResult {
         let (acks, errors) = reader.await?;
         eprintln!();
         println!(
-            "sent {} frames, {acks} acknowledged, {} refused",
-            lines.len(),
+            "sent {frames} frames, {acks} acknowledged, {} refused",
             errors.len()
         );
         for e in errors.iter().take(10) {

@@ -1,13 +1,23 @@
-//! The demo's built-in producer: loops the recorded syllable stream on a stream of the
-//! given heads, as a producer would, so `facewire demo` shows talking heads at once.
+//! The demo's built-in producer: loops the recorded syllable stream and its voice on a
+//! stream of the given heads, as a producer would, so `facewire demo` shows talking heads
+//! at once and viewers who ask for audio hear them.
 
 use std::time::Duration;
 
+use axum::extract::ws::Message;
+
 use super::error::ApiError;
 use super::store::{HeadMeta, HeadRecord, PartRecord};
+use super::stream::{ProducerPermit, RelayedAudio};
+use super::transcode::Transcoder;
 use super::AppState;
 use crate::head::PartRole;
 use crate::stream::{syllables, Frame};
+use crate::voice::{syllable_voice, Voice};
+use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
+
+/// The demo voice's chunks, seconds (an Opus packet's length, as producers send them).
+const CHUNK_S: f64 = 0.02;
 
 /// A shipped head the demo registers.
 pub struct DemoHead {
@@ -85,13 +95,18 @@ pub async fn register_heads(state: &AppState) -> Result<(), ApiError> {
     Ok(())
 }
 
-/// Plays the syllable stream on `stream` of every head in `heads`, forever (until
-/// shutdown), with sequence numbers and timestamps that keep increasing across loops.
+/// Plays the syllable stream and its voice on `stream` of every head in `heads`, forever
+/// (until shutdown), with sequence numbers and timestamps that keep increasing across
+/// loops. Each round lasts the 27 syllables' slots; the last frame (at rest, as the
+/// first) is the next round's first.
 pub async fn loop_syllables(state: AppState, heads: Vec<String>, stream: String) {
     let frames: Vec<Frame> = syllables::generate(syllables::SHIPPED_FPS).expect("the shipped fps is valid");
-    let period = frames.last().map_or(1.0, |f| f.time_s) + 1.0 / syllables::SHIPPED_FPS;
+    let voice: Voice = syllable_voice().expect("the shipped voice reads");
+    let period = syllables::SYLLABLE_S * syllables::SYLLABLES.len() as f64;
+    let frames: Vec<Frame> = frames.into_iter().filter(|f| f.time_s < period - 1e-9).collect();
+    let chunks: Vec<(f64, &[i16])> = voice.chunks(CHUNK_S).collect();
     // Wait for registration, then hold the producer slot of each stream.
-    let mut producers = Vec::new();
+    let mut producers: Vec<(ProducerPermit, Transcoder)> = Vec::new();
     for id in &heads {
         let Some(entry) = state.registry.get(id) else {
             continue;
@@ -101,24 +116,55 @@ pub async fn loop_syllables(state: AppState, heads: Vec<String>, stream: String)
             ready = entry.wait_ready(Duration::MAX) => if ready.is_err() { continue },
         }
         if let Some(permit) = entry.stream(&stream).ok().and_then(|s| s.claim_producer()) {
-            producers.push(permit);
+            producers.push((permit, Transcoder::default()));
         }
     }
     let start = tokio::time::Instant::now();
     let mut seq = 0u64;
     for round in 0u64.. {
-        for frame in &frames {
-            let t = round as f64 * period + frame.time_s;
+        let offset = round as f64 * period;
+        let (mut frames, mut chunks) = (frames.iter().peekable(), chunks.iter().peekable());
+        // Frames and chunks in time order, each sent when its `t` comes.
+        loop {
+            let next_frame = frames.peek().map(|f| f.time_s);
+            let next_chunk = chunks.peek().map(|c| c.0);
+            let (t, is_frame) = match (next_frame, next_chunk) {
+                (Some(f), Some(c)) => (f.min(c), f <= c),
+                (Some(f), None) => (f, true),
+                (None, Some(c)) => (c, false),
+                (None, None) => break,
+            };
             tokio::select! {
                 _ = state.shutdown.cancelled() => return,
-                _ = tokio::time::sleep_until(start + Duration::from_secs_f64(t)) => {}
+                _ = tokio::time::sleep_until(start + Duration::from_secs_f64(offset + t)) => {}
             }
-            let mut looped = frame.clone();
-            looped.seq = seq;
-            looped.time_s = t;
-            seq += 1;
-            for permit in &producers {
-                permit.publish(looped.clone(), super::now_us());
+            if is_frame {
+                let mut looped = frames.next().expect("peeked").clone();
+                looped.seq = seq;
+                looped.time_s += offset;
+                seq += 1;
+                for (permit, _) in &producers {
+                    permit.publish(looped.clone(), super::now_us());
+                }
+            } else {
+                let &(t_s, samples) = chunks.next().expect("peeked");
+                let chunk = AudioChunk {
+                    t_s: offset + t_s,
+                    server_receive_us: super::now_us(),
+                    body: AudioBody::Pcm {
+                        sample_rate: voice.sample_rate,
+                        samples: samples.to_vec(),
+                    },
+                    ignored: Vec::new(),
+                };
+                let message = Message::Binary(chunk.encode().into());
+                for (permit, transcoder) in &mut producers {
+                    permit.publish_audio(RelayedAudio {
+                        codec: chunk.body.codec(),
+                        message: message.clone(),
+                    });
+                    transcoder.publish(&chunk, permit, &state.telemetry);
+                }
             }
         }
     }

@@ -23,6 +23,7 @@ mod poser;
 mod reader;
 mod strict_json;
 pub mod summary;
+pub mod syllable_phonemes;
 pub mod syllables;
 pub mod visemes;
 

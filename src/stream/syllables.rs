@@ -3,16 +3,20 @@
 //! demos replay the same speech-like motion. The generated stream at 30 fps ships as
 //! `data/streams/syllables.jsonl` (a test keeps the two identical byte for byte).
 //!
-//! Each syllable lasts [`SYLLABLE_S`]: from rest the mouth moves to the consonant, holds
-//! it, opens to the vowel, holds it and returns to rest ([`KEYFRAMES`]). Between
-//! keyframes every weight follows a smoothstep, so motion starts and stops with zero
-//! speed and never jumps. Co-articulation: a consonant only fixes the channels its
+//! Each syllable has a slot of [`SYLLABLE_S`] and moves on its voice's clock
+//! (`data/streams/syllables.wav`, spoken by eSpeak NG; [`super::syllable_phonemes`]): the
+//! mouth leaves rest [`APPROACH_S`] before the consonant sounds and reaches it as it does,
+//! holds it until the vowel begins, opens to the vowel in [`OPEN_S`], holds it while it
+//! sounds and returns to rest in [`CLOSE_S`] ([`keyframes`]). Between keyframes every
+//! weight follows a smoothstep, so motion starts and stops with zero speed and never
+//! jumps. Co-articulation: a consonant only fixes the channels its
 //! articulation needs; every other channel anticipates the coming vowel at
 //! [`ANTICIPATION`] of the vowel's value (the lips round during the `p` of `pu` and
 //! spread during the `p` of `pi`).
 
 use super::error::StreamError;
 use super::frame::Frame;
+use super::syllable_phonemes::{read_timings, SyllableTiming, PHONEMES_TSV};
 
 /// One animation unit the visemes use, with the range the table keeps it in.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -209,6 +213,9 @@ pub const SYLLABLES: [&str; 27] = [
     "fu", "sa", "si", "su", "ya", "yi", "yu", "da", "di", "du",
 ];
 
+/// A syllable's keyframes ([`keyframes`]): seconds into its slot and the target then.
+pub type Keyframes = [(f64, Phase); 6];
+
 /// Which target a keyframe holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Phase {
@@ -217,17 +224,26 @@ pub enum Phase {
     Vowel,
 }
 
-/// The keyframes of one syllable: seconds from its start and the target reached then.
-/// Rest to consonant in 100 ms, hold 60 ms, to the vowel in 140 ms, hold 120 ms, back to
-/// rest in 180 ms.
-pub const KEYFRAMES: [(f64, Phase); 6] = [
-    (0.0, Phase::Rest),
-    (0.10, Phase::Consonant),
-    (0.16, Phase::Consonant),
-    (0.30, Phase::Vowel),
-    (0.42, Phase::Vowel),
-    (0.60, Phase::Rest),
-];
+/// The mouth leaves rest this long before the consonant sounds, seconds.
+pub const APPROACH_S: f64 = 0.10;
+/// From the consonant's release (the vowel's onset) to the vowel's shape, seconds.
+pub const OPEN_S: f64 = 0.10;
+/// From the end of the voice back to rest, seconds.
+pub const CLOSE_S: f64 = 0.15;
+
+/// The keyframes of one syllable: seconds from the start of its slot and the target
+/// reached then, from where its phonemes sound.
+pub fn keyframes(timing: &SyllableTiming) -> Keyframes {
+    let vowel_reached = (timing.vowel_s + OPEN_S).min(timing.vowel_end_s);
+    [
+        ((timing.consonant_s - APPROACH_S).max(0.0), Phase::Rest),
+        (timing.consonant_s, Phase::Consonant),
+        (timing.vowel_s, Phase::Consonant),
+        (vowel_reached, Phase::Vowel),
+        (timing.vowel_end_s, Phase::Vowel),
+        ((timing.vowel_end_s + CLOSE_S).min(SYLLABLE_S), Phase::Rest),
+    ]
+}
 
 /// Length of one syllable, seconds.
 pub const SYLLABLE_S: f64 = 0.60;
@@ -272,8 +288,9 @@ fn blend<const N: usize>(from: [f32; N], to: [f32; N], s: f64) -> [f64; N] {
     out
 }
 
-/// Channel weights and tongue counts `local_s` seconds into a syllable.
-fn pose(consonant: &Consonant, vowel: &Vowel, local_s: f64) -> ([f64; 8], [f64; 3]) {
+/// Channel weights and tongue counts `local_s` seconds into a syllable whose keyframes
+/// are `keyframes`.
+fn pose(consonant: &Consonant, vowel: &Vowel, keyframes: &Keyframes, local_s: f64) -> ([f64; 8], [f64; 3]) {
     let consonant_targets = (
         coarticulated(consonant, vowel),
         coarticulated_tongue(consonant, vowel),
@@ -285,19 +302,30 @@ fn pose(consonant: &Consonant, vowel: &Vowel, local_s: f64) -> ([f64; 8], [f64; 
             Phase::Vowel => (vowel.targets, vowel.tongue),
         }
     };
-    let segment = KEYFRAMES
+    let segment = keyframes
         .windows(2)
         .find(|pair| local_s < pair[1].0)
-        .unwrap_or(&KEYFRAMES[KEYFRAMES.len() - 2..]);
+        .unwrap_or(&keyframes[keyframes.len() - 2..]);
     let ((start_s, from), (end_s, to)) = (segment[0], segment[1]);
-    let s = smoothstep((local_s - start_s) / (end_s - start_s));
+    // A keyframe pair at one instant (a timing clamped to its slot) is a step.
+    let s = if end_s > start_s {
+        smoothstep((local_s - start_s) / (end_s - start_s))
+    } else {
+        1.0
+    };
     let (from, to) = (target(from), target(to));
     (blend(from.0, to.0, s), blend(from.1, to.1, s))
 }
 
+/// Where the shipped voice sounds each syllable's phonemes (checked when read).
+pub fn timings() -> Result<Vec<SyllableTiming>, StreamError> {
+    read_timings(PHONEMES_TSV, &SYLLABLES, SYLLABLE_S)
+}
+
 /// The 27 syllables at `fps` frames per second (at most 1000): frame `i` at `i / fps`
 /// seconds, from rest at 0 to rest at `27 * SYLLABLE_S`, every frame labelled with its
-/// syllable. Deterministic: the same `fps` gives the same frames on every machine.
+/// syllable and timed by the shipped voice ([`timings`]). Deterministic: the same `fps`
+/// gives the same frames on every machine.
 pub fn generate(fps: f64) -> Result<Vec<Frame>, StreamError> {
     if !(fps.is_finite() && fps > 0.0 && fps <= MAX_FPS) {
         return Err(StreamError::InvalidOption {
@@ -306,9 +334,12 @@ pub fn generate(fps: f64) -> Result<Vec<Frame>, StreamError> {
             found: fps.to_string(),
         });
     }
-    let syllables: Vec<(&Consonant, &Vowel)> = CONSONANTS
+    let timings = timings()?;
+    let syllables: Vec<(&Consonant, &Vowel, Keyframes)> = CONSONANTS
         .iter()
         .flat_map(|c| VOWELS.iter().map(move |v| (c, v)))
+        .zip(&timings)
+        .map(|((c, v), timing)| (c, v, keyframes(timing)))
         .collect();
     let total_s = SYLLABLE_S * syllables.len() as f64;
     let last_frame = (total_s * fps).round() as u64;
@@ -317,9 +348,9 @@ pub fn generate(fps: f64) -> Result<Vec<Frame>, StreamError> {
             let time_s = seq as f64 / fps;
             // The epsilon puts a frame that lands on a boundary in the syllable it starts.
             let index = ((time_s / SYLLABLE_S + 1e-9).floor() as usize).min(syllables.len() - 1);
-            let (consonant, vowel) = syllables[index];
+            let (consonant, vowel, keyframes) = &syllables[index];
             let local_s = (time_s - index as f64 * SYLLABLE_S).max(0.0);
-            let (weights, tongue) = pose(consonant, vowel, local_s);
+            let (weights, tongue) = pose(consonant, vowel, keyframes, local_s);
             let animation = CHANNELS
                 .iter()
                 .zip(weights)
@@ -404,25 +435,71 @@ mod tests {
         assert_eq!(CONSONANTS[0].targets[4], Some(0.6));
     }
 
+    /// Consonant from 0.10 s, vowel from 0.16 s to 0.42 s into the slot.
+    const TIMING: SyllableTiming = SyllableTiming {
+        consonant_s: 0.10,
+        vowel_s: 0.16,
+        vowel_end_s: 0.42,
+    };
+
     #[test]
-    fn keyframes_span_one_syllable_from_rest_to_rest() {
-        assert_eq!(KEYFRAMES[0], (0.0, Phase::Rest));
-        assert_eq!(KEYFRAMES[KEYFRAMES.len() - 1], (SYLLABLE_S, Phase::Rest));
-        assert!(KEYFRAMES.windows(2).all(|pair| pair[0].0 < pair[1].0));
+    fn keyframes_follow_the_phonemes_from_rest_to_rest() {
+        let expected = [
+            (0.0, Phase::Rest),
+            (0.10, Phase::Consonant),
+            (0.16, Phase::Consonant),
+            (0.26, Phase::Vowel),
+            (0.42, Phase::Vowel),
+            (0.57, Phase::Rest),
+        ];
+        let found = keyframes(&TIMING);
+        for (k, (f, e)) in found.iter().zip(expected).enumerate() {
+            assert!(
+                (f.0 - e.0).abs() < 1e-12 && f.1 == e.1,
+                "keyframe {k}: {f:?}, expected {e:?}"
+            );
+        }
+        // A short vowel is reached when it ends, and the return to rest stays in the slot.
+        let short = keyframes(&SyllableTiming {
+            consonant_s: 0.05,
+            vowel_s: 0.30,
+            vowel_end_s: 0.50,
+        });
+        assert_eq!(short[0], (0.0, Phase::Rest));
+        assert_eq!(short[3], (0.40, Phase::Vowel));
+        assert_eq!(short[5], (SYLLABLE_S, Phase::Rest));
+    }
+
+    #[test]
+    fn the_shipped_voice_times_every_syllable_inside_its_slot() {
+        let timings = timings().unwrap();
+        assert_eq!(timings.len(), SYLLABLES.len());
+        for (name, timing) in SYLLABLES.iter().zip(&timings) {
+            let frames = keyframes(timing);
+            assert!(
+                frames.windows(2).all(|pair| pair[0].0 < pair[1].0),
+                "{name}: {frames:?}"
+            );
+            assert!(frames[5].0 <= SYLLABLE_S, "{name}: {frames:?}");
+            // eSpeak NG's consonants last 25-160 ms at 130 words a minute.
+            let consonant_ms = (timing.vowel_s - timing.consonant_s) * 1e3;
+            assert!((20.0..200.0).contains(&consonant_ms), "{name}: {consonant_ms} ms");
+        }
     }
 
     #[test]
     fn pose_hits_the_keyframe_targets() {
         let (p, u) = (&CONSONANTS[0], &VOWELS[2]);
-        let at = |t: f64| pose(p, u, t).0.map(|w| (w * 1e6).round() / 1e6);
+        let frames = keyframes(&TIMING);
+        let at = |t: f64| pose(p, u, &frames, t).0.map(|w| (w * 1e6).round() / 1e6);
         assert_eq!(at(0.0), [0.0; 8]);
         // Consonant hold of "pu": lips closed and pressed, already rounding.
         assert_eq!(at(0.13), [0.0, 0.0, -0.315, 0.0, 0.6, 0.0, 0.0245, 0.028]);
         assert_eq!(at(0.36), [0.0, 0.12, -0.45, 0.0, 0.0, 0.0, 0.035, 0.04]);
+        assert_eq!(at(0.57), [0.0; 8]);
         assert_eq!(at(0.60), [0.0; 8]);
-        assert_eq!(at(0.75), [0.0; 8]);
         // Halfway between two keyframes smoothstep is halfway too.
-        let mid = pose(p, u, 0.23).0;
+        let mid = pose(p, u, &frames, 0.21).0;
         assert!((mid[1] - 0.06).abs() < 1e-7, "{}", mid[1]);
     }
 
@@ -430,15 +507,17 @@ mod tests {
     fn the_tongue_follows_the_consonant_then_the_vowel() {
         let (t, k, p) = (&CONSONANTS[1], &CONSONANTS[2], &CONSONANTS[0]);
         let (a, u) = (&VOWELS[0], &VOWELS[2]);
+        let frames = keyframes(&TIMING);
+        let tongue = |c, v, at| pose(c, v, &frames, at).1;
         // t: the tip to the ridge at the consonant hold, whatever the vowel.
-        assert_eq!(pose(t, a, 0.13).1, [900.0, 75.0, 0.0]);
-        assert_eq!(pose(t, u, 0.13).1, [900.0, 75.0, 0.0]);
+        assert_eq!(tongue(t, a, 0.13), [900.0, 75.0, 0.0]);
+        assert_eq!(tongue(t, u, 0.13), [900.0, 75.0, 0.0]);
         // k: the body raised.
-        assert_eq!(pose(k, a, 0.13).1[2], 500.0);
+        assert_eq!(tongue(k, a, 0.13)[2], 500.0);
         // p leaves the tongue free: it anticipates the vowel.
-        assert_eq!(pose(p, u, 0.13).1, [0.0, -70.0, 175.0]);
-        assert_eq!(pose(p, u, 0.36).1, [0.0, -100.0, 250.0]);
-        assert_eq!(pose(t, a, 0.0).1, [0.0; 3]);
+        assert_eq!(tongue(p, u, 0.13), [0.0, -70.0, 175.0]);
+        assert_eq!(tongue(p, u, 0.36), [0.0, -100.0, 250.0]);
+        assert_eq!(tongue(t, a, 0.0), [0.0; 3]);
         // The generated frames carry the counts as FAPs 44-46, whole numbers.
         let frames = generate(30.0).unwrap();
         let hold = frames

@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """A Python client for facewire's wire protocol, v1 (``proto/PROTOCOL.md``).
 
-One module, the standard library plus ``websocket-client`` (``pip install
-websocket-client``, imported as ``websocket``), which only the two WebSocket classes
-need:
+The standard library plus ``websocket-client`` (imported as ``websocket``), which only the
+two WebSocket classes need; ``pip install ./clients/python`` installs both. Typed
+(``py.typed``); :mod:`facewire_client.aio` gives the same producer and viewer to asyncio:
 
 - :class:`Producer` pushes parameter frames (facewire's JSONL objects, ``docs/STREAMS.md``)
   to ``/v1/heads/{id}/streams/{stream}/produce`` as JSON text or binary ``FWP2`` (or the
@@ -28,8 +28,8 @@ The binary formats have pure functions of their own (:func:`encode_fwp2`,
 :func:`opus_packet_samples`). Nothing is kept in globals: every connection is
 an object the caller owns.
 
-Run ``python3 facewire_client.py --help`` for the command line (produce, view, register,
-heads, batch).
+Run ``facewire-client --help`` (or ``python3 -m facewire_client --help``) for the command
+line (produce, view, register, heads, batch).
 """
 
 from __future__ import annotations
@@ -1771,6 +1771,36 @@ def _pcm_samples(t_s: float, samples: Union[Sequence[int], bytes, bytearray]) ->
     return samples
 
 
+def _open_wav(name: str) -> "wave.Wave_read":
+    """A WAV file of 16-bit mono PCM at a rate of :data:`PCM_RATES`, opened; anything else
+    raises :class:`FrameError` saying what differs."""
+    try:
+        wav = wave.open(name, "rb")
+    except (wave.Error, EOFError) as e:
+        raise FrameError("%s: not a WAV file of uncompressed PCM (%s)" % (name, e)) from None
+    channels, width, rate = wav.getnchannels(), wav.getsampwidth(), wav.getframerate()
+    problems = []
+    if channels != 1:
+        problems.append("%d channels, facewire takes mono" % channels)
+    if width != 2:
+        problems.append("%d-bit samples, facewire takes 16-bit" % (8 * width))
+    if rate not in PCM_RATES:
+        problems.append("%d Hz, the protocol takes %s Hz" % (rate, ", ".join(map(str, PCM_RATES))))
+    if problems:
+        wav.close()
+        raise FrameError("%s: %s" % (name, "; ".join(problems)))
+    return wav
+
+
+def _read_wav(name: str) -> Tuple[int, List[int]]:
+    """A whole WAV file (as :func:`_open_wav` takes it): its rate and samples."""
+    with _open_wav(name) as wav:
+        raw = wav.readframes(wav.getnframes())
+        raw = raw[:len(raw) - len(raw) % 2]
+        # wave gives samples in the machine's byte order, which array reads.
+        return wav.getframerate(), array("h", raw).tolist()
+
+
 def _pcm_chunks(t_s: float, samples: Sequence[int], sample_rate: int) -> List[AudioChunk]:
     """PCM cut into :data:`AUDIO_CHUNK_S` chunks, the one starting at sample ``i`` at
     ``t_s + i / sample_rate``."""
@@ -1918,22 +1948,51 @@ class Producer:
         raise ProtocolError("expected an ack or error for seq %d, got %r" % (seq, message))
 
     def play(self, frames: Iterable[Mapping[str, Any]], *, realtime: bool = True,
-             speed: float = 1.0) -> List[Ack]:
+             speed: float = 1.0,
+             audio: Union[None, str, "os.PathLike[str]", Sequence[int], bytes, bytearray] = None,
+             sample_rate: int = 16000, audio_t_s: Optional[float] = None) -> List[Ack]:
         """Sends every frame, at its ``t`` (relative to the first, divided by ``speed``)
         when ``realtime``, else as fast as the acks and ``max_fps`` allow. Stops at the
-        first refusal (raises :class:`Refused`). Does not end the stream."""
+        first refusal (raises :class:`Refused`). Does not end the stream.
+
+        ``audio`` is the frames' voice, sent with them on their clock: a WAV file's path
+        (16-bit mono PCM, as :meth:`send_wav` takes) or samples (as :meth:`send_audio`
+        takes, at ``sample_rate``), whose first sample plays at ``audio_t_s`` (by default
+        the first frame's ``t``). Each 20 ms chunk goes when its time comes, between the
+        frames, so ``audio`` needs ``realtime`` at ``speed`` 1; an audio refusal raises
+        :class:`AudioRefused` and stops the playback."""
+        frames = list(frames)
+        if audio is not None and (not realtime or speed != 1.0):
+            raise FrameError("play: audio is sent in real time; use realtime=True and speed=1")
+        timeline: List[Tuple[float, int, Any]] = []
+        for frame in frames:
+            timeline.append((_number(_frame_seq(frame), "t", frame.get("t")), 0, frame))
+        if audio is not None:
+            first_t = timeline[0][0] if timeline else 0.0
+            audio_t = first_t if audio_t_s is None else audio_t_s
+            if isinstance(audio, (str, os.PathLike)):
+                rate, pcm = _read_wav(os.fspath(audio))
+            else:
+                rate, pcm = sample_rate, _pcm_samples(audio_t, audio)
+            for chunk in _pcm_chunks(audio_t, pcm, rate):
+                timeline.append((chunk.t_s, 1, self._audio_message(chunk)[1]))
+            timeline.sort(key=lambda event: (event[0], event[1]))
+        self.check_audio()
         acks: List[Ack] = []
         start: Optional[float] = None
-        first_t = 0.0
-        for frame in frames:
+        first = 0.0
+        for t, kind, item in timeline:
             if realtime:
-                t = _number(_frame_seq(frame), "t", frame.get("t"))
                 if start is None:
-                    start, first_t = time.monotonic(), t
-                wait = start + (t - first_t) / speed - time.monotonic()
+                    start, first = time.monotonic(), t
+                wait = start + (t - first) / speed - time.monotonic()
                 if wait > 0:
                     time.sleep(wait)
-            acks.append(self.send(frame))
+            if kind == 0:
+                acks.append(self.send(item))
+            else:
+                self._send_audio_message(t, item, False)
+                self._raise_audio_refusals()
         return acks
 
     def send_audio(self, t_s: float, samples: Union[Sequence[int], bytes, bytearray],
@@ -1991,23 +2050,8 @@ class Producer:
         ``realtime=False`` sends as fast as the socket takes it, for files of at most 2 s.
         It stops at the first refusal it reads and raises :class:`AudioRefused` (the rest
         of the file is not sent). Returns the stream time just past the last sample."""
-        name = os.fspath(path)
-        try:
-            wav = wave.open(name, "rb")
-        except (wave.Error, EOFError) as e:
-            raise FrameError("%s: not a WAV file of uncompressed PCM (%s)" % (name, e)) from None
-        with wav:
-            channels, width, rate = wav.getnchannels(), wav.getsampwidth(), wav.getframerate()
-            problems = []
-            if channels != 1:
-                problems.append("%d channels, send_wav takes mono" % channels)
-            if width != 2:
-                problems.append("%d-bit samples, send_wav takes 16-bit" % (8 * width))
-            if rate not in PCM_RATES:
-                problems.append("%d Hz, the protocol takes %s Hz"
-                                % (rate, ", ".join(map(str, PCM_RATES))))
-            if problems:
-                raise FrameError("%s: %s" % (name, "; ".join(problems)))
+        with _open_wav(os.fspath(path)) as wav:
+            rate = wav.getframerate()
             per = round(rate * AUDIO_CHUNK_S)
             self.check_audio()
             sent = 0
@@ -2649,6 +2693,3 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except KeyboardInterrupt:
         return 130
 
-
-if __name__ == "__main__":
-    sys.exit(main())

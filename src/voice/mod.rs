@@ -1,0 +1,55 @@
+//! Voices: the speech that goes with a parameter stream, as mono 16-bit samples on the
+//! stream's own timeline (seconds from its `t = 0`). Read from WAV files ([`wav`]) and cut
+//! into the chunks producers send (`FWA1`, proto/PROTOCOL.md). The syllable stream's own
+//! voice ships in `data/streams/syllables.wav` ([`syllable_voice`]).
+//!
+//! Plain synchronous Rust, as the rest of the core.
+
+mod syllable_voice;
+mod wav;
+
+pub use syllable_voice::syllable_voice;
+pub use wav::{read_wav, WavError};
+
+/// Mono speech: `samples` at `sample_rate` Hz, the first at `t = 0` s.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Voice {
+    pub sample_rate: u32,
+    pub samples: Vec<i16>,
+}
+
+impl Voice {
+    /// Length, seconds.
+    pub fn duration_s(&self) -> f64 {
+        self.samples.len() as f64 / f64::from(self.sample_rate)
+    }
+
+    /// The samples in chunks of `chunk_s` seconds (the last may be shorter), each with the
+    /// time of its first sample, seconds.
+    pub fn chunks(&self, chunk_s: f64) -> impl Iterator<Item = (f64, &[i16])> {
+        let per_chunk = ((chunk_s * f64::from(self.sample_rate)).round() as usize).max(1);
+        let rate = f64::from(self.sample_rate);
+        self.samples
+            .chunks(per_chunk)
+            .enumerate()
+            .map(move |(i, chunk)| ((i * per_chunk) as f64 / rate, chunk))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn chunks_carry_the_time_of_their_first_sample() {
+        let voice = Voice {
+            sample_rate: 16_000,
+            samples: (0..800).map(|i| i as i16).collect(),
+        };
+        let chunks: Vec<_> = voice.chunks(0.02).collect();
+        assert_eq!(chunks.len(), 3);
+        assert_eq!((chunks[1].0, chunks[1].1[0]), (0.02, 320));
+        assert_eq!((chunks[2].0, chunks[2].1.len()), (0.04, 160));
+        assert_eq!(voice.duration_s(), 0.05);
+    }
+}
