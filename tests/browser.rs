@@ -188,15 +188,7 @@ impl Browser {
 
     /// A PNG of one element, base64, as the compositor shows it.
     async fn screenshot(&self, css: &str) -> String {
-        let found = self
-            .command("/element", Some(json!({ "using": "css selector", "value": css })))
-            .await;
-        let id = found
-            .as_object()
-            .and_then(|o| o.values().next())
-            .and_then(Value::as_str)
-            .unwrap()
-            .to_string();
+        let id = self.element(css).await;
         let shot = self.command(&format!("/element/{id}/screenshot"), None).await;
         shot.as_str().unwrap().to_string()
     }
@@ -217,17 +209,22 @@ impl Browser {
     /// Clicks the element as a user would (WebDriver's trusted click: it counts as the
     /// user's gesture that lets a page play sound).
     async fn click(&self, css: &str) {
+        let id = self.element(css).await;
+        self.command(&format!("/element/{id}/click"), Some(json!({})))
+            .await;
+    }
+
+    /// The WebDriver id of the element `css` selects.
+    async fn element(&self, css: &str) -> String {
         let found = self
             .command("/element", Some(json!({ "using": "css selector", "value": css })))
             .await;
-        let id = found
+        found
             .as_object()
             .and_then(|o| o.values().next())
             .and_then(Value::as_str)
             .unwrap()
-            .to_string();
-        self.command(&format!("/element/{id}/click"), Some(json!({})))
-            .await;
+            .to_string()
     }
 
     async fn quit(self) {

@@ -168,9 +168,25 @@ struct Outcome {
     module: String,
 }
 
-/// A virtual environment in `dir` with the package installed from the checkout (and
-/// websocket-client from the package index): its Python interpreter.
+/// A virtual environment in `dir` with the package installed from a copy of the checkout's
+/// (pip builds in the source folder, which must stay clean) and websocket-client from the
+/// package index: its Python interpreter.
 fn install_package(dir: &Path) -> std::path::PathBuf {
+    let source = dir.join("package");
+    std::fs::create_dir_all(source.join("facewire_client")).unwrap();
+    for file in ["pyproject.toml", "README.md"] {
+        std::fs::copy(repo_path("clients/python").join(file), source.join(file)).unwrap();
+    }
+    for entry in std::fs::read_dir(repo_path("clients/python/facewire_client")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_file() {
+            std::fs::copy(
+                &path,
+                source.join("facewire_client").join(path.file_name().unwrap()),
+            )
+            .unwrap();
+        }
+    }
     let venv = dir.join("venv");
     let made = Command::new("python3")
         .arg("-m")
@@ -186,7 +202,7 @@ fn install_package(dir: &Path) -> std::path::PathBuf {
     let python = venv.join("bin/python");
     let installed = Command::new(&python)
         .args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check"])
-        .arg(repo_path("clients/python"))
+        .arg(&source)
         .output()
         .expect("pip runs");
     assert!(

@@ -16,7 +16,7 @@ import { parseMesh } from "./decode.js";
 import { fitOutcome, fitPaths } from "./fit.js";
 import { Nodes } from "./nodes.js";
 import { DEFAULT_HEAT_MAX, Panel } from "./panel.js";
-import { audioCodec, Sound } from "./sound.js";
+import { audioCodec, quantile, Sound } from "./sound.js";
 
 /** A view whose last frame is older than this does not hold the other one back. */
 const STALE_MS = 300;
@@ -405,14 +405,6 @@ let statsAt = performance.now();
 const drawLags = [];
 const DRAW_LAGS = 31;
 
-function median(values) {
-  if (values.length === 0) {
-    return 0;
-  }
-  const sorted = [...values].sort((a, b) => a - b);
-  return sorted[Math.floor(sorted.length / 2)];
-}
-
 /**
  * What the views draw next: while the sound plays, the frame nearest the stream time
  * that will be heard when it is drawn (the heard time after the usual lag from choosing
@@ -420,7 +412,7 @@ function median(values) {
  * sound, the newest frame both views have.
  */
 function drawTarget(now) {
-  const heard = sound.heardTime(now + median(drawLags));
+  const heard = sound.heardTime(now + (quantile(drawLags, 0.5) ?? 0));
   if (heard === null) {
     return { seq: commonSeq(now) };
   }

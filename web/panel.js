@@ -12,6 +12,7 @@
 import { applyFrame, decodeAudio, decodeFrame, motionMatrix, readFrameHeader } from "./decode.js";
 import { HeadRenderer } from "./render.js";
 import { CLOSE } from "./codes.js";
+import { quantile } from "./sound.js";
 import { VIEW_FORMAT, ViewerSocket } from "./stream.js";
 
 /** Raw frames kept while waiting to be drawn; older ones are dropped. */
@@ -330,11 +331,7 @@ export class Panel {
 
   /** The stream's time between frames (median of the last few), seconds; 0 before two frames. */
   frameIntervalS() {
-    if (this.intervals.length === 0) {
-      return 0;
-    }
-    const sorted = [...this.intervals].sort((a, b) => a - b);
-    return sorted[Math.floor(sorted.length / 2)];
+    return quantile(this.intervals, 0.5) ?? 0;
   }
 
   /** An audio chunk for the page's sound. */
@@ -534,8 +531,7 @@ export class Panel {
       parts.push(`to ear ${summary.earMs.toFixed(0)} ms`);
     }
     if (s.offsets.length > 0) {
-      const sorted = [...s.offsets].sort((a, b) => a - b);
-      const median = sorted[Math.floor(sorted.length / 2)];
+      const median = quantile(s.offsets, 0.5);
       parts.push(`face ${median >= 0 ? "+" : ""}${median.toFixed(0)} ms from voice`);
     }
     if (summary.late > 0) {

@@ -13,7 +13,7 @@ use super::transcode::Transcoder;
 use super::AppState;
 use crate::head::PartRole;
 use crate::stream::{syllables, Frame};
-use crate::voice::{syllable_voice, Voice};
+use crate::voice::syllable_voice;
 use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
 
 /// The demo voice's chunks, seconds (an Opus packet's length, as producers send them).
@@ -101,7 +101,7 @@ pub async fn register_heads(state: &AppState) -> Result<(), ApiError> {
 /// first) is the next round's first.
 pub async fn loop_syllables(state: AppState, heads: Vec<String>, stream: String) {
     let frames: Vec<Frame> = syllables::generate(syllables::SHIPPED_FPS).expect("the shipped fps is valid");
-    let voice: Voice = syllable_voice().expect("the shipped voice reads");
+    let voice = syllable_voice().expect("the shipped voice reads");
     let period = syllables::SYLLABLE_S * syllables::SYLLABLES.len() as f64;
     let frames: Vec<Frame> = frames.into_iter().filter(|f| f.time_s < period - 1e-9).collect();
     let chunks: Vec<(f64, &[i16])> = voice.chunks(CHUNK_S).collect();
