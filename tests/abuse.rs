@@ -8,7 +8,7 @@ use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
 use common::service::{
-    close_code, connect, jaw_line, memory_config, next_json, next_message, until_end, Server,
+    close_code, connect, jaw_line, memory_config, next_json, next_message, post, until_end, Server,
 };
 use facewire::server::config::Limits;
 use facewire::server::Config;
@@ -20,22 +20,6 @@ fn limits(f: impl FnOnce(&mut Limits)) -> Config {
     let mut config = memory_config();
     f(&mut config.limits);
     config
-}
-
-async fn post(server: &Server, path: &str, body: String, content_type: &str) -> (u16, serde_json::Value) {
-    let response = reqwest::Client::new()
-        .post(server.http(path))
-        .header("content-type", content_type)
-        .body(body)
-        .send()
-        .await
-        .unwrap();
-    let status = response.status().as_u16();
-    let text = response.text().await.unwrap();
-    (
-        status,
-        serde_json::from_str(&text).unwrap_or_else(|_| panic!("not JSON: {text:?}")),
-    )
 }
 
 fn batch_body(frames: usize, dt: f64) -> String {

@@ -9,7 +9,9 @@ use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use common::nats::NatsServer;
-use common::service::{close_code, connect, moving_jaw_line, next_json, next_message, Server, Socket};
+use common::service::{
+    close_code, connect, moving_jaw_line, next_json, next_message, pcm_chunk, Server, Socket,
+};
 use facewire_proto::messages::{HeadInfo, ServerMessage};
 use facewire_proto::viewer_frame::{decode, ViewerFrame};
 use futures_util::SinkExt;
@@ -455,5 +457,89 @@ fn a_node_that_cannot_reach_nats_at_start_exits_with_the_reason() {
         started.elapsed() < Duration::from_secs(10),
         "took {:?}",
         started.elapsed()
+    );
+}
+
+/// The audio chunks a viewer hears until the stream ends.
+async fn audio_until_end(socket: &mut Socket) -> Vec<facewire_proto::audio_chunk::AudioChunk> {
+    let mut heard = Vec::new();
+    loop {
+        match next_message(socket).await {
+            Some(Message::Binary(bytes)) if bytes.starts_with(b"FWA1") => {
+                heard.push(facewire_proto::audio_chunk::AudioChunk::decode(&bytes).unwrap())
+            }
+            Some(Message::Binary(_)) => {}
+            Some(Message::Text(text)) => match serde_json::from_str(text.as_str()).unwrap() {
+                ServerMessage::End { .. } => return heard,
+                other => panic!("expected audio, a frame or end, got {other:?}"),
+            },
+            other => panic!("expected audio, a frame or end, got {other:?}"),
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_producer_s_voice_is_heard_on_another_node() {
+    use facewire_proto::audio_chunk::AudioBody;
+    let nats = NatsServer::start();
+    let n1 = node(&nats, "n1").await;
+    let n2 = node(&nats, "n2").await;
+    n1.register(HEAD, "makehuman_head", "").await;
+    n2.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
+    let listen = |codec: &str| {
+        n2.ws(&format!(
+            "/v1/heads/{HEAD}/streams/{STREAM}/view?format=fwf2&audio={codec}"
+        ))
+    };
+    let (mut pcm, mut opus) = (connect(&listen("pcm")).await, connect(&listen("opus")).await);
+    for viewer in [&mut pcm, &mut opus] {
+        assert!(matches!(next_json(viewer).await, ServerMessage::Snapshot(_)));
+    }
+
+    // Half a second of voice between two frames, sent at its own pace, on node 1.
+    let mut socket = producer(&n1).await;
+    produce(&mut socket, 0).await;
+    let sent: Vec<_> = (0..25)
+        .map(|i| pcm_chunk(0.02 * f64::from(i), i as i16))
+        .collect();
+    let mut ticks = tokio::time::interval(Duration::from_millis(20));
+    for chunk in &sent {
+        ticks.tick().await;
+        socket.send(Message::Binary(chunk.encode().into())).await.unwrap();
+    }
+    produce(&mut socket, 1).await;
+    socket
+        .send(Message::Text(r#"{"type":"end"}"#.into()))
+        .await
+        .unwrap();
+
+    // Node 2 hears every chunk as sent, in order, stamped with node 1's receipt...
+    let heard = audio_until_end(&mut pcm).await;
+    assert_eq!(
+        heard.len(),
+        sent.len(),
+        "node 2 heard {} of 25 chunks",
+        heard.len()
+    );
+    for (got, want) in heard.iter().zip(&sent) {
+        assert_eq!((got.t_s, &got.body), (want.t_s, &want.body));
+        assert!(got.server_receive_us > 1_700_000_000_000_000);
+    }
+    // ... and the same voice in Opus, encoded once on node 1: twelve 40 ms packets from
+    // t = 0 on (the last 20 ms wait for more samples).
+    let packets = audio_until_end(&mut opus).await;
+    assert_eq!(packets.len(), 12);
+    for (i, packet) in packets.iter().enumerate() {
+        assert!(
+            (packet.t_s - 0.04 * i as f64).abs() < 1e-9,
+            "packet {i} at {}",
+            packet.t_s
+        );
+        assert!(matches!(packet.body, AudioBody::Opus { .. }));
+    }
+    // Two frames, 25 chunks, 12 packets and the end.
+    assert_eq!(
+        metric(&n2, "facewire_bus_messages_in_total").await,
+        2.0 + 25.0 + 12.0 + 1.0
     );
 }

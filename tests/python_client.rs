@@ -126,6 +126,8 @@ struct Refusal {
 #[derive(Debug, Deserialize)]
 struct Batch {
     frames: usize,
+    #[serde(default)]
+    audio_s: f64,
 }
 
 #[derive(Debug, Deserialize)]
@@ -160,6 +162,7 @@ struct Outcome {
     sent: Vec<Sent>,
     refusal: Option<Refusal>,
     batch: Batch,
+    voiced_batch: Batch,
     tables: Tables,
     frames: Vec<Decoded>,
     end: Option<String>,
@@ -325,6 +328,10 @@ async fn the_python_client_decodes_what_the_library_computes() {
     assert_eq!(refusal.field.as_deref(), Some("seq"));
     assert_eq!(refusal.seq, Some(pushed[pushed.len() / 2]));
     assert_eq!(outcome.batch.frames, frames.len());
+    // The batch with its voice: six frames and five 20 ms chunks (heard sample for sample,
+    // at their times: the script's problems say otherwise).
+    assert_eq!(outcome.voiced_batch.frames, 6);
+    assert_eq!(outcome.voiced_batch.audio_s, 0.1);
 
     // The snapshot and the rest mesh.
     let reg = common::register("makehuman_head");

@@ -4,7 +4,7 @@
 mod common;
 
 use common::service::{
-    connect, jaw_line, memory_config, next_frame, next_json, next_message, Server, Socket,
+    connect, jaw_line, memory_config, next_frame, next_json, next_message, pcm_chunk, post, Server, Socket,
 };
 use common::{data, register};
 
@@ -637,19 +637,6 @@ async fn viewers_can_colour_by_folds() {
     server.stop().await;
 }
 
-/// A 20 ms chunk of 16 kHz PCM at `t_s`, each sample naming the chunk.
-fn pcm_chunk(t_s: f64, tag: i16) -> facewire_proto::audio_chunk::AudioChunk {
-    facewire_proto::audio_chunk::AudioChunk {
-        t_s,
-        server_receive_us: 0,
-        body: facewire_proto::audio_chunk::AudioBody::Pcm {
-            sample_rate: 16_000,
-            samples: (0..320).map(|i| tag * 100 + (i % 100) as i16).collect(),
-        },
-        ignored: Vec::new(),
-    }
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_producer_s_audio_reaches_the_viewers_that_ask_for_it() {
     use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
@@ -751,14 +738,15 @@ async fn a_producer_s_audio_reaches_the_viewers_that_ask_for_it() {
             got.server_receive_us
         );
     }
-    // The viewer that asked for Opus hears the same voice encoded once by the server: five
-    // 20 ms packets starting where the PCM chunks did. The one that asked for none gets
-    // frames and no audio.
+    // The viewer that asked for Opus hears the same voice encoded once by the server: the
+    // 100 ms as two 40 ms packets starting where the PCM chunks did (the last 20 ms wait
+    // for more). The one that asked for none gets frames and no audio.
+    let packets_due = 2;
     let (mut packets, mut deaf_heard) = (Vec::new(), 0);
     for (viewer, heard) in [(&mut opus, Some(&mut packets)), (&mut deaf, None)] {
         let mut heard = heard;
         let mut seen_last_frame = false;
-        while !seen_last_frame || heard.as_ref().is_some_and(|h| h.len() < sent.len()) {
+        while !seen_last_frame || heard.as_ref().is_some_and(|h| h.len() < packets_due) {
             match next_message(viewer).await {
                 Some(Message::Binary(bytes)) if bytes.starts_with(b"FWA1") => match heard.as_mut() {
                     Some(heard) => heard.push(AudioChunk::decode(&bytes).unwrap()),
@@ -773,18 +761,18 @@ async fn a_producer_s_audio_reaches_the_viewers_that_ask_for_it() {
         }
     }
     assert_eq!(deaf_heard, 0, "audio to a viewer that did not ask");
-    for (packet, pcm) in packets.iter().zip(&sent) {
+    assert_eq!(packets.len(), packets_due);
+    for (i, packet) in packets.iter().enumerate() {
         assert!(
-            (packet.t_s - pcm.t_s).abs() < 1e-9,
-            "{} vs {}",
-            packet.t_s,
-            pcm.t_s
+            (packet.t_s - 0.04 * i as f64).abs() < 1e-9,
+            "packet {i} at {}",
+            packet.t_s
         );
         match &packet.body {
             AudioBody::Opus { packet } => {
                 assert_eq!(
                     facewire_proto::audio_chunk::opus_packet_samples(packet, 0),
-                    Ok(960)
+                    Ok(1920)
                 )
             }
             other => panic!("an Opus viewer got {other:?}"),
@@ -839,6 +827,181 @@ async fn a_producer_s_audio_reaches_the_viewers_that_ask_for_it() {
             assert!(message.contains("audio=mp3"), "{message}");
         }
         other => panic!("{other:?}"),
+    }
+    server.stop().await;
+}
+
+/// A `multipart/form-data` body of `(name, file name, bytes)` parts, as a browser or
+/// Python's standard library would send it; the boundary is returned with it.
+fn multipart(parts: &[(&str, Option<&str>, &[u8])]) -> (String, Vec<u8>) {
+    let boundary = "facewire-test-boundary-7d41";
+    let mut body = Vec::new();
+    for (name, file, bytes) in parts {
+        body.extend_from_slice(
+            format!("--{boundary}\r\nContent-Disposition: form-data; name=\"{name}\"").as_bytes(),
+        );
+        if let Some(file) = file {
+            body.extend_from_slice(format!("; filename=\"{file}\"").as_bytes());
+        }
+        body.extend_from_slice(b"\r\n\r\n");
+        body.extend_from_slice(bytes);
+        body.extend_from_slice(b"\r\n");
+    }
+    body.extend_from_slice(format!("--{boundary}--\r\n").as_bytes());
+    (format!("multipart/form-data; boundary={boundary}"), body)
+}
+
+/// A mono 16-bit WAV of `samples` at `rate` Hz.
+fn wav(rate: u32, samples: &[i16]) -> Vec<u8> {
+    let spec = hound::WavSpec {
+        channels: 1,
+        sample_rate: rate,
+        bits_per_sample: 16,
+        sample_format: hound::SampleFormat::Int,
+    };
+    let mut out = std::io::Cursor::new(Vec::new());
+    let mut writer = hound::WavWriter::new(&mut out, spec).unwrap();
+    for &s in samples {
+        writer.write_sample(s).unwrap();
+    }
+    writer.finalize().unwrap();
+    out.into_inner()
+}
+
+async fn post_batch(
+    server: &Server,
+    stream: &str,
+    parts: &[(&str, Option<&str>, &[u8])],
+) -> (u16, serde_json::Value) {
+    let (content_type, body) = multipart(parts);
+    post(
+        server,
+        &format!("/v1/heads/mh/streams/{stream}/batch"),
+        body,
+        &content_type,
+    )
+    .await
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_batch_carries_its_voice_as_a_wav_part() {
+    use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
+    let server = Server::start(memory_config()).await;
+    server.register("mh", "makehuman_head", "").await;
+    let mut listener = connect(&server.ws("/v1/heads/mh/streams/w/view?format=fwf2&audio=pcm")).await;
+    assert!(matches!(
+        next_json(&mut listener).await,
+        ServerMessage::Snapshot(_)
+    ));
+
+    // Three frames from t = 5 s and 0.3 s of 16 kHz voice, which starts with the first frame.
+    let lines = format!(
+        "{}\n{}\n{}\n",
+        jaw_line(0, 5.0),
+        jaw_line(1, 5.1),
+        jaw_line(2, 5.2)
+    );
+    let voice: Vec<i16> = (0..4800).map(|i| (i % 1000) as i16 - 500).collect();
+    let wav_file = wav(16_000, &voice);
+    let (status, accepted) = post_batch(
+        &server,
+        "w",
+        &[
+            ("stream", Some("talk.jsonl"), lines.as_bytes()),
+            ("audio", Some("talk.wav"), &wav_file),
+        ],
+    )
+    .await;
+    assert_eq!(status, 202, "{accepted}");
+    assert_eq!(accepted["frames"], 3);
+    assert_eq!(accepted["audio_s"], 0.3);
+    // From the first frame (5 s) to the last chunk (5.28 s).
+    assert!(
+        (accepted["duration_s"].as_f64().unwrap() - 0.28).abs() < 1e-9,
+        "{accepted}"
+    );
+
+    // The listener hears the whole voice in 20 ms chunks on the frames' timeline, then the end.
+    let (mut heard, mut frames) = (Vec::<AudioChunk>::new(), 0);
+    loop {
+        match next_message(&mut listener).await {
+            Some(Message::Binary(bytes)) if bytes.starts_with(b"FWA1") => {
+                heard.push(AudioChunk::decode(&bytes).unwrap())
+            }
+            Some(Message::Binary(_)) => frames += 1,
+            Some(Message::Text(text)) => match serde_json::from_str(text.as_str()).unwrap() {
+                ServerMessage::End { reason, .. } => {
+                    assert_eq!(reason.as_str(), "batch_finished");
+                    break;
+                }
+                other => panic!("{other:?}"),
+            },
+            other => panic!("{other:?}"),
+        }
+    }
+    assert!(frames >= 1, "{frames} frames seen");
+    assert_eq!(heard.len(), 15);
+    let mut samples_heard = Vec::new();
+    for (i, chunk) in heard.iter().enumerate() {
+        assert!(
+            (chunk.t_s - (5.0 + 0.02 * i as f64)).abs() < 1e-9,
+            "chunk {i} at {}",
+            chunk.t_s
+        );
+        match &chunk.body {
+            AudioBody::Pcm { sample_rate, samples } => {
+                assert_eq!(*sample_rate, 16_000);
+                samples_heard.extend_from_slice(samples);
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+    assert_eq!(samples_heard, voice);
+
+    // The voice alone, placed at t = 2 s by `audio_t_s`: a stream of audio without frames.
+    let mut alone = connect(&server.ws("/v1/heads/mh/streams/v/view?format=fwf2&audio=pcm")).await;
+    assert!(matches!(next_json(&mut alone).await, ServerMessage::Snapshot(_)));
+    let (status, accepted) = post_batch(
+        &server,
+        "v",
+        &[("audio", None, &wav_file), ("audio_t_s", None, b"2.0")],
+    )
+    .await;
+    assert_eq!(
+        (status, accepted["frames"].as_u64()),
+        (202, Some(0)),
+        "{accepted}"
+    );
+    match next_message(&mut alone).await {
+        Some(Message::Binary(bytes)) => assert_eq!(AudioChunk::decode(&bytes).unwrap().t_s, 2.0),
+        other => panic!("{other:?}"),
+    }
+
+    // Refused up front, naming the part: a broken WAV, a part nobody defined, a bad time,
+    // a repeated part, an empty form.
+    let broken: &[u8] = b"RIFF\x10\x00\x00\x00WAVEfmt ";
+    for (parts, code, says) in [
+        (
+            vec![("stream", None, lines.as_bytes()), ("audio", None, broken)],
+            "bad_frame",
+            "part \"audio\"",
+        ),
+        (vec![("video", None, broken)], "bad_request", "\"video\""),
+        (
+            vec![("audio", None, &wav_file[..]), ("audio_t_s", None, b"soon")],
+            "bad_request",
+            "audio_t_s",
+        ),
+        (
+            vec![("audio", None, &wav_file[..]), ("audio", None, &wav_file[..])],
+            "bad_request",
+            "twice",
+        ),
+        (vec![], "bad_request", "needs"),
+    ] {
+        let (status, body) = post_batch(&server, "x", &parts).await;
+        assert_eq!((status, body["error"].as_str()), (400, Some(code)), "{body}");
+        assert!(body["message"].as_str().unwrap().contains(says), "{body}");
     }
     server.stop().await;
 }

@@ -302,6 +302,37 @@ async def asyncio_round(url: str, head: str, stream: str,
             "samples_played": len(voice), "end": seen["end"]}, problems
 
 
+def batch_with_voice(client: fw.Client, url: str, head: str, stream: str,
+                     frames: List[Dict[str, Any]]) -> Tuple[Dict[str, Any], List[str]]:
+    """An HTTP batch with its voice (``post_batch(audio=...)``, samples from half a second
+    after the first frame) while a PCM viewer listens: the answer and every sample heard,
+    at its time. Returns the answer and the problems found."""
+    problems: List[str] = []
+    voice = pcm(23, 5 * CHUNK)
+    start = frames[0]["t"] + 0.5
+    heard: List[int] = []
+    times: List[float] = []
+    end = None
+    with fw.Viewer(url, head, stream, timeout=30.0, audio="pcm") as viewer:
+        answer = client.post_batch(head, stream, frames, audio=voice, sample_rate=RATE,
+                                   audio_t_s=start)
+        for event in viewer:
+            if isinstance(event, fw.AudioChunk):
+                heard.extend(event.samples)
+                times.append(event.t_s)
+            elif isinstance(event, fw.StreamEnd):
+                end = event.reason
+                break
+    if heard != voice:
+        problems.append("voiced batch: heard %d of %d samples, or not the same" % (len(heard), len(voice)))
+    expected = [start + i * CHUNK / RATE for i in range(5)]
+    if any(abs(a - b) > 1e-9 for a, b in zip(times, expected)) or len(times) != 5:
+        problems.append("voiced batch: chunk times %r, expected %r" % (times, expected))
+    if end != "batch_finished":
+        problems.append("voiced batch: the viewer's end was %r" % end)
+    return answer, problems
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--url", required=True, help="server base URL, http://127.0.0.1:PORT")
@@ -376,6 +407,8 @@ def main() -> int:
         raise SystemExit("a viewer thread did not finish within 60 s")
 
     batch = client.post_batch(args.head, args.stream + "-batch", frames)
+    voiced_batch, voiced_problems = batch_with_voice(client, args.url, args.head,
+                                                     args.stream + "-voiced", frames[:6])
     asyncio_seen, asyncio_problems = asyncio.run(
         asyncio_round(args.url, args.head, args.stream + "-asyncio", frames[:10]))
 
@@ -394,6 +427,7 @@ def main() -> int:
         "audio_sent": {"chunks": len(expected_audio(audio["calls"])),
                        "refused": audio.get("refused"), "wav_refused": audio.get("wav_refused")},
         "batch": batch,
+        "voiced_batch": voiced_batch,
         "module": fw.__file__,
         "asyncio": asyncio_seen,
         "tables": {
@@ -404,7 +438,8 @@ def main() -> int:
     }
     result.update(seen)
     problems = (check(viewer, viewer_fwf1, sent, seen, seen_fwf1)
-                + check_audio(viewer, viewer_fwf1, audio, seen, seen_fwf1) + asyncio_problems)
+                + check_audio(viewer, viewer_fwf1, audio, seen, seen_fwf1) + asyncio_problems
+                + voiced_problems)
     result["problems"] = problems
     with open(args.out, "w", encoding="utf-8") as f:
         json.dump(result, f)

@@ -40,11 +40,15 @@ pub enum AudioBody {
 }
 
 impl AudioBody {
-    /// Its codec's name, as a viewer's `audio=` names it.
+    /// The codecs' names, as a viewer's `audio=` names them.
+    pub const PCM: &'static str = "pcm";
+    pub const OPUS: &'static str = "opus";
+
+    /// Its codec's name.
     pub fn codec(&self) -> &'static str {
         match self {
-            AudioBody::Pcm { .. } => "pcm",
-            AudioBody::Opus { .. } => "opus",
+            AudioBody::Pcm { .. } => AudioBody::PCM,
+            AudioBody::Opus { .. } => AudioBody::OPUS,
         }
     }
 

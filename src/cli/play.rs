@@ -12,7 +12,6 @@ use super::{CliResult, FilePath};
 use crate::mask::Mask;
 use crate::stream::{open_stream, JsonlWriter};
 use crate::voice::read_wav;
-use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
 use facewire_proto::messages::ServerMessage;
 
 #[derive(Debug, clap::Args)]
@@ -33,9 +32,6 @@ pub struct Args {
     #[arg(long)]
     audio: Option<FilePath>,
 }
-
-/// Audio chunk length, seconds: an Opus packet's, as producers send them.
-const AUDIO_CHUNK_S: f64 = 0.02;
 
 pub(super) fn with_token(url: &str, token: Option<&str>) -> String {
     match token {
@@ -66,23 +62,16 @@ pub fn run(args: Args) -> CliResult {
     if let Some(path) = &args.audio {
         let file = std::fs::File::open(path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
         let voice = read_wav(std::io::BufReader::new(file), &path.display().to_string())?;
-        for (t_s, samples) in voice.chunks(AUDIO_CHUNK_S) {
-            let chunk = AudioChunk {
-                t_s: first + t_s,
-                server_receive_us: 0,
-                body: AudioBody::Pcm {
-                    sample_rate: voice.sample_rate,
-                    samples: samples.to_vec(),
-                },
-                ignored: Vec::new(),
-            };
+        for chunk in voice.audio_chunks(first) {
             messages.push((chunk.t_s, Message::Binary(chunk.encode().into())));
         }
         messages.sort_by(|a, b| a.0.total_cmp(&b.0));
     }
     let url = with_token(&args.url, args.token.as_deref());
     runtime()?.block_on(async move {
-        let (socket, _) = tokio_tungstenite::connect_async(url.as_str())
+        // Without Nagle: an audio chunk the server does not answer would otherwise hold the
+        // next message back until its ACK, delayed up to 40 ms by the server's kernel.
+        let (socket, _) = tokio_tungstenite::connect_async_with_config(url.as_str(), None, true)
             .await
             .map_err(|e| format!("cannot connect to {}: {e}", args.url))?;
         let (mut tx, mut rx) = socket.split();

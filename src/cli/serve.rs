@@ -17,7 +17,7 @@ pub struct Args {
     /// TOML configuration file (see deploy/facewire.example.toml).
     #[arg(long)]
     config: Option<FilePath>,
-    /// Algorithm viewers get when they name none [default: point_distance:k=3].
+    /// Algorithm viewers get when they name none [default: biharmonic].
     #[arg(long)]
     default_algorithm: Option<String>,
     /// Log as JSON lines instead of text.

@@ -1,6 +1,7 @@
-//! HTTP batches: a whole JSONL or `.fap` stream in one body, validated up front (errors
-//! name the line and field), then played at its timestamps as the stream's producer. A
-//! batch is bounded in frames and in duration, and `DELETE .../producer` cancels it (or a
+//! HTTP batches: a whole JSONL or `.fap` stream in one body, and with a multipart body its
+//! voice as a WAV file beside it (or the voice alone), validated up front (errors name the
+//! part, line and field), then played at its timestamps as the stream's producer. A batch
+//! is bounded in bytes, frames and duration, and `DELETE .../producer` cancels it (or a
 //! socket producer) at once; viewers get `end` with the reason either way.
 
 use std::io::Cursor;
@@ -8,120 +9,226 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use axum::body::Bytes;
-use axum::extract::rejection::BytesRejection;
-use axum::extract::{Path, State};
-use axum::http::{HeaderMap, StatusCode};
+use axum::extract::{FromRequest, Multipart, Path, Request, State};
+use axum::http::{header, StatusCode};
 use axum::Json;
 use serde::Serialize;
 
 use super::error::ApiError;
+use super::schedule::{self, Scheduled, ScheduledProducer};
 use super::stream::ProducerPermit;
-use super::{now_us, AppState};
+use super::AppState;
+use crate::mask::Mask;
+use crate::quote::quote;
 use crate::stream::{FapReader, Frame, JsonlReader, StreamError};
+use crate::voice::read_wav;
 use facewire_proto::codes::EndReason;
 
 #[derive(Debug, Serialize)]
 pub struct BatchAccepted {
     pub frames: usize,
+    /// From the first frame or audio sample to the last, s.
     pub duration_s: f64,
+    /// The voice's length, s (0 without one).
+    pub audio_s: f64,
+}
+
+/// The parts of a batch as they arrived, not yet read.
+#[derive(Default)]
+struct Upload {
+    /// The parameter stream, and whether it is an MPEG-4 `.fap` file.
+    stream: Option<(Bytes, bool)>,
+    /// A WAV file.
+    audio: Option<Bytes>,
+    /// The stream time of the voice's first sample, s; by default the first frame's.
+    audio_t_s: Option<f64>,
 }
 
 /// `POST /v1/heads/{id}/streams/{stream}/batch`.
 pub async fn batch(
     State(state): State<AppState>,
     Path((id, name)): Path<(String, String)>,
-    headers: HeaderMap,
-    body: Result<Bytes, BytesRejection>,
+    request: Request,
 ) -> Result<(StatusCode, Json<BatchAccepted>), ApiError> {
-    let body = body.map_err(|e| match e.status() {
-        StatusCode::PAYLOAD_TOO_LARGE => ApiError::TooLarge {
-            limit: state.config.limits.max_upload_bytes,
-        },
-        _ => ApiError::BadRequest(e.body_text()),
-    })?;
     let head = state.registry.head(&id)?;
     head.ready()?;
     let stream = head.stream(&name)?;
-    let is_fap = headers
-        .get(axum::http::header::CONTENT_TYPE)
-        .and_then(|v| v.to_str().ok())
-        .is_some_and(|v| v.contains("fap"));
+    let limit = state.config.limits.max_upload_bytes;
+    let upload = read_upload(request, limit).await?;
     let limits = state.config.limits.clone();
     let mask = state.mask.clone();
-    let frames =
-        tokio::task::spawn_blocking(move || read_batch(body, is_fap, &mask, limits.max_batch_frames))
+    let (items, frames, audio_s) =
+        tokio::task::spawn_blocking(move || read_batch(upload, &mask, limits.max_batch_frames))
             .await
             .map_err(ApiError::internal)??;
-    let first = frames.first().map_or(0.0, |f| f.time_s);
-    let duration_s = frames.last().map_or(0.0, |f| f.time_s) - first;
-    if duration_s.is_nan() || duration_s > limits.max_batch_duration_s {
+    let duration_s = match (items.first(), items.last()) {
+        (Some(first), Some(last)) => last.t_s() - first.t_s(),
+        _ => 0.0,
+    };
+    if duration_s.is_nan()
+        || duration_s > limits.max_batch_duration_s
+        || audio_s > limits.max_batch_duration_s
+    {
         return Err(ApiError::TooLong {
-            duration_s,
+            duration_s: duration_s.max(audio_s),
             limit_s: limits.max_batch_duration_s,
         });
     }
     let permit = state.claim_producer(&head.id, &stream).await?;
-    let count = frames.len();
     let session = state.sessions.token();
     tokio::spawn(async move {
-        play(state, head.deleted.clone(), permit, frames).await;
+        play(state, head.deleted.clone(), permit, items).await;
         drop(session);
     });
     Ok((
         StatusCode::ACCEPTED,
         Json(BatchAccepted {
-            frames: count,
+            frames,
             duration_s,
+            audio_s,
         }),
     ))
 }
 
-fn read_batch(
-    body: Bytes,
-    is_fap: bool,
-    mask: &crate::mask::Mask,
-    max_frames: usize,
-) -> Result<Vec<Frame>, ApiError> {
-    let reader: Box<dyn Iterator<Item = Result<Frame, StreamError>>> = if is_fap {
-        Box::new(FapReader::new(Cursor::new(body)).with_source_name("batch"))
-    } else {
-        Box::new(JsonlReader::new(Cursor::new(body), mask).with_source_name("batch"))
+/// The body's parts: a multipart body's `stream`, `audio` and `audio_t_s`, or a plain body
+/// as the stream (`.fap` when its `Content-Type` says so).
+async fn read_upload(request: Request, limit: usize) -> Result<Upload, ApiError> {
+    let content_type = |request: &Request| {
+        request
+            .headers()
+            .get(header::CONTENT_TYPE)
+            .and_then(|v| v.to_str().ok())
+            .unwrap_or("")
+            .to_ascii_lowercase()
     };
-    let mut frames = Vec::new();
-    for frame in reader {
-        let frame = frame.map_err(|e| ApiError::BadFrame(e.to_string()))?;
-        if frames.len() >= max_frames {
-            return Err(ApiError::TooManyFrames { limit: max_frames });
-        }
-        frames.push(frame);
+    let too_large_or = |status: StatusCode, text: String| match status {
+        StatusCode::PAYLOAD_TOO_LARGE => ApiError::TooLarge { limit },
+        _ => ApiError::BadRequest(text),
+    };
+    if !content_type(&request).starts_with("multipart/form-data") {
+        let is_fap = content_type(&request).contains("fap");
+        let body = Bytes::from_request(request, &())
+            .await
+            .map_err(|e| too_large_or(e.status(), e.body_text()))?;
+        return Ok(Upload {
+            stream: Some((body, is_fap)),
+            ..Upload::default()
+        });
     }
-    Ok(frames)
+    let mut multipart = Multipart::from_request(request, &())
+        .await
+        .map_err(|e| too_large_or(e.status(), e.body_text()))?;
+    let mut upload = Upload::default();
+    while let Some(part) = multipart
+        .next_field()
+        .await
+        .map_err(|e| too_large_or(e.status(), e.body_text()))?
+    {
+        let name = part.name().unwrap_or("").to_string();
+        let is_fap = part.content_type().is_some_and(|t| t.contains("fap"))
+            || part
+                .file_name()
+                .is_some_and(|f| f.to_ascii_lowercase().ends_with(".fap"));
+        let bytes = part
+            .bytes()
+            .await
+            .map_err(|e| too_large_or(e.status(), format!("part {}: {}", quote(&name), e.body_text())))?;
+        let repeated = || ApiError::BadRequest(format!("part {} appears twice", quote(&name)));
+        match name.as_str() {
+            "stream" if upload.stream.is_none() => upload.stream = Some((bytes, is_fap)),
+            "audio" if upload.audio.is_none() => upload.audio = Some(bytes),
+            "audio_t_s" if upload.audio_t_s.is_none() => {
+                let text = String::from_utf8_lossy(&bytes);
+                let t_s = text.trim().parse::<f64>().ok().filter(|t| t.is_finite());
+                upload.audio_t_s = Some(t_s.ok_or_else(|| {
+                    ApiError::BadRequest(format!(
+                        "part \"audio_t_s\": {} is not a time in seconds",
+                        quote(text.trim())
+                    ))
+                })?);
+            }
+            "stream" | "audio" | "audio_t_s" => return Err(repeated()),
+            _ => {
+                return Err(ApiError::BadRequest(format!(
+                    "unknown part {}: a batch takes \"stream\", \"audio\" and \"audio_t_s\"",
+                    quote(&name)
+                )))
+            }
+        }
+    }
+    if upload.stream.is_none() && upload.audio.is_none() {
+        return Err(ApiError::BadRequest(
+            "a multipart batch needs a \"stream\" part, an \"audio\" part or both".into(),
+        ));
+    }
+    if upload.audio.is_none() && upload.audio_t_s.is_some() {
+        return Err(ApiError::BadRequest(
+            "part \"audio_t_s\" without an \"audio\" part".into(),
+        ));
+    }
+    Ok(upload)
 }
 
-/// Plays `frames` at their timestamps (relative to the first), then ends the stream.
+/// The batch's schedule, its frame count and its voice's length (s), every frame and the
+/// whole WAV checked.
+fn read_batch(
+    upload: Upload,
+    mask: &Mask,
+    max_frames: usize,
+) -> Result<(Vec<Scheduled>, usize, f64), ApiError> {
+    let mut frames = Vec::new();
+    if let Some((body, is_fap)) = upload.stream {
+        let reader: Box<dyn Iterator<Item = Result<Frame, StreamError>>> = if is_fap {
+            Box::new(FapReader::new(Cursor::new(body)).with_source_name("batch"))
+        } else {
+            Box::new(JsonlReader::new(Cursor::new(body), mask).with_source_name("batch"))
+        };
+        for frame in reader {
+            let frame = frame.map_err(|e| ApiError::BadFrame(e.to_string()))?;
+            if frames.len() >= max_frames {
+                return Err(ApiError::TooManyFrames { limit: max_frames });
+            }
+            frames.push(frame);
+        }
+    }
+    let (mut audio, mut audio_s) = (Vec::new(), 0.0);
+    if let Some(wav) = upload.audio {
+        let voice =
+            read_wav(Cursor::new(wav), "part \"audio\"").map_err(|e| ApiError::BadFrame(e.to_string()))?;
+        let start = upload
+            .audio_t_s
+            .unwrap_or_else(|| frames.first().map_or(0.0, |f| f.time_s));
+        audio_s = voice.duration_s();
+        audio = voice.audio_chunks(start).collect();
+    }
+    let count = frames.len();
+    Ok((schedule::merge(frames, audio), count, audio_s))
+}
+
+/// Plays `items` at their timestamps (relative to the first), then ends the stream.
 async fn play(
     state: AppState,
     deleted: tokio_util::sync::CancellationToken,
     permit: ProducerPermit,
-    frames: Vec<Frame>,
+    items: Vec<Scheduled>,
 ) {
     state.telemetry.producers.inc();
     let start = tokio::time::Instant::now();
-    let first = frames.first().map_or(0.0, |f| f.time_s);
+    let first = items.first().map_or(0.0, Scheduled::t_s);
+    let mut producer = ScheduledProducer::new(permit);
     let mut ending = EndReason::BatchFinished;
-    for frame in frames {
+    for item in items {
         // Bounded by `max_batch_duration_s`, checked before playing.
-        let offset = Duration::try_from_secs_f64((frame.time_s - first).max(0.0)).unwrap_or(Duration::ZERO);
+        let offset = Duration::try_from_secs_f64((item.t_s() - first).max(0.0)).unwrap_or(Duration::ZERO);
         tokio::select! {
             _ = state.shutdown.cancelled() => { ending = EndReason::ServerShutdown; break }
             _ = deleted.cancelled() => { ending = EndReason::HeadDeleted; break }
-            _ = permit.cancelled() => { ending = EndReason::ProducerCancelled; break }
+            _ = producer.permit.cancelled() => { ending = EndReason::ProducerCancelled; break }
             _ = tokio::time::sleep_until(start + offset) => {}
         }
-        permit.publish(frame, now_us());
-        state.telemetry.frames_in.inc();
+        producer.publish(item, &state.telemetry);
     }
-    permit.end(ending);
+    producer.permit.end(ending);
     state.telemetry.producers.dec();
 }
 
@@ -184,7 +291,10 @@ mod tests {
         let params = stream.subscribe();
         let permit = stream.claim_producer().unwrap();
         // Timestamps count from the first frame: 0, 0.5 and 2 s into the batch.
-        let frames = vec![Frame::at(0, 10.0), Frame::at(1, 10.5), Frame::at(2, 12.0)];
+        let frames = schedule::merge(
+            vec![Frame::at(0, 10.0), Frame::at(1, 10.5), Frame::at(2, 12.0)],
+            Vec::new(),
+        );
         let deleted = tokio_util::sync::CancellationToken::new();
         let playing = tokio::spawn(play(state, deleted, permit, frames));
         let step = Duration::from_millis(10);
@@ -208,7 +318,7 @@ mod tests {
         let stream = Arc::new(Stream::new("s"));
         let params = stream.subscribe();
         let permit = stream.claim_producer().unwrap();
-        let frames = (0..100).map(|i| Frame::at(i, i as f64)).collect();
+        let frames = schedule::merge((0..100).map(|i| Frame::at(i, i as f64)).collect(), Vec::new());
         let playing = tokio::spawn(play(
             state,
             tokio_util::sync::CancellationToken::new(),

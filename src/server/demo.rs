@@ -4,20 +4,13 @@
 
 use std::time::Duration;
 
-use axum::extract::ws::Message;
-
 use super::error::ApiError;
+use super::schedule::{self, Scheduled, ScheduledProducer};
 use super::store::{HeadMeta, HeadRecord, PartRecord};
-use super::stream::{ProducerPermit, RelayedAudio};
-use super::transcode::Transcoder;
 use super::AppState;
 use crate::head::PartRole;
 use crate::stream::{syllables, Frame};
 use crate::voice::syllable_voice;
-use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
-
-/// The demo voice's chunks, seconds (an Opus packet's length, as producers send them).
-const CHUNK_S: f64 = 0.02;
 
 /// A shipped head the demo registers.
 pub struct DemoHead {
@@ -104,9 +97,9 @@ pub async fn loop_syllables(state: AppState, heads: Vec<String>, stream: String)
     let voice = syllable_voice().expect("the shipped voice reads");
     let period = syllables::SYLLABLE_S * syllables::SYLLABLES.len() as f64;
     let frames: Vec<Frame> = frames.into_iter().filter(|f| f.time_s < period - 1e-9).collect();
-    let chunks: Vec<(f64, &[i16])> = voice.chunks(CHUNK_S).collect();
+    let round = schedule::merge(frames, voice.audio_chunks(0.0).collect());
     // Wait for registration, then hold the producer slot of each stream.
-    let mut producers: Vec<(ProducerPermit, Transcoder)> = Vec::new();
+    let mut producers: Vec<ScheduledProducer> = Vec::new();
     for id in &heads {
         let Some(entry) = state.registry.get(id) else {
             continue;
@@ -116,55 +109,27 @@ pub async fn loop_syllables(state: AppState, heads: Vec<String>, stream: String)
             ready = entry.wait_ready(Duration::MAX) => if ready.is_err() { continue },
         }
         if let Some(permit) = entry.stream(&stream).ok().and_then(|s| s.claim_producer()) {
-            producers.push((permit, Transcoder::default()));
+            producers.push(ScheduledProducer::new(permit));
         }
     }
     let start = tokio::time::Instant::now();
     let mut seq = 0u64;
-    for round in 0u64.. {
-        let offset = round as f64 * period;
-        let (mut frames, mut chunks) = (frames.iter().peekable(), chunks.iter().peekable());
+    for number in 0u64.. {
+        let offset = number as f64 * period;
         // Frames and chunks in time order, each sent when its `t` comes.
-        loop {
-            let next_frame = frames.peek().map(|f| f.time_s);
-            let next_chunk = chunks.peek().map(|c| c.0);
-            let (t, is_frame) = match (next_frame, next_chunk) {
-                (Some(f), Some(c)) => (f.min(c), f <= c),
-                (Some(f), None) => (f, true),
-                (None, Some(c)) => (c, false),
-                (None, None) => break,
-            };
+        for item in &round {
+            let mut item = item.clone();
+            item.shift(offset);
             tokio::select! {
                 _ = state.shutdown.cancelled() => return,
-                _ = tokio::time::sleep_until(start + Duration::from_secs_f64(offset + t)) => {}
+                _ = tokio::time::sleep_until(start + Duration::from_secs_f64(item.t_s())) => {}
             }
-            if is_frame {
-                let mut looped = frames.next().expect("peeked").clone();
-                looped.seq = seq;
-                looped.time_s += offset;
+            if let Scheduled::Frame(frame) = &mut item {
+                frame.seq = seq;
                 seq += 1;
-                for (permit, _) in &producers {
-                    permit.publish(looped.clone(), super::now_us());
-                }
-            } else {
-                let &(t_s, samples) = chunks.next().expect("peeked");
-                let chunk = AudioChunk {
-                    t_s: offset + t_s,
-                    server_receive_us: super::now_us(),
-                    body: AudioBody::Pcm {
-                        sample_rate: voice.sample_rate,
-                        samples: samples.to_vec(),
-                    },
-                    ignored: Vec::new(),
-                };
-                let message = Message::Binary(chunk.encode().into());
-                for (permit, transcoder) in &mut producers {
-                    permit.publish_audio(RelayedAudio {
-                        codec: chunk.body.codec(),
-                        message: message.clone(),
-                    });
-                    transcoder.publish(&chunk, permit, &state.telemetry);
-                }
+            }
+            for producer in &mut producers {
+                producer.publish(item.clone(), &state.telemetry);
             }
         }
     }

@@ -10,7 +10,6 @@ use facewire_proto::messages::{ProducerMessage, ServerMessage};
 use facewire_proto::param_frame::ParamFrame;
 
 use super::stream::RelayedAudio;
-use axum::extract::ws::Message;
 
 /// A refused producer message: machine code, field (when known), message for people,
 /// and the refused frame's sequence number once it was parsed far enough to have one.
@@ -98,10 +97,7 @@ pub fn parse_audio(bytes: &[u8], received_us: u64) -> Result<(AudioChunk, Relaye
     let mut chunk =
         AudioChunk::decode(bytes).map_err(|e| Refusal::new(ErrorCode::BadFrame, e.field(), e.to_string()))?;
     chunk.server_receive_us = received_us;
-    let relayed = RelayedAudio {
-        codec: chunk.body.codec(),
-        message: Message::Binary(chunk.encode().into()),
-    };
+    let relayed = RelayedAudio::of(&chunk);
     Ok((chunk, relayed))
 }
 

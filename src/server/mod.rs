@@ -38,6 +38,7 @@ mod producer;
 mod rate;
 mod registration;
 mod registry;
+mod schedule;
 mod socket;
 mod state;
 mod store;

@@ -1,17 +1,26 @@
 //! A stream's PCM voice as Opus packets, for the viewers that ask for Opus while the
-//! producer sends PCM: encoded once per stream (never per viewer) in 20 ms packets, as
-//! WebRTC sends them, at 20 kbit/s in libopus's VoIP mode. Chunks of any length are cut into
-//! 20 ms frames on the stream's timeline; a gap in it (silence the producer did not send)
-//! closes the pending frame with zeros, so every packet's `t` is where its first sample
-//! plays.
+//! producer sends PCM: encoded once per stream (never per viewer) in 40 ms packets (a
+//! packet time WebRTC offers too), at 20 kbit/s in libopus's VoIP mode, complexity 5.
+//! Chunks of any length are cut into 40 ms frames on the stream's timeline; a gap in it
+//! (silence the producer did not send) closes the pending frame with zeros, so every
+//! packet's `t` is where its first sample plays.
 
 use facewire_proto::audio_chunk::MAX_OPUS_PACKET;
 
 /// Opus's bit rate for speech here, bits per second: 2.5 kB/s of packets, which with
-/// 28 bytes of FWA1 framing per 20 ms packet stays under 4 kB/s a viewer.
+/// 28 bytes of FWA1 framing per packet stays under 4 kB/s a viewer.
 pub const OPUS_BITRATE: i32 = 20_000;
-/// Samples a packet covers, as a fraction of a second.
-const FRAME_S: f64 = 0.02;
+/// libopus's encoder complexity (0-10, default 10): 5 encodes a 20 ms packet of the
+/// syllable voice in 79 µs against 118 µs, for 0.3 dB less segmental SNR (10.1 against
+/// 10.4 dB), so 50 streams take 20 % of a core rather than 30 % (`cargo bench --bench
+/// opus_encode`, docs/PERFORMANCE.md "Audio").
+const OPUS_COMPLEXITY: i32 = 5;
+/// Samples a packet covers, seconds: 40 ms rather than 20 halves the messages every Opus
+/// viewer is sent and the encoder calls, for 20 ms more latency before the first sample
+/// of a packet can leave; at the load budget (1,000 viewers on 50 streams, with audio),
+/// frames' p99 latency went from 21 to 8 ms and the server from 114 to 99 % of a core
+/// (docs/PERFORMANCE.md "Audio").
+const FRAME_S: f64 = 0.04;
 /// Slack when a chunk starts where the pending samples end, seconds.
 const CONTIGUOUS_S: f64 = 1e-3;
 
@@ -22,7 +31,7 @@ pub struct OpusEncodeError(#[from] opus::Error);
 pub struct OpusStreamEncoder {
     encoder: opus::Encoder,
     rate: f64,
-    /// Samples of a 20 ms frame at the stream's rate.
+    /// Samples of a frame ([`FRAME_S`]) at the stream's rate.
     frame: usize,
     /// Samples of the frame being filled, and the stream time of its first.
     pending: Vec<i16>,
@@ -35,6 +44,7 @@ impl OpusStreamEncoder {
     pub fn new(sample_rate: u32) -> Result<OpusStreamEncoder, OpusEncodeError> {
         let mut encoder = opus::Encoder::new(sample_rate, opus::Channels::Mono, opus::Application::Voip)?;
         encoder.set_bitrate(opus::Bitrate::Bits(OPUS_BITRATE))?;
+        encoder.set_complexity(OPUS_COMPLEXITY)?;
         let frame = (f64::from(sample_rate) * FRAME_S).round() as usize;
         Ok(OpusStreamEncoder {
             encoder,
@@ -97,39 +107,39 @@ mod tests {
     }
 
     #[test]
-    fn chunks_of_any_length_become_20_ms_packets_on_the_stream_s_timeline() {
+    fn chunks_of_any_length_become_40_ms_packets_on_the_stream_s_timeline() {
         let mut encoder = OpusStreamEncoder::new(16_000).unwrap();
         let mut packets: Vec<(f64, Vec<u8>)> = Vec::new();
         let mut at = 0;
-        for n in [100, 250, 290, 10] {
+        for n in [200, 500, 580, 20] {
             let t = at as f64 / 16_000.0;
             encoder
                 .push(t, &tone(at, n), |t, p| packets.push((t, p.to_vec())))
                 .unwrap();
             at += n;
         }
-        // 650 samples: two full frames; 10 pending.
+        // 1,300 samples: two full frames of 640; 20 pending.
         assert_eq!(packets.len(), 2);
-        assert!((packets[0].0 - 0.0).abs() < 1e-12 && (packets[1].0 - 0.02).abs() < 1e-12);
-        // A chunk half a second later: the pending 10 samples close with silence first.
+        assert!((packets[0].0 - 0.0).abs() < 1e-12 && (packets[1].0 - 0.04).abs() < 1e-12);
+        // A chunk a second later: the pending 20 samples close with silence first.
         encoder
-            .push(0.5, &tone(8_000, 320), |t, p| packets.push((t, p.to_vec())))
+            .push(1.0, &tone(16_000, 640), |t, p| packets.push((t, p.to_vec())))
             .unwrap();
         let times: Vec<f64> = packets.iter().map(|p| p.0).collect();
         assert_eq!(times.len(), 4);
         assert!(
-            (times[2] - 0.04).abs() < 1e-12 && (times[3] - 0.5).abs() < 1e-12,
+            (times[2] - 0.08).abs() < 1e-12 && (times[3] - 1.0).abs() < 1e-12,
             "{times:?}"
         );
 
-        // Every packet is 20 ms and decodes to the tone.
+        // Every packet is 40 ms (1,920 samples at Opus's 48 kHz) and decodes to the tone.
         let mut decoder = opus::Decoder::new(16_000, opus::Channels::Mono).unwrap();
-        let mut out = vec![0i16; 320];
+        let mut out = vec![0i16; 640];
         for (i, (_, packet)) in packets.iter().enumerate() {
-            assert_eq!(opus_packet_samples(packet, 0), Ok(960));
-            assert_eq!(decoder.decode(packet, &mut out, false).unwrap(), 320);
+            assert_eq!(opus_packet_samples(packet, 0), Ok(1920));
+            assert_eq!(decoder.decode(packet, &mut out, false).unwrap(), 640);
             if i == 1 {
-                let energy = out.iter().map(|&s| f64::from(s).powi(2)).sum::<f64>() / 320.0;
+                let energy = out.iter().map(|&s| f64::from(s).powi(2)).sum::<f64>() / 640.0;
                 // The tone's mean square is 8000^2 / 2; a voice codec keeps most of it.
                 assert!(energy > 0.5 * 32e6 && energy < 1.5 * 32e6, "{energy}");
             }

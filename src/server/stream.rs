@@ -9,7 +9,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use axum::extract::ws::Message;
+use axum::body::Bytes;
 use tokio::sync::{broadcast, watch, Notify};
 use tokio::time::Instant;
 use tokio_util::sync::CancellationToken;
@@ -17,6 +17,7 @@ use tokio_util::sync::CancellationToken;
 use super::pipeline::{Encoded, Pipeline, PipelineKey};
 use super::timeline::Timeline;
 use crate::stream::Frame;
+use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
 use facewire_proto::codes::EndReason;
 
 /// A producer's frame as the server received it.
@@ -30,30 +31,43 @@ pub struct ReceivedFrame {
 pub type ParamTimeline = Timeline<ReceivedFrame>;
 
 /// A producer's audio chunk as viewers receive it, encoded once for all of them.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct RelayedAudio {
     /// `pcm` or `opus`, as a viewer's `audio=` names it.
     pub codec: &'static str,
     /// The `FWA1` message, stamped with the server's receipt: cloning it shares the bytes.
-    pub message: Message,
+    pub bytes: Bytes,
+}
+
+impl RelayedAudio {
+    /// `chunk` as every viewer of its codec gets it, encoded once.
+    pub fn of(chunk: &AudioChunk) -> RelayedAudio {
+        RelayedAudio {
+            codec: chunk.body.codec(),
+            bytes: chunk.encode().into(),
+        }
+    }
 }
 
 /// Audio chunks a viewer may fall behind by before it is resynchronised to the newest
 /// (64 chunks of 20 ms: 1.3 s).
 const AUDIO_BACKLOG: usize = 64;
 
-/// Where a producer's frames and end go besides this node's viewers: the cluster bus
-/// (`super::cluster`), attached to a permit once the stream's cluster-wide lease is held.
-/// Both calls return at once; they never wait on the network.
+/// Where a producer's frames, audio and end go besides this node's viewers: the cluster
+/// bus (`super::cluster`), attached to a permit once the stream's cluster-wide lease is
+/// held. The calls return at once; they never wait on the network.
 pub trait Relay: Send + Sync {
     fn frame(&self, frame: &Arc<ReceivedFrame>);
+    fn audio(&self, audio: &Arc<RelayedAudio>);
     fn end(&self, reason: EndReason);
 }
 
 pub struct Stream {
     pub name: String,
     params: watch::Sender<ParamTimeline>,
-    audio: broadcast::Sender<Arc<RelayedAudio>>,
+    /// The stream's audio, a channel per codec (`pcm`, `opus`): a viewer wakes for its
+    /// own codec's chunks only.
+    audio: [broadcast::Sender<Arc<RelayedAudio>>; 2],
     /// Cancels the current producer (`DELETE .../producer`); a new token per producer.
     producer: Mutex<Option<CancellationToken>>,
     /// Told when a producer gives the slot back.
@@ -68,7 +82,10 @@ impl Stream {
         Stream {
             name: name.to_string(),
             params: watch::Sender::new(Timeline::default()),
-            audio: broadcast::Sender::new(AUDIO_BACKLOG),
+            audio: [
+                broadcast::Sender::new(AUDIO_BACKLOG),
+                broadcast::Sender::new(AUDIO_BACKLOG),
+            ],
             producer: Mutex::new(None),
             released: Notify::new(),
             pipelines: Mutex::new(HashMap::new()),
@@ -151,9 +168,25 @@ impl Stream {
         self.params.subscribe()
     }
 
-    /// The stream's audio from now on.
-    pub fn subscribe_audio(&self) -> broadcast::Receiver<Arc<RelayedAudio>> {
-        self.audio.subscribe()
+    /// The stream's audio in `codec` (`pcm` or `opus`) from now on.
+    pub fn subscribe_audio(&self, codec: &str) -> broadcast::Receiver<Arc<RelayedAudio>> {
+        self.audio_channel(codec).subscribe()
+    }
+
+    /// Whether a viewer on this node listens to the stream's audio in `codec`.
+    pub fn has_listeners(&self, codec: &str) -> bool {
+        self.audio_channel(codec).receiver_count() > 0
+    }
+
+    fn audio_channel(&self, codec: &str) -> &broadcast::Sender<Arc<RelayedAudio>> {
+        &self.audio[usize::from(codec == AudioBody::OPUS)]
+    }
+
+    /// Publishes an audio chunk, this node's producer's or another node's, to the viewers
+    /// that asked for audio (a chunk with none listening is dropped: audio has no history).
+    pub fn publish_audio_relayed(&self, audio: Arc<RelayedAudio>) {
+        let _ = self.audio_channel(audio.codec).send(audio);
+        self.touch();
     }
 
     fn touch(&self) {
@@ -220,11 +253,20 @@ impl ProducerPermit {
         self.stream.publish_relayed(frame);
     }
 
-    /// Publishes an audio chunk to this node's viewers that asked for audio (a chunk with
-    /// none listening is dropped: audio has no history).
+    /// Whether audio in `codec` would be heard: by a viewer here, or, with a relay, by
+    /// any on another node.
+    pub fn is_heard_in(&self, codec: &str) -> bool {
+        self.relay.is_some() || self.stream.has_listeners(codec)
+    }
+
+    /// Publishes an audio chunk to the viewers that asked for audio, here and, with a
+    /// relay, on every other node.
     pub fn publish_audio(&self, audio: RelayedAudio) {
-        let _ = self.stream.audio.send(Arc::new(audio));
-        self.stream.touch();
+        let audio = Arc::new(audio);
+        if let Some(relay) = &self.relay {
+            relay.audio(&audio);
+        }
+        self.stream.publish_audio_relayed(audio);
     }
 
     /// Ends the stream with `reason` and gives the slot back.

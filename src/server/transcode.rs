@@ -2,9 +2,8 @@
 //! encoded to Opus and Opus packets decoded to PCM, once per stream (in the producer's
 //! task), and published beside the chunks as sent. A codec that fails is logged, counted
 //! (`facewire_frames_rejected_total{code="transcode"}`) and made anew at the next chunk;
-//! the chunks as sent go on.
-
-use axum::extract::ws::Message;
+//! the chunks as sent go on. Nothing is transcoded while nobody would hear it: no viewer of
+//! the other codec on this node and no cluster relay (other nodes' viewers may ask).
 
 use super::opus_decode::OpusStreamDecoder;
 use super::opus_encode::OpusStreamEncoder;
@@ -22,18 +21,23 @@ pub struct Transcoder {
 impl Transcoder {
     /// Publishes `chunk` (accepted, stamped with its receipt) in the other codec.
     pub fn publish(&mut self, chunk: &AudioChunk, permit: &ProducerPermit, telemetry: &Telemetry) {
+        let other = match chunk.body {
+            AudioBody::Pcm { .. } => AudioBody::OPUS,
+            AudioBody::Opus { .. } => AudioBody::PCM,
+        };
+        if !permit.is_heard_in(other) {
+            // A listener who comes later gets a codec started afresh at its first chunk.
+            *self = Transcoder::default();
+            return;
+        }
         let publish = |t_s: f64, body: AudioBody| {
-            let codec = body.codec();
             let out = AudioChunk {
                 t_s,
                 server_receive_us: chunk.server_receive_us,
                 body,
                 ignored: Vec::new(),
             };
-            permit.publish_audio(RelayedAudio {
-                codec,
-                message: Message::Binary(out.encode().into()),
-            });
+            permit.publish_audio(RelayedAudio::of(&out));
         };
         let failed = match &chunk.body {
             AudioBody::Pcm { sample_rate, samples } => {

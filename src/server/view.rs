@@ -132,8 +132,8 @@ struct View {
     head: Arc<HeadEntry>,
     snapshot: Snapshot,
     frames: watch::Receiver<Timeline<Encoded>>,
-    /// The stream's audio and the codec this viewer takes, when it asked for audio.
-    audio: Option<(broadcast::Receiver<Arc<RelayedAudio>>, &'static str)>,
+    /// The stream's audio in the codec this viewer asked for, if it asked.
+    audio: Option<broadcast::Receiver<Arc<RelayedAudio>>>,
 }
 
 fn close_code_for(error: &ApiError) -> CloseCode {
@@ -229,7 +229,7 @@ async fn open_view(
     Ok(View {
         _slot: slot,
         _hold: hold,
-        audio: audio_codec.map(|codec| (stream.subscribe_audio(), codec)),
+        audio: audio_codec.map(|codec| stream.subscribe_audio(codec)),
         head,
         snapshot,
         frames,
@@ -290,13 +290,13 @@ impl View {
         let mut last_frame: Option<u64> = None;
         self.frames.mark_changed();
         let failed = loop {
+            // Audio before frames: a producer publishes its last chunks before its end, and
+            // a listener that keeps up hears them all before the end reaches it.
             tokio::select! {
+                biased;
                 heard = &mut listener => return match heard {
                     Ok((stream, ending)) => (ending, Some(stream)),
                     Err(_) => (ViewEnding::Left, None),
-                },
-                changed = self.frames.changed() => if changed.is_err() {
-                    break ViewEnding::Ended(EndReason::ServerShutdown, CloseCode::TryLater);
                 },
                 audio = next_audio(&mut self.audio, state) => {
                     if let Some(message) = audio {
@@ -307,6 +307,9 @@ impl View {
                     }
                     continue;
                 }
+                changed = self.frames.changed() => if changed.is_err() {
+                    break ViewEnding::Ended(EndReason::ServerShutdown, CloseCode::TryLater);
+                },
             }
             // The steps own their frames: the channel's lock is released before any await.
             let steps = self.frames.borrow_and_update().steps_after(done);
@@ -364,16 +367,16 @@ impl View {
 
 /// The next audio chunk of the viewer's codec; never ready for a viewer without audio. A
 /// viewer that fell more than the stream's backlog behind is moved to the newest chunk
-/// (counted), rather than fed a backlog; `None` for a chunk of another codec or a resync.
+/// (counted), rather than fed a backlog; `None` after such a resync.
 async fn next_audio(
-    audio: &mut Option<(broadcast::Receiver<Arc<RelayedAudio>>, &'static str)>,
+    audio: &mut Option<broadcast::Receiver<Arc<RelayedAudio>>>,
     state: &AppState,
 ) -> Option<Message> {
-    let Some((receiver, codec)) = audio else {
+    let Some(receiver) = audio else {
         return std::future::pending().await;
     };
     match receiver.recv().await {
-        Ok(chunk) => (chunk.codec == *codec).then(|| chunk.message.clone()),
+        Ok(chunk) => Some(Message::Binary(chunk.bytes.clone())),
         Err(broadcast::error::RecvError::Lagged(_)) => {
             *receiver = receiver.resubscribe();
             state.telemetry.audio_resyncs.inc();

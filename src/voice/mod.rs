@@ -11,6 +11,11 @@ mod wav;
 pub use syllable_voice::syllable_voice;
 pub use wav::{read_wav, WavError};
 
+use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
+
+/// The length of the chunks producers send: 20 ms, an Opus frame, as WebRTC sends.
+pub const CHUNK_S: f64 = 0.02;
+
 /// Mono speech: `samples` at `sample_rate` Hz, the first at `t = 0` s.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Voice {
@@ -34,6 +39,20 @@ impl Voice {
             .enumerate()
             .map(move |(i, chunk)| ((i * per_chunk) as f64 / rate, chunk))
     }
+
+    /// The voice as a producer sends it: [`CHUNK_S`] PCM chunks (`FWA1`), the first
+    /// sample at `start_t_s` on the stream's timeline (s), not yet stamped with a receipt.
+    pub fn audio_chunks(&self, start_t_s: f64) -> impl Iterator<Item = AudioChunk> + '_ {
+        self.chunks(CHUNK_S).map(move |(t_s, samples)| AudioChunk {
+            t_s: start_t_s + t_s,
+            server_receive_us: 0,
+            body: AudioBody::Pcm {
+                sample_rate: self.sample_rate,
+                samples: samples.to_vec(),
+            },
+            ignored: Vec::new(),
+        })
+    }
 }
 
 #[cfg(test)]
@@ -51,5 +70,22 @@ mod tests {
         assert_eq!((chunks[1].0, chunks[1].1[0]), (0.02, 320));
         assert_eq!((chunks[2].0, chunks[2].1.len()), (0.04, 160));
         assert_eq!(voice.duration_s(), 0.05);
+    }
+
+    #[test]
+    fn audio_chunks_are_20_ms_of_pcm_on_the_stream_s_timeline() {
+        let voice = Voice {
+            sample_rate: 24_000,
+            samples: (0..1000).map(|i| i as i16).collect(),
+        };
+        let chunks: Vec<_> = voice.audio_chunks(1.5).collect();
+        assert_eq!(chunks.len(), 3);
+        assert_eq!(chunks[1].t_s, 1.52);
+        match &chunks[2].body {
+            AudioBody::Pcm { sample_rate, samples } => {
+                assert_eq!((*sample_rate, samples.len(), samples[0]), (24_000, 40, 960))
+            }
+            other => panic!("{other:?}"),
+        }
     }
 }

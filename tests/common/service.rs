@@ -316,3 +316,38 @@ fn resident_kib(statm: &str) -> u64 {
     let pages: u64 = statm.split_whitespace().nth(1).unwrap().parse().unwrap();
     pages * 4
 }
+
+/// POSTs `body` to `server`'s `path`: the status and the JSON answer.
+pub async fn post(
+    server: &Server,
+    path: &str,
+    body: impl Into<reqwest::Body>,
+    content_type: &str,
+) -> (u16, serde_json::Value) {
+    let response = reqwest::Client::new()
+        .post(server.http(path))
+        .header("content-type", content_type)
+        .body(body)
+        .send()
+        .await
+        .unwrap();
+    let status = response.status().as_u16();
+    let text = response.text().await.unwrap();
+    (
+        status,
+        serde_json::from_str(&text).unwrap_or_else(|_| panic!("not JSON: {text:?}")),
+    )
+}
+
+/// A 20 ms chunk of 16 kHz PCM at `t_s`, each sample naming the chunk.
+pub fn pcm_chunk(t_s: f64, tag: i16) -> facewire_proto::audio_chunk::AudioChunk {
+    facewire_proto::audio_chunk::AudioChunk {
+        t_s,
+        server_receive_us: 0,
+        body: facewire_proto::audio_chunk::AudioBody::Pcm {
+            sample_rate: 16_000,
+            samples: (0..320).map(|i| tag * 100 + (i % 100) as i16).collect(),
+        },
+        ignored: Vec::new(),
+    }
+}

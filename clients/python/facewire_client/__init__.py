@@ -35,6 +35,7 @@ line (produce, view, register, heads, batch).
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import math
 import os
@@ -1572,22 +1573,53 @@ class Client:
         return self.mesh_at("/v1/heads/%s/parts/%s/mesh.bin" % (_segment(head_id), _segment(name)))
 
     def post_batch(self, head_id: str, stream: str,
-                   frames: Union[str, bytes, Iterable[Mapping[str, Any]]], *,
-                   fap: bool = False, token: Optional[str] = None) -> Dict[str, Any]:
+                   frames: Union[None, str, bytes, Iterable[Mapping[str, Any]]] = None, *,
+                   fap: bool = False, token: Optional[str] = None,
+                   audio: Union[None, str, "os.PathLike[str]", Sequence[int], bytes, bytearray] = None,
+                   sample_rate: int = 16000, audio_t_s: Optional[float] = None) -> Dict[str, Any]:
         """``POST .../streams/{stream}/batch``: a whole stream, played by the server at its
         timestamps. ``frames`` is JSONL text or bytes, or frame mappings (written as
-        JSONL); ``fap=True`` sends an MPEG-4 ``.fap`` file's text instead. Returns
-        ``{"frames": N, "duration_s": S}``; errors name the line and field (400
-        ``bad_frame``). ``token`` is the producer token."""
+        JSONL); ``fap=True`` sends an MPEG-4 ``.fap`` file's text instead.
+
+        ``audio`` is the stream's voice, played with the frames on their clock: a WAV
+        file's path (the server takes any PCM or float WAV at 16, 24 or 48 kHz, mixed to
+        mono), or 16-bit mono samples at ``sample_rate`` (integers, or ``bytes`` of
+        little-endian i16). Its first sample plays at ``audio_t_s`` (by default the first
+        frame's ``t``). With ``audio``, ``frames`` may be left out: a voice alone.
+
+        Returns ``{"frames": N, "duration_s": S, "audio_s": A}``; errors name the part,
+        line and field (400 ``bad_frame``). ``token`` is the producer token."""
+        if frames is None and audio is None:
+            raise FrameError("post_batch: give frames, audio or both")
+        body: Optional[bytes] = None
         if isinstance(frames, bytes):
             body = frames
         elif isinstance(frames, str):
             body = frames.encode("utf-8")
-        else:
+        elif frames is not None:
             body = "".join(encode_json(f) + "\n" for f in frames).encode("utf-8")
         path = "/v1/heads/%s/streams/%s/batch" % (_segment(head_id), _segment(stream))
-        _, raw = self.request("POST", path, body,
-                              "application/x-fap" if fap else "application/x-ndjson", token)
+        stream_type = "application/x-fap" if fap else "application/x-ndjson"
+        if audio is None:
+            _, raw = self.request("POST", path, body, stream_type, token)
+            return cast(Dict[str, Any], json.loads(raw))
+        parts: List[Tuple[str, Optional[str], str, bytes]] = []
+        if body is not None:
+            parts.append(("stream", "stream.fap" if fap else "stream.jsonl", stream_type, body))
+        if isinstance(audio, (str, os.PathLike)):
+            with open(os.fspath(audio), "rb") as f:
+                wav_file = f.read()
+        else:
+            wav_file = _wav_file(_pcm_samples(audio_t_s or 0.0, audio), sample_rate)
+        parts.append(("audio", "audio.wav", "audio/wav", wav_file))
+        if audio_t_s is not None:
+            if (isinstance(audio_t_s, bool) or not isinstance(audio_t_s, (int, float))
+                    or not math.isfinite(audio_t_s)):
+                raise FrameError("post_batch: audio_t_s %r is not a finite number of seconds"
+                                 % (audio_t_s,))
+            parts.append(("audio_t_s", None, "text/plain", repr(float(audio_t_s)).encode("ascii")))
+        content_type, form = _multipart(parts)
+        _, raw = self.request("POST", path, form, content_type, token)
         return cast(Dict[str, Any], json.loads(raw))
 
     def producer(self, head_id: str, stream: str = "main", **options: Any) -> "Producer":
@@ -1790,6 +1822,42 @@ def _open_wav(name: str) -> "wave.Wave_read":
         wav.close()
         raise FrameError("%s: %s" % (name, "; ".join(problems)))
     return wav
+
+
+def _wav_file(samples: Sequence[int], sample_rate: int) -> bytes:
+    """16-bit mono ``samples`` at ``sample_rate`` as the bytes of a WAV file."""
+    if sample_rate not in PCM_RATES:
+        raise FrameError("audio: PCM at %r Hz; the protocol takes %s"
+                         % (sample_rate, ", ".join(map(str, PCM_RATES))))
+    out = io.BytesIO()
+    with wave.open(out, "wb") as wav:
+        wav.setnchannels(1)
+        wav.setsampwidth(2)
+        wav.setframerate(sample_rate)
+        try:
+            data = array("h", samples)
+        except (OverflowError, TypeError) as e:
+            raise FrameError("audio: samples must be 16-bit integers (%s)" % e) from None
+        if sys.byteorder == "big":
+            data.byteswap()
+        wav.writeframes(data.tobytes())
+    return out.getvalue()
+
+
+def _multipart(parts: Sequence[Tuple[str, Optional[str], str, bytes]]) -> Tuple[str, bytes]:
+    """A ``multipart/form-data`` body of ``(name, file name, content type, bytes)`` parts,
+    and its content type."""
+    boundary = "facewire-" + os.urandom(16).hex()
+    out = bytearray()
+    for name, file_name, content_type, data in parts:
+        disposition = 'form-data; name="%s"' % name
+        if file_name:
+            disposition += '; filename="%s"' % file_name
+        out += ("--%s\r\nContent-Disposition: %s\r\nContent-Type: %s\r\n\r\n"
+                % (boundary, disposition, content_type)).encode("ascii")
+        out += data + b"\r\n"
+    out += ("--%s--\r\n" % boundary).encode("ascii")
+    return "multipart/form-data; boundary=" + boundary, bytes(out)
 
 
 def _read_wav(name: str) -> Tuple[int, List[int]]:
@@ -2560,6 +2628,9 @@ def _parser() -> argparse.ArgumentParser:
     batch.add_argument("file", help="facewire JSONL file, or an MPEG-4 .fap file")
     batch.add_argument("--head", required=True, help="head id")
     batch.add_argument("--stream", default="main", help="stream name (default: %(default)s)")
+    batch.add_argument("--audio", metavar="WAV",
+                       help="the stream's voice, a WAV file (16, 24 or 48 kHz), its first "
+                            "sample at the first frame's t")
     _add_server_options(batch)
     return parser
 
@@ -2677,7 +2748,8 @@ def _run(args: argparse.Namespace) -> int:
         with open(args.file, "rb") as f:
             body = f.read()
         print(json.dumps(client.post_batch(args.head, args.stream, body,
-                                           fap=args.file.lower().endswith(".fap"))))
+                                           fap=args.file.lower().endswith(".fap"),
+                                           audio=args.audio)))
         return 0
     raise AssertionError(args.command)
 

@@ -2,7 +2,8 @@
 //! syllable stream, looped, through real producer sockets) on one head and spreads V
 //! viewers over them, all in this process, then reports what the viewers saw (frames,
 //! skips, stalls, frames older than one already shown, producer-to-viewer latency, bytes
-//! per frame) and what the server spent (CPU and memory from its `/metrics`).
+//! per frame), with `--audio` what the listeners heard (chunks, gaps, latency, bytes per
+//! second), and what the server spent (CPU and memory from its `/metrics`).
 //!
 //! Counts and duration are bounded, and only loopback targets are accepted unless
 //! `--allow-remote` is given: the tool opens thousands of sockets. The server and the
@@ -29,7 +30,7 @@ use crate::server::process::cpu_seconds;
 use crate::stream::{syllables, JsonlWriter};
 use latency::Latencies;
 use pauses::{explained_by_host, MachineTime, Pause, PauseWatch};
-use producer::{produce, ProducerPlan};
+use producer::{produce, ProducerPlan, Sent, VoicePlan};
 use send_times::SendTimes;
 use server_metrics::ServerSample;
 use viewer::{ViewerOutcome, ViewerPlan};
@@ -75,6 +76,11 @@ pub struct Args {
     /// (every position as JSON text, the naive baseline).
     #[arg(long, value_enum, default_value_t = WireFormat::Fwf1)]
     format: WireFormat,
+    /// Audio on every stream: the producers send the syllable stream's voice (16 kHz PCM,
+    /// looped) in 20 ms chunks on their frames' clock, and the viewers ask for it in this
+    /// codec (the server encodes Opus once per stream).
+    #[arg(long, value_enum)]
+    audio: Option<AudioCodec>,
     /// A registered head to use; without it the MakeHuman head is registered for the run
     /// and deleted after.
     #[arg(long)]
@@ -107,6 +113,44 @@ impl WireFormat {
             WireFormat::Json => "json",
         }
     }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AudioCodec {
+    Opus,
+    Pcm,
+}
+
+impl AudioCodec {
+    pub fn name(self) -> &'static str {
+        match self {
+            AudioCodec::Opus => "opus",
+            AudioCodec::Pcm => "pcm",
+        }
+    }
+}
+
+/// What the listeners heard, with `--audio`.
+#[derive(Debug, Serialize)]
+pub struct AudioReport {
+    pub codec: AudioCodec,
+    /// Chunks (20 ms) the producers sent.
+    pub chunks_sent: u64,
+    /// Seconds of sound the viewers would hear if none were lost: each stream's sent
+    /// sound times its viewers.
+    pub seconds_expected: f64,
+    /// Seconds of sound in what they received (the server's Opus packets are 40 ms).
+    pub seconds_received: f64,
+    pub messages_received: u64,
+    /// Chunks at or before one the viewer had already heard (must be 0).
+    pub regressions: u64,
+    /// Gaps between two chunks' arrivals longer than a frame stall's limit.
+    pub gaps: u64,
+    /// Producer-to-viewer latency of the chunks, milliseconds.
+    pub latency_ms: LatencySummary,
+    /// Audio bytes (whole `FWA1` messages) a viewer received per second of the run.
+    pub bytes_per_viewer_second: f64,
 }
 
 /// What one run measured.
@@ -156,6 +200,7 @@ pub struct LoadReport {
     /// Producer-to-viewer latency, milliseconds.
     pub latency_ms: LatencySummary,
     pub bytes_per_frame: f64,
+    pub audio: Option<AudioReport>,
     /// Refusals and failures, by message, with counts (at most 20 kinds).
     pub failures: Vec<(String, usize)>,
     /// The server's CPU use over the run (percent of one core) and memory, when its
@@ -193,6 +238,18 @@ pub struct LatencySummary {
     pub p90: f64,
     pub p99: f64,
     pub max: f64,
+}
+
+impl LatencySummary {
+    fn of(latencies: &Latencies) -> LatencySummary {
+        LatencySummary {
+            samples: latencies.samples(),
+            p50: latencies.quantile(0.5),
+            p90: latencies.quantile(0.9),
+            p99: latencies.quantile(0.99),
+            max: latencies.max_ms(),
+        }
+    }
 }
 
 #[derive(Debug, Serialize)]
@@ -317,9 +374,16 @@ async fn load(
     let run_id = std::process::id();
     let stream_name = |s: usize| format!("load-{run_id}-{s}");
     let format = args.format.name();
-    let algo = match args.algo.as_deref() {
-        Some(a) => format!("?format={format}&algo={a}"),
-        None => format!("?format={format}"),
+    let mut query = format!("?format={format}");
+    if let Some(a) = args.algo.as_deref() {
+        query.push_str(&format!("&algo={a}"));
+    }
+    if let Some(codec) = args.audio {
+        query.push_str(&format!("&audio={}", codec.name()));
+    }
+    let voice = match args.audio {
+        Some(_) => Some(Arc::new(crate::voice::syllable_voice()?)),
+        None => None,
     };
 
     let before = server_metrics::sample_nodes(&http, &nodes, &with_token).await;
@@ -327,6 +391,13 @@ async fn load(
     let times: Vec<Arc<SendTimes>> = (0..args.streams)
         .map(|_| Arc::new(SendTimes::new(clock)))
         .collect();
+    let audio_times: Vec<Arc<SendTimes>> = match voice {
+        Some(_) => (0..args.streams)
+            .map(|_| Arc::new(SendTimes::new(clock)))
+            .collect(),
+        None => Vec::new(),
+    };
+    let chunks_sent = Arc::new(AtomicU64::new(0));
     let (sent, received) = (Arc::new(AtomicU64::new(0)), Arc::new(AtomicU64::new(0)));
     let period = Duration::from_secs_f64(1.0 / args.fps);
     // Viewers first, so that every one sees the first frame; streams come to life with them.
@@ -338,7 +409,7 @@ async fn load(
         let s = v % args.streams;
         let node = &view_ws[(v / args.streams) % view_ws.len()];
         let url = with_token(&format!(
-            "{node}/v1/heads/{head}/streams/{}/view{algo}",
+            "{node}/v1/heads/{head}/streams/{}/view{query}",
             stream_name(s)
         ));
         match viewer::connect(&url).await {
@@ -356,6 +427,7 @@ async fn load(
         .map(|(s, socket, algorithm)| {
             let plan = ViewerPlan {
                 times: times[s].clone(),
+                audio_times: audio_times.get(s).cloned(),
                 received: received.clone(),
                 stall_after: period.mul_f64(STALL_PERIODS),
                 start,
@@ -379,6 +451,11 @@ async fn load(
                 start: start + period.mul_f64(s as f64 / args.streams as f64),
                 times: times[s].clone(),
                 sent: sent.clone(),
+                voice: voice.as_ref().map(|voice| VoicePlan {
+                    voice: voice.clone(),
+                    times: audio_times[s].clone(),
+                    sent: chunks_sent.clone(),
+                }),
             }))
         })
         .collect();
@@ -387,10 +464,10 @@ async fn load(
     let mut sent_per_stream = Vec::with_capacity(args.streams);
     for producer in producers {
         match producer.await? {
-            Ok(frames) => sent_per_stream.push(frames),
+            Ok(sent) => sent_per_stream.push(sent),
             Err(e) => {
                 failures.push(format!("producer: {e}"));
-                sent_per_stream.push(0);
+                sent_per_stream.push(Sent::default());
             }
         }
     }
@@ -420,8 +497,32 @@ async fn load(
     let frames_expected = sent_per_stream
         .iter()
         .enumerate()
-        .map(|(s, &n)| n * viewers_of(s))
+        .map(|(s, n)| n.frames * viewers_of(s))
         .sum();
+    let audio = args.audio.map(|codec| {
+        let mut latencies = Latencies::default();
+        for outcome in &outcomes {
+            latencies.merge(&outcome.audio.latencies);
+        }
+        let heard = |f: fn(&ViewerOutcome) -> u64| outcomes.iter().map(f).sum::<u64>();
+        AudioReport {
+            codec,
+            chunks_sent: sent_per_stream.iter().map(|n| n.chunks).sum(),
+            seconds_expected: sent_per_stream
+                .iter()
+                .enumerate()
+                .map(|(s, n)| (n.chunks * viewers_of(s)) as f64 * crate::voice::CHUNK_S)
+                .sum(),
+            seconds_received: outcomes.iter().map(|o| o.audio.seconds).sum(),
+            messages_received: heard(|o| o.audio.chunks),
+            regressions: heard(|o| o.audio.regressions),
+            gaps: heard(|o| o.audio.gaps),
+            latency_ms: LatencySummary::of(&latencies),
+            bytes_per_viewer_second: heard(|o| o.audio.bytes) as f64
+                / outcomes.len().max(1) as f64
+                / args.seconds,
+        }
+    });
     let mut latencies = Latencies::default();
     for outcome in &outcomes {
         latencies.merge(&outcome.latencies);
@@ -438,7 +539,7 @@ async fn load(
         viewers: args.viewers,
         seconds: args.seconds,
         fps: args.fps,
-        frames_sent: sent_per_stream.iter().sum(),
+        frames_sent: sent_per_stream.iter().map(|n| n.frames).sum(),
         frames_expected,
         frames_received,
         frames_skipped: outcomes.iter().map(|o| o.skipped).sum(),
@@ -451,14 +552,9 @@ async fn load(
         pauses: summarize(&machine.pauses),
         viewers_without_frames: outcomes.iter().filter(|o| o.frames == 0).count() + args.viewers
             - outcomes.len(),
-        latency_ms: LatencySummary {
-            samples: latencies.samples(),
-            p50: latencies.quantile(0.5),
-            p90: latencies.quantile(0.9),
-            p99: latencies.quantile(0.99),
-            max: latencies.max_ms(),
-        },
+        latency_ms: LatencySummary::of(&latencies),
         bytes_per_frame: bytes as f64 / frames_received.max(1) as f64,
+        audio,
         failures: tally(failures),
         server: ServerSample::usage(before, after, elapsed),
         generator_cpu_percent: 100.0 * (cpu_seconds() - generator_cpu_before) / elapsed.max(1e-9),
@@ -664,6 +760,23 @@ fn print(r: &LoadReport) {
         "  producer-to-viewer latency ms: p50 {:.2}  p90 {:.2}  p99 {:.2}  max {:.2}; {:.0} bytes/frame",
         r.latency_ms.p50, r.latency_ms.p90, r.latency_ms.p99, r.latency_ms.max, r.bytes_per_frame
     );
+    if let Some(a) = &r.audio {
+        println!(
+            "  audio ({}): sent {} chunks, heard {:.0} of {:.0} s expected ({:.1} %) in {} messages, gaps {}, older than heard {}; latency ms p50 {:.2}  p99 {:.2}  max {:.2}; {:.0} bytes/s a viewer",
+            a.codec.name(),
+            a.chunks_sent,
+            a.seconds_received,
+            a.seconds_expected,
+            100.0 * a.seconds_received / a.seconds_expected.max(1e-9),
+            a.messages_received,
+            a.gaps,
+            a.regressions,
+            a.latency_ms.p50,
+            a.latency_ms.p99,
+            a.latency_ms.max,
+            a.bytes_per_viewer_second
+        );
+    }
     match &r.server {
         Some(s) => println!(
             "  server: {:.0} % of one core, resident {:.1} -> {:.1} MiB",

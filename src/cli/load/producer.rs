@@ -1,5 +1,6 @@
 //! One load producer: the syllable stream, looped, on one stream's producer WebSocket at a
-//! steady frame rate, each send time recorded for the viewers, then `end`.
+//! steady frame rate, and with a voice its 20 ms PCM chunks (looped too) on the same clock,
+//! each send time recorded for the viewers, then `end`.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -10,7 +11,17 @@ use tokio::time::Instant;
 use tokio_tungstenite::tungstenite::Message;
 
 use super::send_times::SendTimes;
+use crate::voice::{Voice, CHUNK_S};
+use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
 use facewire_proto::messages::ServerMessage;
+
+/// The voice a producer sends with its frames, and when it sent each chunk (by index).
+pub struct VoicePlan {
+    pub voice: Arc<Voice>,
+    pub times: Arc<SendTimes>,
+    /// Chunks sent by every producer.
+    pub sent: Arc<AtomicU64>,
+}
 
 pub struct ProducerPlan {
     pub url: String,
@@ -24,11 +35,21 @@ pub struct ProducerPlan {
     pub times: Arc<SendTimes>,
     /// Frames sent by every producer, for the progress line.
     pub sent: Arc<AtomicU64>,
+    pub voice: Option<VoicePlan>,
 }
 
-/// Frames sent, or why the producer stopped.
-pub async fn produce(plan: ProducerPlan) -> Result<u64, String> {
-    let (socket, _) = tokio_tungstenite::connect_async(plan.url.as_str())
+/// What a producer sent.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct Sent {
+    pub frames: u64,
+    pub chunks: u64,
+}
+
+/// What was sent, or why the producer stopped.
+pub async fn produce(plan: ProducerPlan) -> Result<Sent, String> {
+    // Without Nagle: an audio chunk the server does not answer would otherwise hold the
+    // next frame back until its ACK, delayed up to 40 ms by the server's kernel.
+    let (socket, _) = tokio_tungstenite::connect_async_with_config(plan.url.as_str(), None, true)
         .await
         .map_err(|e| format!("cannot connect: {e}"))?;
     let (mut tx, mut rx) = socket.split();
@@ -42,21 +63,55 @@ pub async fn produce(plan: ProducerPlan) -> Result<u64, String> {
         }
         None
     });
-    let mut sent = 0;
-    for seq in 0..plan.count {
-        tokio::time::sleep_until(plan.start + Duration::from_secs_f64(seq as f64 / plan.fps)).await;
+    // The voice's chunks, looped, over the frames' span.
+    let voice_chunks: Vec<&[i16]> = plan
+        .voice
+        .as_ref()
+        .map_or(Vec::new(), |v| v.voice.chunks(CHUNK_S).map(|(_, c)| c).collect());
+    let chunk_count = match voice_chunks.is_empty() {
+        true => 0,
+        false => (plan.count as f64 / plan.fps / CHUNK_S).floor() as u64,
+    };
+    let mut sent = Sent::default();
+    let (mut seq, mut k) = (0u64, 0u64);
+    while seq < plan.count || k < chunk_count {
+        let frame_t = seq as f64 / plan.fps;
+        let chunk_t = k as f64 * CHUNK_S;
+        let is_frame = seq < plan.count && (k >= chunk_count || frame_t <= chunk_t);
+        let t = if is_frame { frame_t } else { chunk_t };
+        tokio::time::sleep_until(plan.start + Duration::from_secs_f64(t)).await;
         if refusals.is_finished() {
             break;
         }
-        let mut frame = plan.frames[seq as usize % plan.frames.len()].clone();
-        frame["seq"] = seq.into();
-        frame["t"] = (seq as f64 / plan.fps).into();
-        plan.times.sent(seq);
-        tx.send(Message::Text(frame.to_string().into()))
-            .await
-            .map_err(|e| format!("sending frame {seq}: {e}"))?;
-        plan.sent.fetch_add(1, Ordering::Relaxed);
-        sent += 1;
+        if is_frame {
+            let mut frame = plan.frames[seq as usize % plan.frames.len()].clone();
+            frame["seq"] = seq.into();
+            frame["t"] = frame_t.into();
+            plan.times.sent(seq);
+            tx.send(Message::Text(frame.to_string().into()))
+                .await
+                .map_err(|e| format!("sending frame {seq}: {e}"))?;
+            plan.sent.fetch_add(1, Ordering::Relaxed);
+            sent.frames += 1;
+            seq += 1;
+        } else if let Some(voice) = &plan.voice {
+            let chunk = AudioChunk {
+                t_s: chunk_t,
+                server_receive_us: 0,
+                body: AudioBody::Pcm {
+                    sample_rate: voice.voice.sample_rate,
+                    samples: voice_chunks[k as usize % voice_chunks.len()].to_vec(),
+                },
+                ignored: Vec::new(),
+            };
+            voice.times.sent(k);
+            tx.send(Message::Binary(chunk.encode().into()))
+                .await
+                .map_err(|e| format!("sending audio chunk {k}: {e}"))?;
+            voice.sent.fetch_add(1, Ordering::Relaxed);
+            sent.chunks += 1;
+            k += 1;
+        }
     }
     let _ = tx.send(Message::Text(r#"{"type":"end"}"#.into())).await;
     match tokio::time::timeout(Duration::from_secs(5), refusals).await {

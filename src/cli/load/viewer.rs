@@ -1,6 +1,8 @@
 //! One load viewer: a WebSocket reading a stream's frames until the stream ends or the run
 //! is over, counting what a person watching would notice: latency from the producer,
-//! skipped frames, stalls and frames that arrive older than one already shown.
+//! skipped frames, stalls and frames that arrive older than one already shown; and, when it
+//! asked for the voice, what a person listening would notice: chunks missing, gaps, chunks
+//! out of order, and the producer-to-viewer latency of each chunk.
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -14,6 +16,8 @@ use tokio_tungstenite::tungstenite::Message;
 
 use super::latency::Latencies;
 use super::send_times::SendTimes;
+use crate::voice::CHUNK_S;
+use facewire_proto::audio_chunk::{opus_packet_samples, AUDIO_MAGIC, OPUS_RATE};
 use facewire_proto::messages::ServerMessage;
 use facewire_proto::viewer_frame::decode_header;
 
@@ -48,8 +52,48 @@ pub struct ViewerOutcome {
     /// set against the machine's pauses).
     pub stall_windows: Vec<(u64, u64)>,
     pub latencies: Latencies,
+    pub audio: AudioOutcome,
     /// The refusal or failure that ended it early, if any.
     pub failure: Option<String>,
+}
+
+/// What one viewer heard.
+#[derive(Debug, Default)]
+pub struct AudioOutcome {
+    pub chunks: u64,
+    /// Seconds of sound in them.
+    pub seconds: f64,
+    pub bytes: u64,
+    /// Chunks at or before one already heard (must be 0).
+    pub regressions: u64,
+    /// Gaps of more than `stall_after` between two chunks' arrivals.
+    pub gaps: u64,
+    pub latencies: Latencies,
+    last: Option<(u64, Instant)>,
+}
+
+impl AudioOutcome {
+    /// Counts an `FWA1` message of `length` bytes for `seconds` of sound from `t_s`,
+    /// received now.
+    fn record(&mut self, t_s: f64, seconds: f64, length: usize, plan: &ViewerPlan) {
+        let now = Instant::now();
+        let index = (t_s / CHUNK_S).round().max(0.0) as u64;
+        self.chunks += 1;
+        self.seconds += seconds;
+        self.bytes += length as u64;
+        if let Some(age) = plan.audio_times.as_ref().and_then(|t| t.age_ms(index)) {
+            self.latencies.record(age);
+        }
+        match self.last {
+            Some((previous, _)) if index <= previous => {
+                self.regressions += 1;
+                return;
+            }
+            Some((_, at)) if now - at > plan.stall_after => self.gaps += 1,
+            _ => {}
+        }
+        self.last = Some((index, now));
+    }
 }
 
 impl ViewerOutcome {
@@ -112,6 +156,8 @@ struct ReceivedFrame {
 
 pub struct ViewerPlan {
     pub times: Arc<SendTimes>,
+    /// When the stream's producer sent each audio chunk, when the viewer asked for audio.
+    pub audio_times: Option<Arc<SendTimes>>,
     /// Frames received by every viewer, for the progress line.
     pub received: Arc<AtomicU64>,
     pub stall_after: Duration,
@@ -145,6 +191,23 @@ fn json_frame_seq(text: &str) -> Option<u64> {
     rest[..digits].parse().ok()
 }
 
+/// An `FWA1` chunk's `t_s` and length in seconds, read from its header and first section
+/// without copying the sound (proto/PROTOCOL.md "Audio").
+fn chunk_time_and_length(bytes: &[u8]) -> Option<(f64, f64)> {
+    let u32_at = |at: usize| Some(u32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?));
+    let t_s = f64::from_le_bytes(bytes.get(4..12)?.try_into().ok()?);
+    let (kind, body) = (*bytes.get(21)?, 26);
+    let seconds = match kind {
+        1 => f64::from(u32_at(body + 4)?) / f64::from(u32_at(body)?.max(1)),
+        2 => {
+            let packet = bytes.get(body + 2..)?;
+            f64::from(opus_packet_samples(packet, 0).ok()?) / f64::from(OPUS_RATE)
+        }
+        _ => return None,
+    };
+    Some((t_s, seconds))
+}
+
 /// A read buffer the size of a few frames: the WebSocket layer zeroes the whole buffer on
 /// every read, and its 128 KiB default made the generator's thousand viewers cost more CPU
 /// than the server they measure.
@@ -173,6 +236,16 @@ pub async fn watch(plan: ViewerPlan, mut socket: Socket, algorithm: String) -> V
         };
         // Only the sequence number: the generator measures the server, not its own decoding.
         let frame = match message {
+            Message::Binary(bytes) if bytes.starts_with(&AUDIO_MAGIC) => {
+                match chunk_time_and_length(&bytes) {
+                    Some((t_s, seconds)) => outcome.audio.record(t_s, seconds, bytes.len(), &plan),
+                    None => {
+                        outcome.failure = Some("an audio chunk did not decode".into());
+                        break;
+                    }
+                }
+                continue;
+            }
             Message::Binary(bytes) => match decode_header(&bytes) {
                 Ok(header) => ReceivedFrame {
                     seq: header.seq,
@@ -211,12 +284,37 @@ pub async fn watch(plan: ViewerPlan, mut socket: Socket, algorithm: String) -> V
 #[cfg(test)]
 mod tests {
     use super::*;
+    use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
+
+    #[test]
+    fn a_chunk_s_time_and_length_come_from_its_header() {
+        let pcm = AudioChunk {
+            t_s: 1.25,
+            server_receive_us: 7,
+            body: AudioBody::Pcm {
+                sample_rate: 24_000,
+                samples: vec![3; 480],
+            },
+            ignored: Vec::new(),
+        };
+        assert_eq!(chunk_time_and_length(&pcm.encode()), Some((1.25, 0.02)));
+        // An Opus packet of one 40 ms SILK frame (configuration 2, code 0).
+        let opus = AudioChunk {
+            body: AudioBody::Opus {
+                packet: vec![2 << 3, 0xaa, 0xbb],
+            },
+            ..pcm
+        };
+        assert_eq!(chunk_time_and_length(&opus.encode()), Some((1.25, 0.04)));
+        assert_eq!(chunk_time_and_length(&opus.encode()[..20]), None);
+    }
 
     #[tokio::test(start_paused = true)]
     async fn a_stall_is_counted_in_the_second_it_began() {
         let start = Instant::now();
         let plan = ViewerPlan {
             times: Arc::new(SendTimes::new(std::time::Instant::now())),
+            audio_times: None,
             received: Arc::default(),
             stall_after: Duration::from_millis(100),
             start,

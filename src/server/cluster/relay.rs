@@ -1,8 +1,10 @@
-//! Parameter frames and stream ends between nodes. A producer's node publishes each
+//! Parameter frames, audio and stream ends between nodes. A producer's node publishes each
 //! accepted frame, as one line of facewire's JSONL (docs/STREAMS.md), on
-//! `facewire.params.<head>.<stream>`; every node subscribes to `facewire.params.*.*` and
-//! publishes what arrives into its own copy of the stream, where its pipelines deform it
-//! for its viewers. Vertex arrays never cross the bus.
+//! `facewire.params.<head>.<stream>`, and each audio chunk in both codecs, as the `FWA1`
+//! message its own viewers get, on `facewire.audio.<head>.<stream>`; every node subscribes
+//! to both and publishes what arrives into its own copy of the stream, where its pipelines
+//! deform it for its viewers and its viewers hear it. Vertex arrays never cross the bus,
+//! and audio is encoded once, on the producer's node.
 //!
 //! Sending never waits on the network: frames go through a bounded queue to one task that
 //! owns the publishing, so one node's frames keep their order, and a queue full because
@@ -21,27 +23,35 @@ use super::lease::Lease;
 use super::{ClusterError, PREFIX};
 use crate::mask::Mask;
 use crate::server::registry::Registry;
-use crate::server::stream::{ReceivedFrame, Relay};
+use crate::server::stream::{ReceivedFrame, Relay, RelayedAudio};
 use crate::server::telemetry::Telemetry;
 use crate::stream::jsonl::{parse_message, JsonlWriter};
+use facewire_proto::audio_chunk::AudioChunk;
 use facewire_proto::codes::EndReason;
 
 /// Header with the producer's node's receive time, µs since the Unix epoch.
 const RECEIVED_US: &str = "Facewire-Received-Us";
 /// Header that makes a message a stream end; its value is the end reason's wire name.
 const END: &str = "Facewire-End";
-/// Frames waiting to be published, over all of this node's producers: 2 s of 64 streams
-/// at 30 fps.
-const QUEUE: usize = 4096;
+/// Messages waiting to be published, over all of this node's producers: 1 s of 64
+/// streams at 30 fps, each with 50 audio chunks a second in two codecs.
+const QUEUE: usize = 8192;
+/// Subject kinds: `facewire.<kind>.<head>.<stream>`.
+const PARAMS: &str = "params";
+const AUDIO: &str = "audio";
 
-fn subject(head: &str, stream: &str) -> String {
-    format!("{PREFIX}.params.{head}.{stream}")
+fn subject(kind: &str, head: &str, stream: &str) -> String {
+    format!("{PREFIX}.{kind}.{head}.{stream}")
 }
 
 enum Outgoing {
     Frame {
         subject: Arc<str>,
         frame: Arc<ReceivedFrame>,
+    },
+    Audio {
+        subject: Arc<str>,
+        audio: Arc<RelayedAudio>,
     },
     End {
         subject: Arc<str>,
@@ -65,7 +75,8 @@ impl Outbox {
     /// A relay for one producer of `head`'s `stream`, holding its lease.
     pub fn relay(&self, head: &str, stream: &str, lease: Lease) -> BusRelay {
         BusRelay {
-            subject: subject(head, stream).into(),
+            subject: subject(PARAMS, head, stream).into(),
+            audio_subject: subject(AUDIO, head, stream).into(),
             queue: self.queue.clone(),
             telemetry: self.telemetry.clone(),
             _lease: lease,
@@ -76,6 +87,7 @@ impl Outbox {
 /// One producer's frames onto the bus; dropping it releases the stream's lease.
 pub struct BusRelay {
     subject: Arc<str>,
+    audio_subject: Arc<str>,
     queue: mpsc::Sender<Outgoing>,
     telemetry: Arc<Telemetry>,
     _lease: Lease,
@@ -94,6 +106,13 @@ impl Relay for BusRelay {
         self.send(Outgoing::Frame {
             subject: self.subject.clone(),
             frame: frame.clone(),
+        });
+    }
+
+    fn audio(&self, audio: &Arc<RelayedAudio>) {
+        self.send(Outgoing::Audio {
+            subject: self.audio_subject.clone(),
+            audio: audio.clone(),
         });
     }
 
@@ -131,6 +150,7 @@ async fn publish(
                 headers.insert(RECEIVED_US, frame.received_us.to_string().as_str());
                 (subject, Bytes::copy_from_slice(&line))
             }
+            Outgoing::Audio { subject, audio } => (subject, audio.bytes.clone()),
             Outgoing::End { subject, reason } => {
                 headers.insert(END, reason.as_str());
                 (subject, Bytes::new())
@@ -151,23 +171,29 @@ async fn publish(
     }
 }
 
-/// Subscribes this node to every stream's frames; the returned future relays them into
-/// `registry`'s streams until the connection closes.
+/// Subscribes this node to every stream's frames and audio; the returned future relays
+/// them into `registry`'s streams until the connection closes.
 pub async fn inbound(
     client: &async_nats::Client,
     registry: Registry,
     mask: Arc<Mask>,
     telemetry: Arc<Telemetry>,
 ) -> Result<impl Future<Output = ()>, ClusterError> {
-    let wildcard = format!("{PREFIX}.params.*.*");
-    let mut messages =
-        client
-            .subscribe(wildcard.clone())
-            .await
-            .map_err(|source| ClusterError::Subscribe {
-                subject: wildcard,
-                source,
-            })?;
+    let subscribe = |kind: &str| {
+        let wildcard = subject(kind, "*", "*");
+        async move {
+            client
+                .subscribe(wildcard.clone())
+                .await
+                .map_err(|source| ClusterError::Subscribe {
+                    subject: wildcard,
+                    source,
+                })
+        }
+    };
+    let params = subscribe(PARAMS).await?;
+    let audio = subscribe(AUDIO).await?;
+    let mut messages = futures_util::stream::select(params, audio);
     Ok(async move {
         while let Some(message) = messages.next().await {
             telemetry.bus_messages_in.inc();
@@ -185,10 +211,15 @@ fn deliver(
     mask: &Mask,
     telemetry: &Telemetry,
 ) -> Result<(), &'static str> {
-    let mut tokens = message.subject.split('.').skip(2);
-    let (Some(head), Some(stream)) = (tokens.next(), tokens.next()) else {
+    let mut tokens = message.subject.split('.').skip(1);
+    let (Some(kind), Some(head), Some(stream), None) =
+        (tokens.next(), tokens.next(), tokens.next(), tokens.next())
+    else {
         return Err("bad_subject");
     };
+    if kind != PARAMS && kind != AUDIO {
+        return Err("bad_subject");
+    }
     let header = |name: &str| {
         message
             .headers
@@ -198,6 +229,18 @@ fn deliver(
     };
     let head = registry.get(head).ok_or("unknown_head")?;
     let stream = head.stream(stream).map_err(|_| "stream_limit")?;
+    if kind == AUDIO {
+        // Checked as a producer's chunk is; the bytes go on as they came.
+        let chunk = AudioChunk::decode(&message.payload).map_err(|e| {
+            tracing::warn!(subject = %message.subject, error = %e, "bus audio refused");
+            "bad_audio"
+        })?;
+        stream.publish_audio_relayed(Arc::new(RelayedAudio {
+            codec: chunk.body.codec(),
+            bytes: message.payload.clone(),
+        }));
+        return Ok(());
+    }
     if let Some(reason) = header(END) {
         let reason: EndReason =
             serde_json::from_value(serde_json::Value::String(reason)).map_err(|_| "bad_end")?;
