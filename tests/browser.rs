@@ -428,10 +428,12 @@ async fn connect_producer(
     stream: &str,
 ) -> tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>> {
     let ws = url.replacen("http://", "ws://", 1);
-    let (producer, _) =
-        tokio_tungstenite::connect_async(format!("{ws}v1/heads/{head}/streams/{stream}/produce"))
-            .await
-            .expect("producer connects");
+    // Without Nagle, as a real producer (docs/PERFORMANCE.md "Audio"): the audio chunks the
+    // server does not answer would otherwise wait for delayed ACKs.
+    let url = format!("{ws}v1/heads/{head}/streams/{stream}/produce");
+    let (producer, _) = tokio_tungstenite::connect_async_with_config(url, None, true)
+        .await
+        .expect("producer connects");
     producer
 }
 

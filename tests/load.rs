@@ -112,6 +112,44 @@ async fn a_short_load_run_reaches_every_viewer_in_order_without_stalls() {
         json_bytes > 10.0 * fwf1_bytes,
         "{json_bytes} against {fwf1_bytes}"
     );
+
+    // With the voice on every stream, heard in the server's Opus: all of it, in order,
+    // without gaps, under the 4 kB/s a viewer the protocol budgets.
+    let audio_args = [
+        "--url",
+        &server.http(""),
+        "--streams",
+        "2",
+        "--viewers",
+        "4",
+        "--seconds",
+        "2",
+        "--audio",
+        "opus",
+        "--json",
+        json.to_str().unwrap(),
+    ]
+    .map(str::to_string);
+    let out =
+        tokio::task::spawn_blocking(move || load(&audio_args.iter().map(String::as_str).collect::<Vec<_>>()))
+            .await
+            .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let audio = &report["audio"];
+    assert_eq!(audio["codec"], "opus", "{report}");
+    // 2 s of 20 ms chunks on each of 2 streams; 2 viewers each hear 4 s of sound in all
+    // but the last 40 ms packet's part, which waits for samples that never come.
+    assert_eq!(audio["chunks_sent"], 200, "{report}");
+    assert_eq!(audio["seconds_expected"].as_f64(), Some(8.0), "{report}");
+    let heard = audio["seconds_received"].as_f64().unwrap();
+    assert!((7.8..8.0 + 1e-9).contains(&heard), "{report}");
+    assert_eq!(audio["gaps"], 0, "{report}");
+    assert_eq!(audio["regressions"], 0, "{report}");
+    assert!(audio["latency_ms"]["samples"].as_u64().unwrap() > 0, "{report}");
+    let per_second = audio["bytes_per_viewer_second"].as_f64().unwrap();
+    assert!((1_000.0..4_000.0).contains(&per_second), "{report}");
+    assert_eq!(report["stalls"], 0, "{report}");
     server.stop().await;
 }
 

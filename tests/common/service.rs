@@ -233,8 +233,13 @@ pub fn ict_parts() -> serde_json::Value {
         .collect()
 }
 
+/// A WebSocket to `url`, without Nagle's delay (as browsers and the Python client connect):
+/// messages the server does not answer, such as audio chunks, go out at once.
 pub async fn connect(url: &str) -> Socket {
-    tokio_tungstenite::connect_async(url).await.unwrap().0
+    tokio_tungstenite::connect_async_with_config(url, None, true)
+        .await
+        .unwrap()
+        .0
 }
 
 /// Next message of any kind (10 s at most); `None` when the socket closed without a
