@@ -23,25 +23,36 @@ fn binary() -> PathBuf {
 impl NatsServer {
     /// Starts a server; panics with what to install when there is none.
     pub fn start() -> NatsServer {
-        let port = TcpListener::bind("127.0.0.1:0")
-            .unwrap()
-            .local_addr()
-            .unwrap()
-            .port();
+        let free_port = || {
+            TcpListener::bind("127.0.0.1:0")
+                .unwrap()
+                .local_addr()
+                .unwrap()
+                .port()
+        };
         let mut server = NatsServer {
-            port,
+            port: free_port(),
             storage: tempfile::tempdir().unwrap(),
             child: None,
         };
-        server.run();
-        server
+        // A port found free can be taken before nats-server binds it (tests run in
+        // parallel, each with its own server): then it exits, and another port is tried.
+        for _ in 0..5 {
+            if server.run() {
+                return server;
+            }
+            server.port = free_port();
+        }
+        panic!("nats-server would not start on any of 5 free ports");
     }
 
     pub fn url(&self) -> String {
         format!("nats://127.0.0.1:{}", self.port)
     }
 
-    fn run(&mut self) {
+    /// Runs the server on `self.port`; false when it exited instead of listening (its port
+    /// was taken).
+    fn run(&mut self) -> bool {
         let child = Command::new(binary())
             .args(["-js", "-a", "127.0.0.1", "-p", &self.port.to_string(), "-sd"])
             .arg(self.storage.path())
@@ -57,7 +68,16 @@ impl NatsServer {
             });
         self.child = Some(child);
         let started = Instant::now();
-        while std::net::TcpStream::connect(("127.0.0.1", self.port)).is_err() {
+        loop {
+            // Listening is not enough (another test's server may hold the port): ours must
+            // also still run a moment later.
+            if self.has_exited() {
+                return false;
+            }
+            if std::net::TcpStream::connect(("127.0.0.1", self.port)).is_ok() {
+                std::thread::sleep(Duration::from_millis(50));
+                return !self.has_exited();
+            }
             assert!(
                 started.elapsed() < Duration::from_secs(10),
                 "nats-server did not listen on {} within 10 s",
@@ -65,6 +85,18 @@ impl NatsServer {
             );
             std::thread::sleep(Duration::from_millis(20));
         }
+    }
+
+    /// Whether the child has exited (and is forgotten if so).
+    fn has_exited(&mut self) -> bool {
+        let exited = self
+            .child
+            .as_mut()
+            .is_none_or(|c| c.try_wait().ok().flatten().is_some());
+        if exited {
+            self.child = None;
+        }
+        exited
     }
 
     /// Kills the server (SIGKILL: no goodbye to its clients).
@@ -78,7 +110,11 @@ impl NatsServer {
     /// Starts it again on the same port with the same storage.
     pub fn restart(&mut self) {
         self.kill();
-        self.run();
+        assert!(
+            self.run(),
+            "nats-server did not start again on port {}",
+            self.port
+        );
     }
 }
 
