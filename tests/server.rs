@@ -977,8 +977,8 @@ async fn a_batch_carries_its_voice_as_a_wav_part() {
         other => panic!("{other:?}"),
     }
 
-    // Refused up front, naming the part: a broken WAV, a part nobody defined, a bad time,
-    // a repeated part, an empty form.
+    // Refused up front, naming the part: a broken WAV, a part nobody defined, a time that
+    // is not one or is before 0, a repeated part, an empty form.
     let broken: &[u8] = b"RIFF\x10\x00\x00\x00WAVEfmt ";
     for (parts, code, says) in [
         (
@@ -991,6 +991,11 @@ async fn a_batch_carries_its_voice_as_a_wav_part() {
             vec![("audio", None, &wav_file[..]), ("audio_t_s", None, b"soon")],
             "bad_request",
             "audio_t_s",
+        ),
+        (
+            vec![("audio", None, &wav_file[..]), ("audio_t_s", None, b"-5")],
+            "bad_request",
+            "from 0 to",
         ),
         (
             vec![("audio", None, &wav_file[..]), ("audio", None, &wav_file[..])],

@@ -139,11 +139,17 @@ async fn read_upload(request: Request, limit: usize) -> Result<Upload, ApiError>
             "audio" if upload.audio.is_none() => upload.audio = Some(bytes),
             "audio_t_s" if upload.audio_t_s.is_none() => {
                 let text = String::from_utf8_lossy(&bytes);
-                let t_s = text.trim().parse::<f64>().ok().filter(|t| t.is_finite());
+                // The range a producer's chunk is held to (`audio_gate`).
+                let t_s = text
+                    .trim()
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|t| (0.0..=crate::stream::MAX_TIME_S).contains(t));
                 upload.audio_t_s = Some(t_s.ok_or_else(|| {
                     ApiError::BadRequest(format!(
-                        "part \"audio_t_s\": {} is not a time in seconds",
-                        quote(text.trim())
+                        "part \"audio_t_s\": {} is not a time in seconds from 0 to {}",
+                        quote(text.trim()),
+                        crate::stream::MAX_TIME_S
                     ))
                 })?);
             }
