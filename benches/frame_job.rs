@@ -111,6 +111,7 @@ fn frame_job(c: &mut Criterion) {
             jaw: None,
             tongue: None,
             folds: None,
+            eyes: &[],
         };
         group.bench_function(name, |b| {
             b.iter(|| black_box(encoder.encode(layout, &header, black_box(&content)).len()))

@@ -60,6 +60,7 @@ fn frame_case(
                 jaw: case.jaw,
                 tongue: case.tongue.as_ref().map(|(p, d)| (*p, d.as_slice())),
                 folds: case.folds,
+                eyes: &[],
             },
         )
         .to_vec();

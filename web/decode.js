@@ -32,7 +32,10 @@ const SECTION_NAMES = new Map([
   [6, "lip_folds"],
   [7, "part_deltas"],
   [8, "heat"],
+  [9, "eye_motion"],
 ]);
+/** FWF2 sections a frame may hold several of (one per part, one per eye). */
+const REPEATED_SECTIONS = new Set(["part_deltas", "eye_motion"]);
 /** FWA1's section kinds; exactly one of them is in a chunk. */
 const AUDIO_SECTION_NAMES = new Map([
   [1, "pcm"],
@@ -218,24 +221,24 @@ function readFwf1Header(r) {
 }
 
 /**
- * FWF2's sections after the header: `{bodies, partBodies}`, a reader over each known
- * kind's body by name and a list of the `part_deltas` bodies; kinds it does not know are
- * skipped. Refuses (naming the field as the Rust decoder does) a count of more sections
+ * FWF2's sections after the header: `{bodies, repeated}`, a reader over each known
+ * kind's body by name and lists of the `part_deltas` and `eye_motion` bodies; kinds it
+ * does not know are skipped. Refuses (naming the field as the Rust decoder does) a count of more sections
  * than the message holds and a section past the end of the message (`section`), a kind
  * given twice (its name), bytes after the last section (`end`), and a frame without
  * `deltas` or `lip_roughness`.
  */
 /**
- * The sections after a message's fixed header: `{bodies, partBodies}`, readers over each
+ * The sections after a message's fixed header: `{bodies, repeated}`, readers over each
  * known kind's body by name (`names`: kind to name; unknown kinds are skipped). A frame's
- * part_deltas may repeat; every other kind is refused if given twice, and each of
- * `required` must be there.
+ * part_deltas and eye_motion may repeat (`repeated`: name to a list of bodies); every
+ * other kind is refused if given twice, and each of `required` must be there.
  */
 function readSections(r, names = SECTION_NAMES, required = ["deltas", "lip_roughness"], what = "frame") {
   const countAt = r.at;
   const count = r.u8("section count");
   const bodies = new Map();
-  const partBodies = [];
+  const repeated = new Map([...REPEATED_SECTIONS].map((name) => [name, []]));
   for (let i = 0; i < count; i++) {
     const at = r.at;
     if (at === r.end) {
@@ -248,8 +251,8 @@ function readSections(r, names = SECTION_NAMES, required = ["deltas", "lip_rough
     }
     const body = r.take(length, "section");
     const name = names.get(kind);
-    if (name === "part_deltas") {
-      partBodies.push(body);
+    if (repeated.has(name)) {
+      repeated.get(name).push(body);
     } else if (name !== undefined) {
       if (bodies.has(name)) {
         throw new DecodeError(name, at, `section ${name} (kind ${kind}) given twice`);
@@ -264,7 +267,7 @@ function readSections(r, names = SECTION_NAMES, required = ["deltas", "lip_rough
       throw new DecodeError(name, countAt, `the ${what} has no ${name} section`);
     }
   }
-  return { bodies, partBodies, countAt };
+  return { bodies, repeated, countAt };
 }
 
 /**
@@ -458,7 +461,10 @@ function readPerVertex(r, max, count, field) {
  * tongue at rest). `folds` is null (not measured) or the lip region's folds after its own
  * rigid motion, `{turnedOver60, turnedOver90, maxDihedralIncreaseDeg}`: lip triangles
  * whose normal turned more than 60 and more than 90 degrees from rest, and the largest
- * increase of a dihedral angle between two lip triangles over rest (degrees).
+ * increase of a dihedral angle between two lip triangles over rest (degrees). `eyes` lists
+ * the turned eyeballs, each `{eye, motion}`: `eye` its index in the snapshot's `eyes`,
+ * `motion` its turn about its centre (as `head`), applied before the head's motion; eyes
+ * not listed look ahead (FWF1 frames list none).
  */
 export async function decodeFrame(buffer) {
   const r = new Reader(new Uint8Array(buffer));
@@ -500,7 +506,7 @@ async function decodeFwf1(r) {
   }
   r.finish();
   const lip = { ...header.lip, perVertex };
-  return { ...header, lip, label, head, jaw, movedIndices, movedCounts, parts, folds, face, faceMax };
+  return { ...header, lip, label, head, jaw, movedIndices, movedCounts, parts, folds, eyes: [], face, faceMax };
 }
 
 /**
@@ -510,7 +516,7 @@ async function decodeFwf1(r) {
  */
 async function decodeFwf2(r) {
   const { header, sections, counts } = readFwf2Header(r);
-  const { bodies, partBodies } = sections;
+  const { bodies, repeated } = sections;
   const section = (name, read, absent) => (bodies.has(name) ? read(bodies.get(name)) : absent);
   const perVertex = readLipValues(bodies.get("lip_roughness"));
   const label = section("label", readLabel, null);
@@ -518,10 +524,28 @@ async function decodeFwf2(r) {
   const jaw = section("jaw_motion", (body) => readRigidMotion(body, "jaw motion"), AT_REST);
   const folds = section("lip_folds", readLipFolds, null);
   const { movedIndices, movedCounts } = await readEncodedDeltas(bodies.get("deltas"), counts, "moved");
-  const parts = await readPartDeltas(partBodies);
+  const parts = await readPartDeltas(repeated.get("part_deltas"));
+  const eyes = readEyeMotions(repeated.get("eye_motion"));
   const heat = section("heat", (body) => readHeat(body, header.vertexCount), { face: null, faceMax: null });
   const lip = { ...header.lip, perVertex };
-  return { ...header, lip, label, head, jaw, movedIndices, movedCounts, parts, folds, ...heat };
+  return { ...header, lip, label, head, jaw, movedIndices, movedCounts, parts, folds, eyes, ...heat };
+}
+
+/**
+ * `eye_motion` bodies, each an eye at most once: decodeFrame's `eyes`, in eye order, each
+ * `{eye, motion}` (`eye` its index in the snapshot's `eyes`, `motion` as `head`).
+ */
+function readEyeMotions(bodies) {
+  const eyes = [];
+  for (const body of bodies) {
+    const at = body.at;
+    const eye = body.u8("eye");
+    if (eyes.some((e) => e.eye === eye)) {
+      throw new DecodeError("eye_motion", at, `eye ${eye} given twice`);
+    }
+    eyes.push({ eye, motion: readRigidMotion(body, "eye motion") });
+  }
+  return eyes.sort((a, b) => a.eye - b.eye);
 }
 
 /** `part_deltas` bodies, each a part at most once: decodeFrame's `parts`, in part order. */

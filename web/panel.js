@@ -267,21 +267,27 @@ export class Panel {
   }
 
   /**
-   * The snapshot's parts (teeth, gums, tongue), drawn once their meshes arrive; the
-   * "Inner mouth" line names them (`data-loaded` is set once they are drawn).
+   * The snapshot's parts (teeth, gums, tongue) and eyes, drawn once their meshes arrive;
+   * the "Inner mouth" and "Eyes" lines name them (`data-loaded` is set once they are
+   * drawn).
    */
   loadParts(snapshot) {
     const parts = snapshot.parts ?? [];
-    const { inner } = this.parts;
+    const eyes = snapshot.eyes ?? [];
+    const { inner, eyes: eyeLine } = this.parts;
     inner.textContent = parts.length > 0 ? parts.map((p) => `${p.name} (${p.role})`).join(", ") : "none";
+    eyeLine.textContent = eyes.length > 0 ? eyes.map((e) => `${e.name} (${e.side})`).join(", ") : "none";
     delete inner.dataset.loaded;
-    Promise.all(parts.map((p) => this.loadMesh(p.mesh))).then(
+    delete eyeLine.dataset.loaded;
+    Promise.all([...parts, ...eyes].map((p) => this.loadMesh(p.mesh))).then(
       (meshes) => {
         if (snapshot.rest_mesh !== this.meshUrl) {
           return;
         }
         this.renderer.setParts(parts.map((p, i) => ({ name: p.name, role: p.role, mesh: meshes[i] })));
+        this.renderer.setEyes(eyes.map((eye, i) => ({ eye, mesh: meshes[parts.length + i] })));
         inner.dataset.loaded = String(parts.length);
+        eyeLine.dataset.loaded = String(eyes.length);
         this.needsDraw = true;
       },
       (error) => this.showMessage(`Cannot load the head's parts: ${error.message}`),
@@ -382,7 +388,7 @@ export class Panel {
     );
   }
 
-  /** Shows a decoded frame: positions, the tongue's shape, heat-map, syllable, lip folds. */
+  /** Shows a decoded frame: positions, the tongue's shape, the eyes, heat-map, syllable, lip folds. */
   show(frame) {
     if (frame.vertexCount !== this.mesh.vertexCount) {
       this.showMessage(`A frame for ${frame.vertexCount} vertices arrived for a mesh of ${this.mesh.vertexCount}.`);
@@ -395,6 +401,10 @@ export class Panel {
       this.showMessage(problem);
     }
     this.renderer.setMotion(motionMatrix(frame.head), motionMatrix(frame.jaw));
+    const eyeProblem = this.renderer.setEyeMotions(frame.eyes);
+    if (eyeProblem) {
+      this.showMessage(eyeProblem);
+    }
     this.renderer.setHeat(frame.face, this.heatScale());
     this.parts.syllable.textContent = frame.label ?? "–";
     this.parts.label.textContent = frame.label ?? "";

@@ -1,11 +1,12 @@
 // render.js: draws one head with plain WebGL2: smooth vertex normals recomputed from the
 // deformed positions every frame, placed by the head's own rigid motion, its parts (teeth,
 // gums, tongue) each in its own material and placed by the head's or the jaw's motion (the
-// tongue shaped by the frame's tongue deltas first), a key, fill and rim light that move
-// with the camera (the face is always lit), and an optional roughness heat-map in place of
-// the skin colour.
+// tongue shaped by the frame's tongue deltas first), its eyeballs (white, iris and pupil
+// about the eye's axis) each turned by the frame's gaze and then placed by the head's
+// motion, a key, fill and rim light that move with the camera (the face is always lit),
+// and an optional roughness heat-map in place of the skin colour.
 
-import { applyDeltas } from "./decode.js";
+import { applyDeltas, motionMatrix } from "./decode.js";
 
 const VERTEX_SHADER = `#version 300 es
 uniform mat4 u_model; // the head's own motion (rigid)
@@ -15,6 +16,7 @@ in vec3 a_position;
 in vec3 a_normal;
 in float a_heat;
 out vec3 v_position;
+out vec3 v_rest; // the vertex before any motion, head units: where an eye's iris is
 out vec3 v_normal;
 out float v_heat;
 
@@ -22,6 +24,7 @@ void main() {
   mat4 model_view = u_view * u_model;
   vec4 p = model_view * vec4(a_position, 1.0);
   v_position = p.xyz;
+  v_rest = a_position;
   v_normal = mat3(model_view) * a_normal;
   v_heat = a_heat;
   gl_Position = u_projection * p;
@@ -33,7 +36,13 @@ const FRAGMENT_SHADER = `#version 300 es
 precision highp float;
 uniform float u_heat_scale; // roughness at the top of the ramp; 0 shows the albedo
 uniform vec3 u_albedo; // sRGB
+// An eyeball's centre and rest axis (head units) and its iris and pupil radii about the
+// axis; iris radius 0 for anything but an eye.
+uniform vec3 u_eye_centre;
+uniform vec3 u_eye_forward;
+uniform vec2 u_eye_radii;
 in vec3 v_position;
+in vec3 v_rest;
 in vec3 v_normal;
 in float v_heat;
 out vec4 out_colour;
@@ -64,6 +73,16 @@ void main() {
   if (!gl_FrontFacing) n = -n;
   vec3 to_eye = normalize(-v_position);
   vec3 base = u_heat_scale > 0.0 ? viridis(v_heat / u_heat_scale) : u_albedo;
+  if (u_eye_radii.x > 0.0) {
+    vec3 d = v_rest - u_eye_centre;
+    float along = dot(d, u_eye_forward);
+    float across = length(d - along * u_eye_forward);
+    if (along > 0.0) {
+      float ring = across / u_eye_radii.x; // 0 at the axis, 1 at the iris's edge
+      vec3 iris = mix(vec3(0.20, 0.33, 0.40), vec3(0.36, 0.46, 0.42), ring);
+      base = across < u_eye_radii.y ? vec3(0.03) : across < u_eye_radii.x ? iris : base;
+    }
+  }
   vec3 albedo = pow(base, vec3(2.2));
   vec3 ambient = mix(vec3(0.10, 0.09, 0.08), vec3(0.22, 0.24, 0.28), n.y * 0.5 + 0.5);
   vec3 lit = albedo * ambient
@@ -80,6 +99,8 @@ const SKIN = [0.86, 0.71, 0.62];
 const TEETH = [0.93, 0.9, 0.82];
 const GUMS = [0.78, 0.4, 0.42];
 const TONGUE = [0.74, 0.33, 0.36];
+const SCLERA = [0.93, 0.92, 0.9];
+const NOT_AN_EYE = new Float32Array([0, 0]);
 
 /** A part's material: a tongue by its role, teeth and gums by their names, else teeth. */
 function partAlbedo(name, role) {
@@ -165,6 +186,9 @@ export class HeadRenderer {
       projection: gl.getUniformLocation(program, "u_projection"),
       heatScale: gl.getUniformLocation(program, "u_heat_scale"),
       albedo: gl.getUniformLocation(program, "u_albedo"),
+      eyeCentre: gl.getUniformLocation(program, "u_eye_centre"),
+      eyeForward: gl.getUniformLocation(program, "u_eye_forward"),
+      eyeRadii: gl.getUniformLocation(program, "u_eye_radii"),
     };
     this.vao = gl.createVertexArray();
     this.buffers = {
@@ -178,6 +202,8 @@ export class HeadRenderer {
     this.model = IDENTITY;
     this.jawModel = IDENTITY;
     this.parts = [];
+    /** The eyeballs (setEyes), each with its model matrix (the head's after its turn). */
+    this.eyes = [];
     /** The part the last frame's tongue deltas shaped, or null (every part at rest). */
     this.shapedPart = null;
     gl.enable(gl.DEPTH_TEST);
@@ -214,6 +240,7 @@ export class HeadRenderer {
     this.model = IDENTITY;
     this.jawModel = IDENTITY;
     this.setParts([]);
+    this.setEyes([]);
     this.setPositions(mesh.positions);
   }
 
@@ -223,40 +250,89 @@ export class HeadRenderer {
    * only moves them, except the tongue, which a frame may also shape (setTongue).
    */
   setParts(parts) {
-    const gl = this.gl;
-    for (const part of this.parts) {
-      gl.deleteVertexArray(part.vao);
-      part.buffers.forEach((b) => gl.deleteBuffer(b));
-    }
+    this.parts.forEach((part) => this.release(part));
     this.shapedPart = null;
-    this.parts = parts.map(({ name, role, mesh }) => {
-      const vao = gl.createVertexArray();
-      const position = this.attribute("a_position", 3, vao);
-      const normal = this.attribute("a_normal", 3, vao);
-      const index = gl.createBuffer();
-      gl.bindVertexArray(vao); // no heat: parts are drawn with the ramp off
-      gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, index);
-      gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, mesh.indices, gl.STATIC_DRAW);
-      gl.bindVertexArray(null);
-      const usage = role === "tongue" ? gl.DYNAMIC_DRAW : gl.STATIC_DRAW;
-      const normals = vertexNormals(mesh.positions, mesh.indices, new Float32Array(mesh.positions.length));
-      gl.bindBuffer(gl.ARRAY_BUFFER, position);
-      gl.bufferData(gl.ARRAY_BUFFER, mesh.positions, usage);
-      gl.bindBuffer(gl.ARRAY_BUFFER, normal);
-      gl.bufferData(gl.ARRAY_BUFFER, normals, usage);
-      return {
-        vao,
-        buffers: [position, normal, index],
-        count: mesh.indices.length,
-        role,
-        albedo: partAlbedo(name, role),
-        mesh,
-        // A shaped part's positions (made on its first shaping) and its normals, rewritten
-        // whenever the part is shaped or put back at rest.
-        positions: null,
-        normals,
-      };
-    });
+    this.parts = parts.map(({ name, role, mesh }) => ({
+      ...this.upload(mesh, role === "tongue"),
+      role,
+      albedo: partAlbedo(name, role),
+      mesh,
+      // A shaped part's positions (made on its first shaping), rewritten whenever the part
+      // is shaped or put back at rest.
+      positions: null,
+    }));
+  }
+
+  /**
+   * The head's eyeballs: `[{ eye, mesh }]`, `eye` the snapshot's entry (centre, forward,
+   * iris and pupil radii, head units), meshes from parseMesh. Rigid: each frame only turns
+   * them (setEyeMotions).
+   */
+  setEyes(eyes) {
+    this.eyes.forEach((eye) => this.release(eye));
+    this.eyes = eyes.map(({ eye, mesh }) => ({
+      ...this.upload(mesh, false),
+      centre: new Float32Array(eye.centre),
+      forward: new Float32Array(eye.forward),
+      radii: new Float32Array([eye.iris_radius, eye.pupil_radius]),
+      turn: IDENTITY,
+      modelMatrix: this.model,
+    }));
+  }
+
+  /** A rigid mesh's buffers on the GPU (`dynamic` when it will be reshaped). */
+  upload(mesh, dynamic) {
+    const gl = this.gl;
+    const vao = gl.createVertexArray();
+    const position = this.attribute("a_position", 3, vao);
+    const normal = this.attribute("a_normal", 3, vao);
+    const index = gl.createBuffer();
+    gl.bindVertexArray(vao); // no heat: parts are drawn with the ramp off
+    gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, index);
+    gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, mesh.indices, gl.STATIC_DRAW);
+    gl.bindVertexArray(null);
+    const usage = dynamic ? gl.DYNAMIC_DRAW : gl.STATIC_DRAW;
+    const normals = vertexNormals(mesh.positions, mesh.indices, new Float32Array(mesh.positions.length));
+    gl.bindBuffer(gl.ARRAY_BUFFER, position);
+    gl.bufferData(gl.ARRAY_BUFFER, mesh.positions, usage);
+    gl.bindBuffer(gl.ARRAY_BUFFER, normal);
+    gl.bufferData(gl.ARRAY_BUFFER, normals, usage);
+    return { vao, buffers: [position, normal, index], count: mesh.indices.length, normals };
+  }
+
+  /** Gives an uploaded mesh's buffers back. */
+  release({ vao, buffers }) {
+    this.gl.deleteVertexArray(vao);
+    buffers.forEach((b) => this.gl.deleteBuffer(b));
+  }
+
+  /**
+   * A frame's eye turns (decode.js `frame.eyes`, each `{eye, motion}`); eyes not listed
+   * look ahead. An index past the
+   * head's eyes is a problem for people (none while the eyes are still loading).
+   */
+  setEyeMotions(turns) {
+    for (const eye of this.eyes) {
+      eye.turn = IDENTITY;
+    }
+    for (const { eye, motion } of turns) {
+      if (this.eyes.length === 0) {
+        return null;
+      }
+      if (!this.eyes[eye]) {
+        return `A frame turns eye ${eye}; the head has ${this.eyes.length}.`;
+      }
+      this.eyes[eye].turn = motionMatrix(motion);
+    }
+    this.placeEyes();
+    return null;
+  }
+
+  /** Each eye's model matrix: the head's motion after the eye's turn. */
+  placeEyes() {
+    for (const eye of this.eyes) {
+      eye.modelMatrix = eye.turn === IDENTITY ? this.model : multiply(this.model, eye.turn);
+    }
   }
 
   /**
@@ -320,6 +396,7 @@ export class HeadRenderer {
   setMotion(head, jaw) {
     this.model = head;
     this.jawModel = multiply(head, jaw);
+    this.placeEyes();
   }
 
   /** Per-vertex roughness coloured on a ramp from 0 to `scale`; null shows skin. */
@@ -382,6 +459,16 @@ export class HeadRenderer {
       gl.bindVertexArray(part.vao);
       gl.drawElements(gl.TRIANGLES, part.count, gl.UNSIGNED_INT, 0);
     }
+    gl.uniform3fv(this.uniforms.albedo, SCLERA);
+    for (const eye of this.eyes) {
+      gl.uniformMatrix4fv(this.uniforms.model, false, eye.modelMatrix);
+      gl.uniform3fv(this.uniforms.eyeCentre, eye.centre);
+      gl.uniform3fv(this.uniforms.eyeForward, eye.forward);
+      gl.uniform2fv(this.uniforms.eyeRadii, eye.radii);
+      gl.bindVertexArray(eye.vao);
+      gl.drawElements(gl.TRIANGLES, eye.count, gl.UNSIGNED_INT, 0);
+    }
+    gl.uniform2fv(this.uniforms.eyeRadii, NOT_AN_EYE);
     gl.bindVertexArray(null);
   }
 }

@@ -52,6 +52,10 @@ pub struct Snapshot {
     /// Every section kind the frames may carry (`fwf2` only), by number and name.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub sections: Vec<SectionInfo>,
+    /// The head's eyeballs, which `eye_motion` sections turn (by index here). Absent for a
+    /// head without eyes and from servers before them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub eyes: Vec<EyeInfo>,
 }
 
 /// A section kind of a sectioned layout, as the snapshot lists it.
@@ -93,6 +97,32 @@ pub struct PartInfo {
     /// from servers before it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub closed_pieces: Option<u32>,
+}
+
+/// An eyeball of a head: a rigid mesh that turns about its centre with the gaze and moves
+/// with the head (head units, the head's frame at rest).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EyeInfo {
+    pub name: String,
+    /// `left` or `right`: the face's own.
+    pub side: String,
+    pub vertices: u32,
+    pub triangles: u32,
+    /// Its rest mesh, binary (`mesh.bin`), head units.
+    pub mesh: String,
+    /// What it turns about.
+    pub centre: [f32; 3],
+    /// Where it looks at rest (unit length): the face's forward.
+    pub forward: [f32; 3],
+    /// Its sphere's radius, head units.
+    pub radius: f32,
+    /// The iris's and the pupil's radius about `forward`, head units (12 mm and 4 mm
+    /// across on an adult): for drawing.
+    pub iris_radius: f32,
+    pub pupil_radius: f32,
+    /// The eyes part as registered, when it held both eyeballs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub split_from: Option<String>,
 }
 
 /// Messages the server sends as JSON text.
@@ -154,6 +184,9 @@ pub struct HeadInfo {
     /// Its parts, once registered.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub parts: Vec<PartInfo>,
+    /// Its eyeballs, once registered.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub eyes: Vec<EyeInfo>,
     /// How well the fit lays the mask on the head, once registered.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fit: Option<FitSummary>,

@@ -1,9 +1,9 @@
 //! What the per-frame job needs of a head besides its binding: the registration, the lip
-//! region the roughness is measured on, the quantization step of viewer frames, and the
-//! parts (teeth, gums, tongue) that move with the skull or the jaw.
+//! region the roughness is measured on, the quantization step of viewer frames, the parts
+//! (teeth, gums, tongue) that move with the skull or the jaw, and the eyeballs.
 
 use super::part_split::split_rows;
-use super::{infer_role, TeethContact, TongueShaper};
+use super::{infer_role, Eyeball, EyeballError, EyelidContact, TeethContact, TongueShaper};
 use crate::deform::Registration;
 use crate::head::{check_part_names, Head, Part, PartListError, PartRole};
 use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
@@ -26,6 +26,11 @@ pub struct AnimatedHead {
     pub splits: Vec<PartSplit>,
     /// Keeps the lips and the tongue out of the teeth; `None` without closed teeth.
     pub contact: Option<TeethContact>,
+    /// The eyeballs (parts given the role eyes, split one a side): not in `parts`, which
+    /// viewers index; at most two.
+    pub eyes: Vec<Eyeball>,
+    /// Keeps the lids out of the eyeballs; `None` without eyes.
+    pub eyelids: Option<EyelidContact>,
 }
 
 /// A part given whole that moves as two ([`super::part_split`]): `{name}_upper` with the
@@ -60,6 +65,14 @@ pub enum AnimatedHeadError {
     EmptyPart { name: String },
     #[error("parts {first:?} and {second:?} are both tongues; a head has at most one")]
     TwoTongues { first: String, second: String },
+    #[error(transparent)]
+    Eyeball(#[from] EyeballError),
+    #[error("eyes {first:?} and {second:?} are both the face's {side} eye; a head has one eye a side")]
+    TwoEyesOneSide {
+        first: String,
+        second: String,
+        side: &'static str,
+    },
 }
 
 impl AnimatedHead {
@@ -77,9 +90,23 @@ impl AnimatedHead {
         check_part_names(parts.iter().map(|p| p.name.as_str()))?;
         let mut settled: Vec<Part> = Vec::with_capacity(parts.len());
         let mut splits = Vec::new();
+        let mut eyes: Vec<Eyeball> = Vec::new();
         for part in parts {
             if part.mesh.positions.is_empty() {
                 return Err(AnimatedHeadError::EmptyPart { name: part.name });
+            }
+            if part.role == Some(PartRole::Eyes) {
+                for eye in Eyeball::of_part(&part.mesh, &part.name, &registration.fitted)? {
+                    if let Some(other) = eyes.iter().find(|e| e.side == eye.side) {
+                        return Err(AnimatedHeadError::TwoEyesOneSide {
+                            first: other.name.clone(),
+                            second: eye.name,
+                            side: eye.side.name(),
+                        });
+                    }
+                    eyes.push(eye);
+                }
+                continue;
             }
             if part.role.is_none() {
                 if let Some(split) = split_rows(&part.mesh, &part.name, &registration.fitted) {
@@ -101,7 +128,14 @@ impl AnimatedHead {
                 .unwrap_or_else(|| infer_role(&part.mesh, &registration.fitted));
             settled.push(Part::new(part.name, role, part.mesh, None));
         }
-        check_part_names(settled.iter().map(|p| p.name.as_str()))?;
+        check_part_names(
+            settled
+                .iter()
+                .map(|p| p.name.as_str())
+                .chain(eyes.iter().map(|e| e.name.as_str()))
+                .collect::<Vec<_>>()
+                .into_iter(),
+        )?;
         let mut tongues = settled.iter().filter(|p| p.role == PartRole::Tongue);
         if let (Some(first), Some(second)) = (tongues.next(), tongues.next()) {
             return Err(AnimatedHeadError::TwoTongues {
@@ -122,7 +156,10 @@ impl AnimatedHead {
             &settled,
             registration.mm_per_unit(),
         );
+        let eyelids = EyelidContact::new(&registration.head, &eyes, registration.mm_per_unit());
         Ok(AnimatedHead {
+            eyes,
+            eyelids,
             registration,
             lip_region,
             step,

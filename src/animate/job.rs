@@ -1,6 +1,7 @@
 //! The per-frame job for one head and one algorithm: pose the mask from a frame, deform
 //! the head, find the head's own rigid motion and the jaw's (kept apart from the
-//! deformation), shape the tongue, keep the lips and the tongue out of the teeth, measure
+//! deformation), shape the tongue, keep the lips and the tongue out of the teeth, turn the
+//! eyes with the gaze and keep the lids out of them, measure
 //! lip (and optionally whole-face) roughness, quantize the deltas and encode the viewer
 //! frame. Every buffer is made once, in [`FrameJob::new`].
 
@@ -9,13 +10,13 @@ use std::sync::Arc;
 use glam::Vec3;
 
 use super::json_frame::write_json_frame;
-use super::{head_motion, jaw_motion, AnimatedHead, ContactScratch, RigidMotion};
+use super::{head_motion, jaw_motion, AnimatedHead, ContactScratch, Gaze, RigidMotion};
 use crate::deform::{Binding, DeformScratch};
 use crate::mask::LIP_VERTICES;
 use crate::metrics::{FoldMeter, LipRoughness, RegionError, Roughness, RoughnessError};
 use crate::stream::{ArkitBasis, Frame, FramePoser};
 use facewire_proto::viewer_frame::{
-    FrameContent, FrameEncoder, FrameHeader, FrameLayout, LipFolds, LipRoughness as WireLip,
+    EyeMotion, FrameContent, FrameEncoder, FrameHeader, FrameLayout, LipFolds, LipRoughness as WireLip,
 };
 
 /// What a frame's per-vertex values (the page's heat-map) measure.
@@ -87,6 +88,10 @@ pub struct FrameJob {
     tongue_wire: Vec<[f32; 3]>,
     /// Buffers of the head's contact constraint; `None` for a head without teeth.
     contact: Option<ContactScratch>,
+    /// Each eyeball's motion in the last frame (the head's `eyes` order), and the turned
+    /// ones as a viewer frame carries them.
+    eye_motions: Vec<RigidMotion>,
+    eye_wire: Vec<EyeMotion>,
     lip: LipRoughness,
     lip_wire: WireLip,
     lip_folds: FoldMeter,
@@ -133,6 +138,8 @@ impl FrameJob {
             tongue_shaped: false,
             tongue_wire: vec![[0.0; 3]; tongue_n],
             contact: head.contact.as_ref().map(|c| c.scratch(n, tongue_n)),
+            eye_motions: vec![RigidMotion::IDENTITY; head.eyes.len()],
+            eye_wire: Vec::with_capacity(head.eyes.len()),
             lip,
             lip_folds,
             lip_wire: WireLip {
@@ -178,7 +185,19 @@ impl FrameJob {
             let applied = contact.apply(&mut self.deformed, self.jaw_motion.affine(), tongue, scratch);
             self.tongue_shaped |= applied.tongue_pushed > 0;
         }
+        for (motion, eye) in self.eye_motions.iter_mut().zip(&self.head.eyes) {
+            *motion = Gaze::of(frame, eye.side).motion_of(eye, &reg.fitted.fit.pose);
+        }
+        if let Some(eyelids) = &self.head.eyelids {
+            eyelids.apply(&mut self.deformed, &self.eye_motions);
+        }
         &self.deformed
+    }
+
+    /// Each eyeball's motion (the head's `eyes` order) in the frame of the last
+    /// [`FrameJob::deform`], before the head's motion; empty for a head without eyes.
+    pub fn eye_motions(&self) -> &[RigidMotion] {
+        &self.eye_motions
     }
 
     /// The head's own motion in the frame of the last [`FrameJob::deform`]: where the
@@ -271,6 +290,15 @@ impl FrameJob {
             }
             None => None,
         };
+        self.eye_wire.clear();
+        for (eye, motion) in self.eye_motions.iter().enumerate() {
+            if let Some(motion) = motion.to_wire() {
+                self.eye_wire.push(EyeMotion {
+                    eye: eye as u8,
+                    motion,
+                });
+            }
+        }
         let header = FrameHeader {
             seq: frame.seq,
             producer_time_s: frame.time_s,
@@ -297,6 +325,7 @@ impl FrameJob {
                     turned_over_90: folds.turned_over_90.min(u32::from(u16::MAX)) as u16,
                     max_dihedral_increase_deg: folds.max_dihedral_increase_deg as f32,
                 }),
+                eyes: &self.eye_wire,
             },
         ))
     }

@@ -1,9 +1,12 @@
 //! A registered head animated frame by frame: the job the service runs once per frame for
 //! every (stream, algorithm) that has viewers, and that `facewire deform`, the tests and
 //! the benchmarks run offline. Parameter frame in; moved mask, deformed head, lip
-//! roughness, the head's own rigid motion, the jaw's, the tongue's shape and an encoded viewer frame (`FWF1`) out. Plain synchronous Rust: no
-//! runtime, no allocation per frame.
+//! roughness, the head's own rigid motion, the jaw's, the eyes', the tongue's shape and an
+//! encoded viewer frame out. Plain synchronous Rust: no runtime, no allocation per frame.
 
+mod eyeball;
+mod eyelid_contact;
+mod gaze;
 mod head;
 mod head_motion;
 mod jaw;
@@ -15,6 +18,9 @@ mod rigid;
 mod teeth_contact;
 mod tongue;
 
+pub use eyeball::{fit_sphere, Eyeball, EyeballError, RadialProfile, Side, PROFILE_BINS};
+pub use eyelid_contact::{EyelidContact, LidsInEyes, INSIDE_TOLERANCE_MM, LID_WATCH_MM};
+pub use gaze::{Gaze, ARKIT_LOOK_RAD, GAZE_LIMIT_RAD};
 pub use head::{AnimatedHead, AnimatedHeadError, PartInput, PartSplit, STEP_MM};
 pub use head_motion::{head_motion, NECK_PIVOT_MASK};
 pub use jaw::{jaw_motion, CHIN_VERTICES, JAW_PIVOT_MASK};

@@ -217,7 +217,7 @@ impl TeethContact {
             match part.role {
                 PartRole::Skull => skull.extend(closed_pieces(&part.mesh).0),
                 PartRole::Jaw => jaw.extend(closed_pieces(&part.mesh).0),
-                PartRole::Tongue => {}
+                PartRole::Tongue | PartRole::Eyes => {}
             }
         }
         if skull.is_empty() && jaw.is_empty() {

@@ -1,8 +1,9 @@
 //! Meshes that belong to a head without being its skin (teeth, gums, a tongue), each with
 //! a role that says how it moves: with the skull (upper teeth and gums: the head's own
 //! motion only), with the jaw (lower teeth and gums: the jaw's motion, then the head's), or
-//! as the tongue (with the jaw, and shaped on top of that). They are drawn, never deformed
-//! by the skin's algorithm.
+//! as the tongue (with the jaw, and shaped on top of that), or as eyes (each eyeball turned
+//! about its own centre by the frame's gaze, then carried by the head's motion). They are
+//! drawn, never deformed by the skin's algorithm.
 
 use std::fmt;
 use std::str::FromStr;
@@ -23,22 +24,26 @@ pub enum PartRole {
     Jaw,
     /// Moves with the jaw and is shaped by the tongue's parameters.
     Tongue,
+    /// Eyeballs: each turns about its own centre with the frame's gaze (FAPs 23-26, ARKit
+    /// `eyeLook*`), then moves with the head.
+    Eyes,
 }
 
 impl PartRole {
-    pub const ALL: [PartRole; 3] = [PartRole::Skull, PartRole::Jaw, PartRole::Tongue];
+    pub const ALL: [PartRole; 4] = [PartRole::Skull, PartRole::Jaw, PartRole::Tongue, PartRole::Eyes];
 
     pub fn name(self) -> &'static str {
         match self {
             PartRole::Skull => "skull",
             PartRole::Jaw => "jaw",
             PartRole::Tongue => "tongue",
+            PartRole::Eyes => "eyes",
         }
     }
 
     /// Whether the jaw carries it.
     pub fn moves_with_jaw(self) -> bool {
-        self != PartRole::Skull
+        matches!(self, PartRole::Jaw | PartRole::Tongue)
     }
 }
 
@@ -49,7 +54,7 @@ impl fmt::Display for PartRole {
 }
 
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("part role {found}: expected skull, jaw or tongue")]
+#[error("part role {found}: expected skull, jaw, tongue or eyes")]
 pub struct PartRoleError {
     pub found: String,
 }
@@ -130,8 +135,8 @@ mod tests {
             .parse::<PartRole>()
             .unwrap_err()
             .to_string()
-            .contains("skull, jaw or tongue"));
-        assert!(!PartRole::Skull.moves_with_jaw());
+            .contains("skull, jaw, tongue or eyes"));
+        assert!(!PartRole::Skull.moves_with_jaw() && !PartRole::Eyes.moves_with_jaw());
         assert!(PartRole::Jaw.moves_with_jaw() && PartRole::Tongue.moves_with_jaw());
     }
 

@@ -89,7 +89,7 @@ impl MouthContact {
                     gums.extend(open);
                 }
                 PartRole::Jaw => jaw.extend(closed),
-                PartRole::Tongue => {}
+                PartRole::Tongue | PartRole::Eyes => {}
             }
         }
         if skull.is_empty() {

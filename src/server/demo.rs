@@ -38,7 +38,7 @@ pub const DEMO_HEADS: [DemoHead; 3] = [
         id: "ict",
         obj: include_bytes!("../../data/heads/ict_head.obj"),
         fit: include_str!("../../data/heads/ict_head.fit.toml"),
-        // Teeth and gums find their roles (skull or jaw) themselves; a tongue is named.
+        // Teeth and gums find their roles (skull or jaw) themselves; a tongue and eyes are named.
         parts: &[
             (
                 "teeth_upper",
@@ -59,6 +59,11 @@ pub const DEMO_HEADS: [DemoHead; 3] = [
                 "gums_lower_tongue",
                 Some(PartRole::Tongue),
                 include_bytes!("../../data/heads/ict_head_gums_lower_tongue.obj"),
+            ),
+            (
+                "eyes",
+                Some(PartRole::Eyes),
+                include_bytes!("../../data/heads/ict_head_eyes.obj"),
             ),
         ],
     },

@@ -20,7 +20,11 @@ use super::stream::Stream;
 use crate::animate::AnimatedHead;
 use crate::fit::FitReport;
 use facewire_proto::codes::EndReason;
-use facewire_proto::messages::{FitSummary, HeadInfo, PartInfo};
+use facewire_proto::messages::{EyeInfo, FitSummary, HeadInfo, PartInfo};
+
+/// An adult's iris and pupil radii (12 mm and 4 mm across), for drawing the eyes.
+const IRIS_RADIUS_MM: f32 = 6.0;
+const PUPIL_RADIUS_MM: f32 = 2.0;
 
 /// A head ready to animate.
 pub struct ReadyHead {
@@ -28,7 +32,7 @@ pub struct ReadyHead {
     /// `mesh.bin` (FWM1) and OBJ of the rest mesh.
     pub rest_bin: Bytes,
     pub rest_obj: Bytes,
-    /// `mesh.bin` of each part, in `animated.parts` order.
+    /// `mesh.bin` of each part, in `animated.parts` order, then of each eyeball.
     pub part_bins: Vec<Bytes>,
     /// The fit's residuals and warnings, for head info.
     pub fit: FitSummary,
@@ -57,9 +61,37 @@ impl ReadyHead {
             .collect()
     }
 
-    /// A part's `mesh.bin`, by name.
+    /// The eyeballs as the snapshot and head info list them.
+    pub fn eye_infos(&self, head_id: &str) -> Vec<EyeInfo> {
+        let mm = self.animated.registration.mm_per_unit();
+        self.animated
+            .eyes
+            .iter()
+            .map(|e| EyeInfo {
+                name: e.name.clone(),
+                side: e.side.name().to_string(),
+                vertices: e.mesh.positions.len() as u32,
+                triangles: e.mesh.triangles.len() as u32,
+                mesh: format!("/v1/heads/{head_id}/parts/{}/mesh.bin", e.name),
+                centre: e.centre.to_array(),
+                forward: e.forward.to_array(),
+                radius: e.radius,
+                iris_radius: IRIS_RADIUS_MM / mm,
+                pupil_radius: PUPIL_RADIUS_MM / mm,
+                split_from: e.split_from.clone(),
+            })
+            .collect()
+    }
+
+    /// A part's or an eyeball's `mesh.bin`, by name.
     pub fn part_bin(&self, name: &str) -> Option<&Bytes> {
-        let index = self.animated.parts.iter().position(|p| p.name == name)?;
+        let animated = &self.animated;
+        let index = animated
+            .parts
+            .iter()
+            .map(|p| p.name.as_str())
+            .chain(animated.eyes.iter().map(|e| e.name.as_str()))
+            .position(|n| n == name)?;
         self.part_bins.get(index)
     }
 }
@@ -220,6 +252,7 @@ impl HeadEntry {
             error,
             streams,
             parts: ready.as_ref().map(|r| r.part_infos(&self.id)).unwrap_or_default(),
+            eyes: ready.as_ref().map(|r| r.eye_infos(&self.id)).unwrap_or_default(),
             fit: ready.as_ref().map(|r| r.fit.clone()),
             algorithms: ready.map(|r| r.bindings.bound()).unwrap_or_default(),
         }

@@ -124,7 +124,13 @@ pub fn register(
         )
     };
     let rest_bin = mesh_bin(&reg.head);
-    let part_bins = animated.parts.iter().map(|p| mesh_bin(&p.mesh)).collect();
+    let part_bins = animated
+        .parts
+        .iter()
+        .map(|p| &p.mesh)
+        .chain(animated.eyes.iter().map(|e| &e.mesh))
+        .map(mesh_bin)
+        .collect();
     let mut rest_obj = Vec::new();
     crate::head::obj::write(
         &mut rest_obj,

@@ -214,6 +214,7 @@ async fn open_view(
         heat: heat.name().map(str::to_string),
         mouth: ready.animated.mouth().to_array(),
         parts: ready.part_infos(id),
+        eyes: ready.eye_infos(id),
         format: Some(format.name().to_string()),
         messages: ["frame", "end"]
             .into_iter()

@@ -19,7 +19,7 @@ use glam::Vec3;
 
 /// The ICT head's shipped parts: (name, file under data/heads/, role to give or `None`
 /// to let it be inferred).
-pub const ICT_PARTS: [(&str, &str, Option<&str>); 4] = [
+pub const ICT_PARTS: [(&str, &str, Option<&str>); 5] = [
     ("teeth_upper", "ict_head_teeth_upper.obj", None),
     ("teeth_lower", "ict_head_teeth_lower.obj", None),
     ("gums_upper", "ict_head_gums_upper.obj", None),
@@ -28,6 +28,7 @@ pub const ICT_PARTS: [(&str, &str, Option<&str>); 4] = [
         "ict_head_gums_lower_tongue.obj",
         Some("tongue"),
     ),
+    ("eyes", "ict_head_eyes.obj", Some("eyes")),
 ];
 
 /// The ICT head with its shipped parts, as the library animates it.

@@ -701,7 +701,10 @@ class ViewerFrame:
     jaw's motion, which places the parts that move with it (before ``head``), and
     ``parts`` the deltas of every part the frame shapes (:class:`PartDeltas`, before the
     jaw's motion), in part order, empty while every part is at rest; :attr:`tongue` is the
-    first of them; :meth:`place_part` places any part. ``folds`` is the lip region's folds
+    first of them; :meth:`place_part` places any part. ``eyes`` maps the index of each
+    turned eyeball (in the snapshot's ``eyes``) to its turn about its centre, before the
+    head's motion (``FWF2`` only; eyes not in it look ahead); :meth:`place_eye` places
+    one. ``folds`` is the lip region's folds
     (:class:`LipFolds`), None when the frame has none. ``face`` is the per-vertex values the
     viewer asked for (the snapshot's ``heat``), ``byte / 255 x face_max`` each, None when
     it asked for none. Times: ``producer_time_s`` is the producer's ``t``; the ``_us``
@@ -723,6 +726,7 @@ class ViewerFrame:
     folds: Optional[LipFolds] = None
     positions: Optional[List[Tuple[float, float, float]]] = None
     face_max: Optional[float] = None
+    eyes: Dict[int, RigidMotion] = field(default_factory=dict)
 
     @property
     def tongue(self) -> Optional[PartDeltas]:
@@ -743,6 +747,14 @@ class ViewerFrame:
         """Deformed positions (from :meth:`apply`) moved by the head's motion: where the
         head is in the world."""
         return [self.head.apply(p) for p in positions]
+
+    def place_eye(self, index: int,
+                  rest: Sequence[Tuple[float, float, float]]) -> List[Tuple[float, float, float]]:
+        """Where eyeball ``index`` of the snapshot's ``eyes`` is in the world in this frame,
+        from its rest positions (:meth:`Client.part_mesh` of its name): turned by its entry
+        in :attr:`eyes` (none: looking ahead), then moved by the head's motion."""
+        turn = self.eyes.get(index, RigidMotion())
+        return [self.head.apply(turn.apply(p)) for p in rest]
 
     def place_part(self, index: int, role: str,
                    rest: Sequence[Tuple[float, float, float]]) -> List[Tuple[float, float, float]]:
@@ -860,14 +872,17 @@ def decode_viewer_frame(data: bytes) -> ViewerFrame:
 
 #: FWF2's section kinds (PROTOCOL.md, "Viewer frame (FWF2)").
 _FWF2_DELTAS, _FWF2_LIP_ROUGHNESS, _FWF2_LABEL, _FWF2_HEAD_MOTION, _FWF2_JAW_MOTION, \
-    _FWF2_LIP_FOLDS, _FWF2_PART_DELTAS, _FWF2_HEAT = range(1, 9)
+    _FWF2_LIP_FOLDS, _FWF2_PART_DELTAS, _FWF2_HEAT, _FWF2_EYE_MOTION = range(1, 10)
 #: Their names, as PROTOCOL.md and a snapshot's ``sections`` give them, and as errors name
 #: a kind given twice or missing.
 _FWF2_SECTIONS: Dict[int, str] = {
     _FWF2_DELTAS: "deltas", _FWF2_LIP_ROUGHNESS: "lip_roughness", _FWF2_LABEL: "label",
     _FWF2_HEAD_MOTION: "head_motion", _FWF2_JAW_MOTION: "jaw_motion",
     _FWF2_LIP_FOLDS: "lip_folds", _FWF2_PART_DELTAS: "part_deltas", _FWF2_HEAT: "heat",
+    _FWF2_EYE_MOTION: "eye_motion",
 }
+#: Kinds a frame may hold several of: one per part, one per eye.
+_FWF2_REPEATED = (_FWF2_PART_DELTAS, _FWF2_EYE_MOTION)
 
 
 def _next_section(r: _Reader, number: int, count: int,
@@ -945,12 +960,13 @@ def decode_fwf2(data: bytes) -> ViewerFrame:
     jaw = RigidMotion()
     folds: Optional[LipFolds] = None
     parts: Dict[int, PartDeltas] = {}
+    eyes: Dict[int, RigidMotion] = {}
     heat: Optional[Tuple[int, int, float, bytes]] = None  # count's offset, count, max, bytes
     seen: Dict[int, int] = {}
     for number in range(count):
         kind, at, body = _next_section(r, number, count)
         name = body.section
-        if kind in _FWF2_SECTIONS and kind != _FWF2_PART_DELTAS:
+        if kind in _FWF2_SECTIONS and kind not in _FWF2_REPEATED:
             if kind in seen:
                 raise ProtocolError("section %s (kind %d) given twice, first at byte %d"
                                     % (name, kind, seen[kind]), field=name, at=at)
@@ -974,6 +990,12 @@ def decode_fwf2(data: bytes) -> ViewerFrame:
                                     field="part_deltas", at=at)
             step, part_vertices, part_moved = _section_deltas(body, "part moved")
             parts[part] = PartDeltas(part, part_vertices, part_moved, step)
+        elif kind == _FWF2_EYE_MOTION:
+            (eye,) = body.unpack("B", "eye")
+            if eye in eyes:
+                raise ProtocolError("eye_motion given twice for eye %d" % eye,
+                                    field="eye_motion", at=at)
+            eyes[eye] = _rigid_motion(body, "eye motion")
         elif kind == _FWF2_HEAT:
             (heat_max,) = body.unpack("f", "heat max")
             count_at = body.at
@@ -1012,6 +1034,7 @@ def decode_fwf2(data: bytes) -> ViewerFrame:
         parts=[parts[k] for k in sorted(parts)],
         folds=folds,
         face_max=face_max,
+        eyes=eyes,
     )
 
 

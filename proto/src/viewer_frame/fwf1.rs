@@ -167,5 +167,6 @@ pub(super) fn read(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
         jaw,
         parts,
         folds,
+        eyes: Vec::new(),
     })
 }

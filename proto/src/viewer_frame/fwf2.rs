@@ -21,13 +21,14 @@
 //!    6  lip_folds      u16 turned over 60, u16 over 90, f32 largest dihedral increase
 //!    7  part_deltas    part u8, step f32, vertex_count u32, moved u32, encoding u8, u32 length + block
 //!    8  heat           max f32, count u32, count x u8
+//!    9  eye_motion     eye u8, quaternion x y z w, translation x y z (7 x f32)
 //! ```
 
 use super::fields::{
     read_folds, read_heat, read_lip, read_motion, read_timing, write_folds, write_heat, write_lip,
     write_motion, write_timing,
 };
-use super::{FrameContent, FrameHeader, FrameLayout, PartDeltas, RigidMotion, ViewerFrame};
+use super::{EyeMotion, FrameContent, FrameHeader, FrameLayout, PartDeltas, RigidMotion, ViewerFrame};
 use crate::delta_block::{self, DeltaBlockEncoder, MovedField, MovedVertex};
 use crate::sections::{read_sections, KindsSeen, Section, SectionsOut};
 use crate::{DecodeError, Reader, Writer};
@@ -41,10 +42,11 @@ const JAW_MOTION: u8 = 5;
 const LIP_FOLDS: u8 = 6;
 const PART_DELTAS: u8 = 7;
 const HEAT: u8 = 8;
+const EYE_MOTION: u8 = 9;
 
 /// Every section kind this server may put in a frame, by number and name: what the
 /// snapshot's `sections` lists.
-pub const SECTIONS: [(u8, &str); 8] = [
+pub const SECTIONS: [(u8, &str); 9] = [
     (DELTAS, "deltas"),
     (LIP_ROUGHNESS, "lip_roughness"),
     (LABEL, "label"),
@@ -53,6 +55,7 @@ pub const SECTIONS: [(u8, &str); 8] = [
     (LIP_FOLDS, "lip_folds"),
     (PART_DELTAS, "part_deltas"),
     (HEAT, "heat"),
+    (EYE_MOTION, "eye_motion"),
 ];
 
 /// A delta block's encoding byte.
@@ -111,6 +114,12 @@ pub(super) fn write(
         out.fill_u32(moved_slot, moved);
         SectionsOut::close(out, slot);
     }
+    for eye in content.eyes {
+        let slot = sections.open(out, EYE_MOTION);
+        out.put_u8(eye.eye);
+        write_motion(out, &eye.motion);
+        SectionsOut::close(out, slot);
+    }
     if let Some(values) = content.heat {
         let slot = sections.open(out, HEAT);
         write_heat(out, values, |out| out.put_u32(values.len() as u32));
@@ -167,6 +176,7 @@ pub(super) fn read(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
     let (mut block, mut lip, mut label, mut folds) = (None, None, None, None);
     let (mut head, mut jaw) = (RigidMotion::IDENTITY, RigidMotion::IDENTITY);
     let mut parts: Vec<PartDeltas> = Vec::new();
+    let mut eyes: Vec<EyeMotion> = Vec::new();
     // Heat values need the head's vertex count, which may come in a later section.
     let mut heat_section: Option<Section<'_>> = None;
     for mut section in read_sections(&mut r)? {
@@ -218,6 +228,18 @@ pub(super) fn read(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
                     moved,
                 });
             }
+            EYE_MOTION => {
+                let eye = body.u8("eye")?;
+                if eyes.iter().any(|e| e.eye == eye) {
+                    return Err(DecodeError::Invalid {
+                        field: "eye_motion",
+                        at,
+                        problem: format!("eye {eye} given twice"),
+                    });
+                }
+                let motion = read_motion(body, "eye motion")?;
+                eyes.push(EyeMotion { eye, motion });
+            }
             HEAT => {
                 seen.mark(kind, at, "heat")?;
                 heat_section = Some(section);
@@ -249,6 +271,7 @@ pub(super) fn read(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
         heat = Some(read_heat(body, max, count as usize)?);
     }
     parts.sort_by_key(|p| p.part);
+    eyes.sort_by_key(|e| e.eye);
     Ok(ViewerFrame {
         layout: FrameLayout::Fwf2,
         header,
@@ -262,5 +285,6 @@ pub(super) fn read(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
         jaw,
         parts,
         folds,
+        eyes,
     })
 }

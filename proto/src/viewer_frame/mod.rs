@@ -146,6 +146,18 @@ pub struct ViewerFrame {
     pub parts: Vec<PartDeltas>,
     /// The lip region's folds, when the server measured them.
     pub folds: Option<LipFolds>,
+    /// The turned eyeballs' motions, in increasing eye (`FWF2` only); eyes not listed look
+    /// ahead.
+    pub eyes: Vec<EyeMotion>,
+}
+
+/// An eyeball's motion in one frame: the turn about its centre (head units, before the
+/// head's motion: an eyeball's world position is `head(motion(rest))`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EyeMotion {
+    /// Index of the eyeball in the snapshot's `eyes`.
+    pub eye: u8,
+    pub motion: RigidMotion,
 }
 
 /// Decoded deltas of one part (the tongue), against its rest mesh, before the jaw's and
@@ -221,6 +233,9 @@ pub struct FrameContent<'a> {
     pub tongue: Option<(u8, &'a [[f32; 3]])>,
     /// The lip region's folds in this frame.
     pub folds: Option<LipFolds>,
+    /// The eyeballs turned in this frame (`FWF2` only: `FWF1` is frozen and has no place
+    /// for them).
+    pub eyes: &'a [EyeMotion],
 }
 
 /// Encodes frames into reused buffers.
@@ -237,8 +252,8 @@ impl FrameEncoder {
     /// allocates nothing after the first frame (which makes the deflate state).
     pub fn for_head(vertices: usize, lip_values: usize) -> FrameEncoder {
         // Header, lip values, label, two motions, folds, the tongue's fields, the heat's
-        // max and count, and every section's kind and length.
-        let fixed = 64 + 1 + 4 * lip_values + 256 + 2 * 28 + 8 + 32 + 8 + 16 * 5;
+        // max and count, two eyes' motions, and every section's kind and length.
+        let fixed = 64 + 1 + 4 * lip_values + 256 + 2 * 28 + 8 + 32 + 8 + 2 * 29 + 16 * 5;
         FrameEncoder {
             buffer: Vec::with_capacity(fixed + DeltaBlockEncoder::worst_case(vertices) + vertices),
             deltas: DeltaBlockEncoder::for_vertices(vertices),

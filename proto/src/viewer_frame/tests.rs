@@ -27,6 +27,7 @@ fn content<'a>(deltas: &'a [[f32; 3]], lip: &'a LipRoughness, deflate: bool) -> 
         jaw: None,
         tongue: None,
         folds: None,
+        eyes: &[],
     }
 }
 
@@ -91,6 +92,7 @@ fn every_field_travels_in_both_layouts_with_quantization_bounded_by_half_a_step(
                     jaw: Some(OPEN_JAW),
                     tongue: Some((3, &tongue)),
                     folds: Some(FOLDS),
+                    eyes: &[],
                 },
             );
             assert_eq!(&bytes[..4], &layout.magic());
