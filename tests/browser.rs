@@ -631,6 +631,44 @@ async fn check_the_inner_mouth_close_up(browser: &Browser, url: &str, long: Dura
         }
     }
     check_the_tongue(browser, url, long).await;
+    check_the_eyes(browser, url, long).await;
+}
+
+/// The ICT head's eyeballs, listed and drawn; a frame that turns them changes the picture
+/// and the page takes it without complaint.
+async fn check_the_eyes(browser: &Browser, url: &str, long: Duration) {
+    browser.open(&format!("{url}?head=ict&stream=eyes")).await;
+    let mut producer = connect_producer(url, "ict", "eyes").await;
+    produce_line(&mut producer, r#"{"seq":0,"t":0,"au":{}}"#.to_string()).await;
+    browser
+        .wait_for("the eyes stream live", &state_is("status-0", "live"), long)
+        .await;
+    browser
+        .wait_for(
+            "the two eyes drawn",
+            "return document.getElementById('eyes-0')?.dataset.loaded === '2'",
+            long,
+        )
+        .await;
+    let eyes = browser.js(&text_of("eyes-0")).await;
+    assert_eq!(eyes, "eyes_left (left), eyes_right (right)", "{eyes}");
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let ahead = browser.screenshot("#canvas-0").await;
+    produce_line(
+        &mut producer,
+        r#"{"seq":1,"t":0.1,"fap":{"yaw_l_eyeball":50000,"yaw_r_eyeball":50000,"pitch_l_eyeball":-20000,"pitch_r_eyeball":-20000}}"#
+            .to_string(),
+    )
+    .await;
+    assert!(
+        browser
+            .picture_changes("#canvas-0", &ahead, Duration::from_secs(5))
+            .await,
+        "the page did not draw the turned eyes in 5 s"
+    );
+    let message = browser.js(&text_of("message-0")).await;
+    assert_eq!(message, "", "the page complains: {message}");
+    producer.close(None).await.unwrap();
 }
 
 /// The tongue on a stream of the test's own: the same open jaw with the tongue tip raised

@@ -132,6 +132,26 @@ async fn parts_register_serve_travel_and_survive_a_restart() {
         assert_eq!(mesh.positions.len() as u32, part.vertices, "{}", part.name);
         assert_eq!(mesh.triangles.len() as u32, part.triangles, "{}", part.name);
     }
+    // The eyes part, split one a side, listed apart from the parts, each mesh served.
+    let eyes: Vec<(&str, &str, u32)> = info
+        .eyes
+        .iter()
+        .map(|e| (e.name.as_str(), e.side.as_str(), e.vertices))
+        .collect();
+    assert_eq!(eyes, [("eyes_left", "left", 1570), ("eyes_right", "right", 1570)]);
+    for eye in &info.eyes {
+        let bytes = reqwest::get(server.http(&eye.mesh))
+            .await
+            .unwrap()
+            .bytes()
+            .await
+            .unwrap();
+        let mesh = RestMesh::decode(&bytes).unwrap();
+        assert_eq!(mesh.positions.len() as u32, eye.vertices, "{}", eye.name);
+        assert_eq!(eye.split_from.as_deref(), Some("eyes"));
+        // 6 mm and 2 mm in this head's centimetres.
+        assert!((eye.iris_radius - 0.6).abs() < 1e-6 && (eye.pupil_radius - 0.2).abs() < 1e-6);
+    }
     let missing = reqwest::get(server.http("/v1/heads/ict/parts/molars/mesh.bin"))
         .await
         .unwrap();
@@ -142,7 +162,12 @@ async fn parts_register_serve_travel_and_survive_a_restart() {
     match next_json(&mut viewer).await {
         ServerMessage::Snapshot(snapshot) => {
             assert_eq!(snapshot.parts, info.parts);
+            assert_eq!(snapshot.eyes, info.eyes);
             assert_eq!(snapshot.format.as_deref(), Some("fwf2"));
+            assert!(snapshot
+                .sections
+                .iter()
+                .any(|s| (s.kind, s.name.as_str()) == (9, "eye_motion")));
         }
         other => panic!("{other:?}"),
     }
@@ -163,6 +188,7 @@ async fn parts_register_serve_travel_and_survive_a_restart() {
     assert!((3.0..30.0).contains(&degrees), "{degrees}");
     assert_eq!(frame.layout, facewire_proto::viewer_frame::FrameLayout::Fwf2);
     assert!(frame.parts.is_empty(), "a tongue at rest sends no deltas");
+    assert!(frame.eyes.is_empty(), "eyes looking ahead send no motion");
 
     // A raised tongue tip travels as the tongue part's deltas, as the library shapes it.
     let line = r#"{"seq":1,"t":0.1,"fap":{"raise_tongue_tip":800}}"#;
@@ -217,6 +243,21 @@ async fn parts_register_serve_travel_and_survive_a_restart() {
         "{} tongue vertices moved",
         tongue.moved.len()
     );
+    // The left eye looks 20 degrees to the face's left: its motion, and only its, travels.
+    let line = r#"{"seq":2,"t":0.2,"fap":{"yaw_l_eyeball":34907}}"#;
+    producer.send(Message::Text(line.into())).await.unwrap();
+    let frame = next_frame(&mut viewer).await;
+    assert_eq!(frame.eyes.len(), 1, "{:?}", frame.eyes);
+    let eye = &info.eyes[0];
+    assert_eq!(frame.eyes[0].eye, 0);
+    let motion = frame.eyes[0].motion;
+    let centre = Vec3::from_array(eye.centre);
+    let forward = Vec3::from_array(eye.forward);
+    let turned = Quat::from_array(motion.rotation) * forward;
+    assert!((turned.angle_between(forward).to_degrees() - 20.0).abs() < 0.01);
+    assert!(turned.x > forward.x);
+    let moved_centre = Quat::from_array(motion.rotation) * centre + Vec3::from_array(motion.translation);
+    assert!(moved_centre.distance(centre) < 1e-4, "{moved_centre} vs {centre}");
     drop((viewer, producer));
     server.stop().await;
 
@@ -224,6 +265,7 @@ async fn parts_register_serve_travel_and_survive_a_restart() {
     let server = Server::start(config()).await;
     let info = server.wait_ready("ict", "").await;
     assert_eq!(roles(&info), expected_roles);
+    assert_eq!(info.eyes.len(), 2);
     server.stop().await;
 }
 

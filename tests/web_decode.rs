@@ -14,7 +14,8 @@ use std::process::Command;
 
 use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
 use facewire_proto::viewer_frame::{
-    decode, FrameContent, FrameEncoder, FrameHeader, FrameLayout, LipFolds, LipRoughness, RigidMotion,
+    decode, EyeMotion, FrameContent, FrameEncoder, FrameHeader, FrameLayout, LipFolds, LipRoughness,
+    RigidMotion,
 };
 use facewire_proto::DecodeError;
 use serde_json::{json, Value};
@@ -37,6 +38,8 @@ struct Case<'a> {
     /// The tongue's part index and its deltas.
     tongue: Option<(u8, Vec<[f32; 3]>)>,
     folds: Option<LipFolds>,
+    /// Turned eyeballs (FWF2 carries them, FWF1 cannot).
+    eyes: Vec<EyeMotion>,
 }
 
 fn frame_case(
@@ -60,7 +63,7 @@ fn frame_case(
                 jaw: case.jaw,
                 tongue: case.tongue.as_ref().map(|(p, d)| (*p, d.as_slice())),
                 folds: case.folds,
-                eyes: &[],
+                eyes: &case.eyes,
             },
         )
         .to_vec();
@@ -126,6 +129,13 @@ fn frame_case(
             "movedIndices": t.moved.iter().map(|m| m.0).collect::<Vec<_>>(),
             "movedCounts": t.moved.iter().flat_map(|m| m.1).collect::<Vec<_>>(),
         })),
+        "eyes": frame.eyes.iter().map(|e| json!({
+            "eye": e.eye,
+            "motion": {
+                "rotation": exact(&e.motion.rotation),
+                "translation": exact(&e.motion.translation),
+            },
+        })).collect::<Vec<_>>(),
         "folds": frame.folds.map(|f| json!({
             "turnedOver60": f.turned_over_60,
             "turnedOver90": f.turned_over_90,
@@ -153,6 +163,30 @@ fn failing_field(error: DecodeError) -> &'static str {
 fn malformed(name: &str, bytes: Vec<u8>) -> Value {
     let error = decode(&bytes).expect_err("malformed on purpose");
     json!({ "name": name, "bytes": bytes, "field": failing_field(error) })
+}
+
+/// An FWF2 frame with turned eyes (`good`) with one eye given twice, and with an eye's
+/// rotation that is not a unit quaternion.
+fn fwf2_bad_eyes(good: &[u8]) -> Vec<Value> {
+    let mut at = 37;
+    let mut eye_at = None;
+    while at < good.len() {
+        let length = u32::from_le_bytes(good[at + 1..at + 5].try_into().unwrap()) as usize;
+        if good[at] == 9 && eye_at.is_none() {
+            eye_at = Some((at, length));
+        }
+        at += 5 + length;
+    }
+    let (eye_at, length) = eye_at.expect("the case turns its eyes");
+    let mut twice = good.to_vec();
+    twice[36] += 1;
+    twice.extend_from_slice(&good[eye_at..eye_at + 5 + length]);
+    let mut stretched = good.to_vec();
+    stretched[eye_at + 6..eye_at + 10].copy_from_slice(&2.0f32.to_le_bytes());
+    vec![
+        malformed("FWF2 eye_motion twice for one eye", twice),
+        malformed("FWF2 eye rotation not a unit quaternion", stretched),
+    ]
 }
 
 /// FWF2 frames broken in their framing (`good` is a frame with a label and heat values):
@@ -258,6 +292,7 @@ fn cases() -> Value {
             jaw: None,
             tongue: None,
             folds: None,
+            eyes: Vec::new(),
         },
         Case {
             name: "label and face roughness",
@@ -271,6 +306,7 @@ fn cases() -> Value {
             jaw: None,
             tongue: None,
             folds: None,
+            eyes: Vec::new(),
         },
         Case {
             name: "large deltas, a multi-byte label, flat face",
@@ -292,6 +328,7 @@ fn cases() -> Value {
             jaw: None,
             tongue: None,
             folds: None,
+            eyes: Vec::new(),
         },
         Case {
             name: "nothing moved, lip folds of a gentle bend",
@@ -309,6 +346,7 @@ fn cases() -> Value {
                 turned_over_90: 0,
                 max_dihedral_increase_deg: 4.1,
             }),
+            eyes: Vec::new(),
         },
         Case {
             name: "every vertex moved",
@@ -324,6 +362,7 @@ fn cases() -> Value {
             jaw: None,
             tongue: None,
             folds: None,
+            eyes: Vec::new(),
         },
         Case {
             name: "head motion, label and face roughness",
@@ -337,6 +376,7 @@ fn cases() -> Value {
             jaw: None,
             tongue: None,
             folds: None,
+            eyes: Vec::new(),
         },
         Case {
             name: "head motion only",
@@ -350,6 +390,7 @@ fn cases() -> Value {
             jaw: Some(open),
             tongue: None,
             folds: None,
+            eyes: Vec::new(),
         },
         Case {
             name: "tongue shaped, head and jaw motion, lip folds, label and face roughness",
@@ -368,6 +409,10 @@ fn cases() -> Value {
                 turned_over_90: 300,
                 max_dihedral_increase_deg: 148.83,
             }),
+            eyes: vec![
+                EyeMotion { eye: 1, motion: turn },
+                EyeMotion { eye: 0, motion: open },
+            ],
         },
         Case {
             name: "tongue sent with nothing moved",
@@ -381,6 +426,7 @@ fn cases() -> Value {
             jaw: Some(open),
             tongue: Some((0, vec![[0.0; 3]; 12])),
             folds: None,
+            eyes: Vec::new(),
         },
     ];
     let mut encoder = FrameEncoder::default();
@@ -507,6 +553,7 @@ fn cases() -> Value {
     ];
     malformed_frames.extend(folds_frames);
     malformed_frames.extend(fwf2_malformed(&fwf2_good));
+    malformed_frames.extend(fwf2_bad_eyes(&encoded[encoded.len() / 2 + 14]));
 
     let positions = [
         [0.0, 0.0, 0.0],

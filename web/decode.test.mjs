@@ -82,6 +82,7 @@ for (const [i, c] of cases.frames.entries()) {
   same(frame.jaw, c.jaw, `${path} jaw`);
   same(frame.tongue, c.tongue, `${path} tongue`);
   same(frame.folds, c.folds, `${path} folds`);
+  same(frame.eyes, c.eyes, `${path} eyes`);
   const positions = applyFrame(new Float32Array(c.rest), frame, new Float32Array(c.rest.length));
   same(positions, c.positions, `${path} positions`);
   // The matrix the page draws with puts every vertex where the Rust client places it.

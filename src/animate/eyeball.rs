@@ -190,7 +190,8 @@ pub fn fit_sphere(points: &[Vec3]) -> Option<(Vec3, f32)> {
     // Hadamard: |det| <= the product of the diagonal; far below it, the points lie on a
     // plane (or a line) and no sphere is determined.
     let diagonal = (0..4).map(|k| normal.col(k)[k]).product::<f64>();
-    if !(normal.determinant().abs() > 1e-12 * diagonal) {
+    let determinant = normal.determinant().abs();
+    if determinant.is_nan() || determinant <= 1e-12 * diagonal {
         return None;
     }
     let solution = normal.inverse() * rhs;
@@ -213,8 +214,8 @@ pub(crate) mod tests {
         let mut positions = vec![centre + Vec3::Z * (radius + bulge)];
         for ring in 1..rings {
             let theta = ring as f32 / rings as f32 * std::f32::consts::PI;
-            let r = if theta < 0.5236 {
-                radius + bulge * (1.0 - theta / 0.5236)
+            let r = if theta < std::f32::consts::FRAC_PI_6 {
+                radius + bulge * (1.0 - theta / std::f32::consts::FRAC_PI_6)
             } else {
                 radius
             };

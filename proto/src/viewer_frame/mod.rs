@@ -253,7 +253,7 @@ impl FrameEncoder {
     pub fn for_head(vertices: usize, lip_values: usize) -> FrameEncoder {
         // Header, lip values, label, two motions, folds, the tongue's fields, the heat's
         // max and count, two eyes' motions, and every section's kind and length.
-        let fixed = 64 + 1 + 4 * lip_values + 256 + 2 * 28 + 8 + 32 + 8 + 2 * 29 + 16 * 5;
+        let fixed = 64 + 1 + 4 * lip_values + 256 + 2 * 28 + 8 + 32 + 8 + 2 * 34 + 16 * 5;
         FrameEncoder {
             buffer: Vec::with_capacity(fixed + DeltaBlockEncoder::worst_case(vertices) + vertices),
             deltas: DeltaBlockEncoder::for_vertices(vertices),

@@ -393,3 +393,59 @@ fn fwf2_refuses_malformed_sections_by_name() {
     assert_eq!(field(&part_twice), Some("part_deltas"));
     assert!(matches!(decode(b"FWF3...."), Err(DecodeError::Magic { .. })));
 }
+
+#[test]
+fn eye_motions_travel_in_fwf2_by_eye_and_fwf1_has_no_place_for_them() {
+    let lip = LipRoughness::default();
+    let down = RigidMotion {
+        rotation: [0.258_819, 0.0, 0.0, 0.965_925_8],
+        translation: [0.0, 0.93, -0.25],
+    };
+    // Given out of order, they decode in eye order.
+    let eyes = [
+        EyeMotion {
+            eye: 1,
+            motion: QUARTER_YAW,
+        },
+        EyeMotion { eye: 0, motion: down },
+    ];
+    let with_eyes = FrameContent {
+        eyes: &eyes,
+        ..content(&[[1.0, 0.0, 0.0]], &lip, true)
+    };
+    let frame = decode(&encode(FrameLayout::Fwf2, &with_eyes)).unwrap();
+    assert_eq!(frame.eyes, [eyes[1], eyes[0]]);
+    // 34 bytes a turned eye: kind, length, eye, seven floats.
+    let without = encode(FrameLayout::Fwf2, &content(&[[1.0, 0.0, 0.0]], &lip, true));
+    let bytes = encode(FrameLayout::Fwf2, &with_eyes);
+    assert_eq!(bytes.len() - without.len(), 2 * 34);
+    assert!(decode(&encode(FrameLayout::Fwf1, &with_eyes))
+        .unwrap()
+        .eyes
+        .is_empty());
+    assert!(decode(&without).unwrap().eyes.is_empty());
+
+    // One eye twice, a motion that is not a rotation, a section cut short: refused by name.
+    let field = |bytes: &[u8]| decode(bytes).unwrap_err().field();
+    let one = encode(
+        FrameLayout::Fwf2,
+        &FrameContent {
+            eyes: &eyes[..1],
+            ..content(&[[1.0, 0.0, 0.0]], &lip, true)
+        },
+    );
+    let eye_section = one[without.len()..].to_vec();
+    assert_eq!((eye_section[0], eye_section.len()), (9, 34));
+    let mut twice = one.clone();
+    twice[36] += 1;
+    twice.extend_from_slice(&eye_section);
+    assert_eq!(field(&twice), Some("eye_motion"));
+    let mut stretched = one.clone();
+    let w = without.len() + 5 + 1 + 12;
+    stretched[w..w + 4].copy_from_slice(&2.0f32.to_le_bytes());
+    assert_eq!(field(&stretched), Some("eye motion"));
+    let mut short = without.clone();
+    short[36] += 1;
+    short.extend_from_slice(&[9, 5, 0, 0, 0, 1, 0, 0, 0, 0]);
+    assert_eq!(field(&short), Some("eye motion"));
+}
