@@ -284,20 +284,33 @@ fn facewire_deform_writes_the_parts_where_the_jaw_puts_them() {
         data("heads/ict_head_teeth_lower.obj"),
     );
     let part = std::ffi::OsStr::new("--part");
+    let eyes = format!("eyes:{}", data("heads/ict_head_eyes.obj").display());
     let run = common::facewire_deform(
         "ict_head",
         &stream,
         &out,
-        &[part, upper.as_os_str(), part, lower.as_os_str()],
+        &[
+            part,
+            upper.as_os_str(),
+            part,
+            lower.as_os_str(),
+            part,
+            eyes.as_ref(),
+        ],
     );
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("part ict_head_eyes_left: 1570 vertices, the left eye, turns about its centre"),
+        "{stderr}"
+    );
     assert!(
         stderr.contains("part ict_head_teeth_lower: 2204 vertices, moves with the jaw"),
         "{stderr}"
     );
     let written = std::fs::read_to_string(out.join("frame_00000.obj")).unwrap();
     assert!(written.contains("\no ict_head_teeth_upper\n") && written.contains("\no ict_head_teeth_lower\n"));
+    assert!(written.contains("\no ict_head_eyes_left\n") && written.contains("\no ict_head_eyes_right\n"));
     let positions: Vec<Vec3> = common::obj_positions(&out.join("frame_00000.obj"))
         .into_iter()
         .map(Vec3::from_array)
@@ -306,7 +319,11 @@ fn facewire_deform_writes_the_parts_where_the_jaw_puts_them() {
     let upper = Head::load(&data("heads/ict_head_teeth_upper.obj")).unwrap();
     let lower = Head::load(&data("heads/ict_head_teeth_lower.obj")).unwrap();
     let n = reg.vertex_count();
-    assert_eq!(positions.len(), n + upper.positions.len() + lower.positions.len());
+    // Then the two eyeballs, 1,570 vertices each.
+    assert_eq!(
+        positions.len(),
+        n + upper.positions.len() + lower.positions.len() + 2 * 1570
+    );
     // The upper teeth turn with the head; the lower ones open with the jaw first.
     let frame = facewire::stream::Frame {
         head_rotation_rad: Some([0.0, 0.2, 0.0]),

@@ -118,6 +118,11 @@ fn the_whole_heads_animate_within_the_contact_goals() {
         }
         assert_eq!(m.split_parts, ["teeth"], "{}", outcome.member);
         assert_eq!(m.lips_in_teeth, Some(0), "{}", outcome.member);
+        // Both eyeballs found on every identity, and no lid left in one through 20 s of
+        // blinks and glances (the lids enter them without the constraint).
+        assert_eq!(m.eyes, 2, "{}", outcome.member);
+        assert_eq!(m.lids_in_eyes, Some(0), "{}", outcome.member);
+        assert!(m.lids_in_eyes_unconstrained.is_some(), "{}", outcome.member);
         let depth = m.tongue_depth_mm.unwrap();
         assert!(
             depth <= MAX_TONGUE_DEPTH_MM,

@@ -12,12 +12,7 @@ use glam::Mat3;
 
 use super::{Eyeball, RigidMotion, Side};
 use crate::mask::MaskPose;
-use crate::stream::{Frame, RADIANS_PER_ANGLE_COUNT};
-
-/// An ARKit `eyeLook*` weight of 1 turns the eye this far, radians (30 degrees). Apple
-/// documents the weights (0 to 1) but no angle; 30 degrees is about where people turn
-/// the head rather than the eyes alone, so a full weight is a wide, natural look.
-pub const ARKIT_LOOK_RAD: f32 = std::f32::consts::PI / 6.0;
+use crate::stream::{Frame, ARKIT_LOOK_RAD, RADIANS_PER_ANGLE_COUNT};
 
 /// The eye turns at most this far each way, radians (45 degrees: the eye's mechanical
 /// range is about 45-50 degrees in every direction). Larger requests are held at it.

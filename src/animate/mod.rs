@@ -20,7 +20,7 @@ mod tongue;
 
 pub use eyeball::{fit_sphere, Eyeball, EyeballError, RadialProfile, Side, PROFILE_BINS};
 pub use eyelid_contact::{EyelidContact, LidsInEyes, INSIDE_TOLERANCE_MM, LID_WATCH_MM};
-pub use gaze::{Gaze, ARKIT_LOOK_RAD, GAZE_LIMIT_RAD};
+pub use gaze::{Gaze, GAZE_LIMIT_RAD};
 pub use head::{AnimatedHead, AnimatedHeadError, PartInput, PartSplit, STEP_MM};
 pub use head_motion::{head_motion, NECK_PIVOT_MASK};
 pub use jaw::{jaw_motion, CHIN_VERTICES, JAW_PIVOT_MASK};

@@ -43,7 +43,7 @@ pub struct Args {
     #[arg(long)]
     targets: Option<FilePath>,
     /// A part mesh (teeth, gums, tongue) in the head's units and frame, as `PATH` (its
-    /// role, skull or jaw, inferred) or `ROLE:PATH` (skull, jaw or tongue). Repeatable.
+    /// role, skull or jaw, inferred) or `ROLE:PATH` (skull, jaw, tongue or eyes). Repeatable.
     /// With teeth, the report measures contact inside the mouth (`contact.tsv`).
     #[arg(long = "part", value_name = "[ROLE:]PATH")]
     parts: Vec<String>,

@@ -38,7 +38,7 @@ pub struct Args {
     #[arg(long)]
     frames: Option<String>,
     /// A part mesh (teeth, gums, tongue) in the head's units and frame, as `PATH` (its
-    /// role, skull or jaw, inferred) or `ROLE:PATH` (skull, jaw or tongue). Repeatable;
+    /// role, skull or jaw, inferred) or `ROLE:PATH` (skull, jaw, tongue or eyes). Repeatable;
     /// each is written after the head as an object named after its file (a tongue shaped
     /// by the frame's tongue parameters).
     #[arg(long = "part", value_name = "[ROLE:]PATH")]
@@ -135,6 +135,11 @@ pub fn run(args: Args) -> CliResult {
         .iter()
         .map(|p| vec![glam::Vec3::ZERO; p.mesh.positions.len()])
         .collect();
+    let mut placed_eyes: Vec<Vec<glam::Vec3>> = animated
+        .eyes
+        .iter()
+        .map(|e| vec![glam::Vec3::ZERO; e.mesh.positions.len()])
+        .collect();
     let mut written = 0usize;
     for (index, frame) in open_stream(&args.stream, &mask)?.enumerate() {
         if index >= range.end {
@@ -166,6 +171,11 @@ pub fn run(args: Args) -> CliResult {
                 motion.apply_into(&part.mesh.positions, out);
             }
             obj::write_object(&mut file, &part.name, out, &part.mesh.triangles, first_vertex)?;
+            first_vertex += out.len() as u32;
+        }
+        for ((eye, motion), out) in animated.eyes.iter().zip(job.eye_motions()).zip(&mut placed_eyes) {
+            head_motion.after(motion).apply_into(&eye.mesh.positions, out);
+            obj::write_object(&mut file, &eye.name, out, &eye.mesh.triangles, first_vertex)?;
             first_vertex += out.len() as u32;
         }
         file.flush()?;

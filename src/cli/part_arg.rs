@@ -28,8 +28,21 @@ pub fn load_parts(texts: &[String]) -> Result<Vec<PartInput>, String> {
 }
 
 /// Says on stderr how each part of `head` moves, which were split from one mesh holding
-/// both rows of teeth, and which teeth are open shells that contact cannot use.
+/// both rows of teeth, which teeth are open shells that contact cannot use, and the eyes.
 pub fn describe_parts(head: &AnimatedHead) {
+    let mm = head.registration.mm_per_unit();
+    for eye in &head.eyes {
+        let split = eye.split_from.as_ref().map_or(String::new(), |from| {
+            format!(" (split from {from}: both eyeballs in one mesh)")
+        });
+        eprintln!(
+            "part {}: {} vertices, the {} eye, turns about its centre (a sphere of {:.1} mm){split}",
+            eye.name,
+            eye.mesh.positions.len(),
+            eye.side.name(),
+            eye.radius * mm
+        );
+    }
     for part in &head.parts {
         let split = part.split_from.as_ref().map_or(String::new(), |from| {
             format!(" (split from {from}: both rows of teeth in one mesh)")

@@ -1,5 +1,5 @@
 //! `facewire population --animate`: the whole heads of the population, with their teeth,
-//! gums and tongue, animated through the syllable stream by one algorithm (the default)
+//! gums, tongue and eyes, animated through the syllable stream by one algorithm (the default)
 //! from their landmark fits and their automatic fits, as a Markdown table with a summary
 //! per fit and for the held-out members (docs/METRICS.md, "On a population").
 
@@ -92,7 +92,7 @@ pub fn run(data: &Path, sample: bool, only: Option<&str>, json: bool, args: &Arg
 fn line(o: &AnimationOutcome) -> String {
     match &o.result {
         Ok(m) => format!(
-            "{} ({}): {} lip folds, lips in teeth {}, tongue {}, f/v {}, ground truth {}, {:.0} us, {:.1} s",
+            "{} ({}): {} lip folds, lips in teeth {}, tongue {}, f/v {}, ground truth {}, {:.0} us, lids in eyes {} / {}, {:.1} s",
             o.member,
             o.fit.name(),
             m.lip_folds,
@@ -101,6 +101,8 @@ fn line(o: &AnimationOutcome) -> String {
             option(m.fv_gap_mm, |d| format!("{d:.2} mm")),
             option(m.ground_truth_rms_mm, |d| format!("{d:.3} mm")),
             m.deform_us,
+            option(m.lids_in_eyes_unconstrained, |v| v.to_string()),
+            option(m.lids_in_eyes, |v| v.to_string()),
             o.seconds
         ),
         Err(e) => format!("{} ({}): not animated: {e}", o.member, o.fit.name()),
@@ -114,14 +116,14 @@ fn option<T: Copy>(value: Option<T>, show: impl Fn(T) -> String) -> String {
 /// The table, then a summary per fit for the development and the held-out members.
 pub fn table(outcomes: &[AnimationOutcome]) -> String {
     let mut out = String::new();
-    out.push_str("| head | held out | fit | lip folds (triangle-frames) | sharpest fold (deg) | lips in teeth at rest / beyond rest (vertex-frames) | tongue in teeth (frames, deepest mm) | f/v gap (mm) | ground truth (mm) | deform (us) |\n");
-    out.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
+    out.push_str("| head | held out | fit | lip folds (triangle-frames) | sharpest fold (deg) | lips in teeth at rest / beyond rest (vertex-frames) | tongue in teeth (frames, deepest mm) | f/v gap (mm) | ground truth (mm) | deform (us) | lids in eyes without / with the constraint (vertex-frames) |\n");
+    out.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
     for o in outcomes {
         let held = if o.held_out { "yes" } else { "" };
         let _ = match &o.result {
             Ok(m) => writeln!(
                 out,
-                "| {} | {held} | {} | {} | {:.0} | {} / {} | {} | {} | {} | {:.0} |",
+                "| {} | {held} | {} | {} | {:.0} | {} / {} | {} | {} | {} | {:.0} | {} |",
                 o.member,
                 o.fit.name(),
                 m.lip_folds,
@@ -134,19 +136,23 @@ pub fn table(outcomes: &[AnimationOutcome]) -> String {
                 },
                 option(m.fv_gap_mm, |d| format!("{d:.2}")),
                 option(m.ground_truth_rms_mm, |d| format!("{d:.3}")),
-                m.deform_us
+                m.deform_us,
+                match (m.lids_in_eyes_unconstrained, m.lids_in_eyes) {
+                    (Some(without), Some(with)) => format!("{without} / {with}"),
+                    _ => "-".into(),
+                },
             ),
             Err(e) => writeln!(
                 out,
-                "| {} | {held} | {} | not animated: {} | | | | | | |",
+                "| {} | {held} | {} | not animated: {} | | | | | | | |",
                 o.member,
                 o.fit.name(),
                 e.replace('|', "/")
             ),
         };
     }
-    out.push_str("\n| heads | fit | animated | with lip folds | lip folds (sum) | with lips in teeth beyond rest | tongue deeper than 0.5 mm | f/v gap over 1.5 mm | worst ground truth (mm) | median deform (us) |\n");
-    out.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
+    out.push_str("\n| heads | fit | animated | with lip folds | lip folds (sum) | with lips in teeth beyond rest | tongue deeper than 0.5 mm | f/v gap over 1.5 mm | worst ground truth (mm) | median deform (us) | with lids in eyes, without / with the constraint |\n");
+    out.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (group, held) in [("development", false), ("held out", true)] {
         for fit in [FitSource::Landmarks, FitSource::Automatic] {
             let rows: Vec<&AnimationOutcome> = outcomes
@@ -166,7 +172,7 @@ pub fn table(outcomes: &[AnimationOutcome]) -> String {
             deform.sort_by(f64::total_cmp);
             let _ = writeln!(
                 out,
-                "| {group} ({}) | {} | {} | {} | {} | {} | {} | {} | {worst_truth:.3} | {:.0} |",
+                "| {group} ({}) | {} | {} | {} | {} | {} | {} | {} | {worst_truth:.3} | {:.0} | {} / {} |",
                 rows.len(),
                 fit.name(),
                 done.len(),
@@ -176,6 +182,8 @@ pub fn table(outcomes: &[AnimationOutcome]) -> String {
                 count(&|m| m.tongue_depth_mm.is_some_and(|d| d > 0.5)),
                 count(&|m| m.fv_gap_mm.is_some_and(|d| d > 1.5)),
                 deform.get(deform.len() / 2).copied().unwrap_or(f64::NAN),
+                count(&|m| m.lids_in_eyes_unconstrained.is_some_and(|v| v > 0)),
+                count(&|m| m.lids_in_eyes.is_some_and(|v| v > 0)),
             );
         }
     }

@@ -242,7 +242,8 @@ pub const UPPER_GUMS: u32 = 568;
 /// An ICT identity's parts as a user would pass them: the teeth as the model ships them,
 /// both rows in one mesh with no role (facewire splits it); the gums and tongue cut where
 /// the shipped ICT head's are (`data/heads/LICENSES.md`): `gums_upper` (skull) and
-/// `gums_lower_tongue` (tongue).
+/// `gums_lower_tongue` (tongue); and both eyeballs in one mesh, role `eyes` (facewire splits
+/// them by side).
 pub fn ict_parts(model: &IdentityModel, weights: &[f32]) -> Vec<PartInput> {
     let gums_tongue = model.part(IdentityPart::GumsTongue, weights, "gums_tongue");
     let side = |upper: bool, name: &str| {
@@ -269,6 +270,11 @@ pub fn ict_parts(model: &IdentityModel, weights: &[f32]) -> Vec<PartInput> {
             name: "gums_lower_tongue".into(),
             role: Some(PartRole::Tongue),
             mesh: side(false, "gums_lower_tongue"),
+        },
+        PartInput {
+            name: "eyes".into(),
+            role: Some(PartRole::Eyes),
+            mesh: model.part(IdentityPart::Eyes, weights, "eyes"),
         },
     ]
 }

@@ -2,21 +2,26 @@
 //! teeth, gums and tongue as users have them, registered from its landmark fit and from its
 //! automatic fit, and driven through a stream by one algorithm (the default): lip folds,
 //! lips in the teeth beyond rest, the tongue in the teeth, the f/v gap, the ground truth
-//! against the head's expression targets, and the deform time. `facewire population
-//! --animate` prints the table (docs/METRICS.md, "On a population").
+//! against the head's expression targets, and the deform time; for heads with eyes, the
+//! lids in the eyeballs over [`EYES_S`] of blinks and glances ([`IdleEyes`]) with and
+//! without the lid constraint. `facewire population --animate` prints the table
+//! (docs/METRICS.md, "On a population").
 
 use std::path::Path;
 use std::time::Instant;
 
 use serde::Serialize;
 
+use std::sync::Arc;
+
 use super::{compare, Candidate, CompareInput};
-use crate::animate::AnimatedHead;
+use crate::animate::{AnimatedHead, FrameJob, Heat, PartInput};
 use crate::deform::Registration;
 use crate::fit::{fit_automatically, FittedMask};
+use crate::head::PartRole;
 use crate::mask::Mask;
 use crate::population::Member;
-use crate::stream::ArkitBasis;
+use crate::stream::{ArkitBasis, Frame, IdleEyes};
 use crate::targets::ExpressionTarget;
 
 /// Which fit of a member's head the animation starts from.
@@ -75,6 +80,47 @@ pub struct AnimationMeasures {
     pub deform_us: f64,
     /// Parts given whole that were split into upper and lower rows (`teeth`).
     pub split_parts: Vec<String>,
+    /// Eyeballs found (0 for a head without an eyes part).
+    pub eyes: usize,
+    /// Over [`EYES_S`] of blinks and glances: skin vertex-frames deeper in an eyeball than
+    /// at rest, without the lid constraint and with it; `None` without eyes.
+    pub lids_in_eyes_unconstrained: Option<u64>,
+    pub lids_in_eyes: Option<u64>,
+}
+
+/// Seconds of blinks and glances the eyes are measured over (25 frames a second; five or
+/// six blinks).
+pub const EYES_S: f64 = 20.0;
+
+/// The blinks and glances of the eyes' measure.
+const EYES: IdleEyes = IdleEyes { seed: 11 };
+
+/// Lid vertex-frames in the eyes of `animated` over [`EYES_S`] of [`EYES`] by `algorithm`,
+/// with the lid constraint and (from `bare`, the same head without eyes) without it.
+fn lids_in_eyes(
+    animated: &Arc<AnimatedHead>,
+    bare: &Arc<AnimatedHead>,
+    algorithm: &Candidate,
+) -> Option<(u64, u64)> {
+    let lids = animated.eyelids.as_ref()?;
+    let binding = Arc::new(crate::deform::bind(&animated.registration, &algorithm.spec));
+    let basis = Arc::new(ArkitBasis::shipped());
+    let mut with = FrameJob::new(animated.clone(), binding.clone(), basis.clone(), Heat::None).ok()?;
+    let mut without = FrameJob::new(bare.clone(), binding, basis, Heat::None).ok()?;
+    let rest = &animated.registration.head.positions;
+    let (mut constrained, mut unconstrained) = (0u64, 0u64);
+    for k in 0..(EYES_S * 25.0) as u64 {
+        let mut frame = Frame::at(k, k as f64 / 25.0);
+        EYES.add_to(frame.time_s, &mut frame.arkit);
+        with.deform(&frame);
+        constrained += u64::from(lids.measure(rest, with.deformed(), with.eye_motions()).vertices);
+        without.deform(&frame);
+        unconstrained += u64::from(
+            lids.measure(rest, without.deformed(), with.eye_motions())
+                .vertices,
+        );
+    }
+    Some((unconstrained, constrained))
 }
 
 /// Animates `member` from `fit` through `stream` with `algorithm`, scoring the ground
@@ -120,7 +166,16 @@ fn measure(
     };
     let registration = Registration::try_new(member.head.clone(), FittedMask::new(mask.clone(), fit))
         .map_err(|e| format!("registration: {e}"))?;
+    let without_eyes: Vec<PartInput> = member
+        .parts
+        .iter()
+        .filter(|p| p.role != Some(PartRole::Eyes))
+        .cloned()
+        .collect();
+    let bare = AnimatedHead::with_parts(registration.clone(), without_eyes).map_err(|e| e.to_string())?;
     let animated = AnimatedHead::with_parts(registration, member.parts.clone()).map_err(|e| e.to_string())?;
+    let (animated, bare) = (Arc::new(animated), Arc::new(bare));
+    let lids = lids_in_eyes(&animated, &bare, algorithm);
     let basis = ArkitBasis::shipped();
     let input = CompareInput {
         registration: &animated.registration,
@@ -152,5 +207,8 @@ fn measure(
         ground_truth_rms_mm: result.summary.ground_truth_rms_mm,
         deform_us: result.summary.deform_us,
         split_parts: animated.splits.iter().map(|s| s.name.clone()).collect(),
+        eyes: animated.eyes.len(),
+        lids_in_eyes_unconstrained: lids.map(|l| l.0),
+        lids_in_eyes: lids.map(|l| l.1),
     })
 }

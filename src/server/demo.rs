@@ -9,7 +9,7 @@ use super::schedule::{self, Scheduled, ScheduledProducer};
 use super::store::{HeadMeta, HeadRecord, PartRecord};
 use super::AppState;
 use crate::head::PartRole;
-use crate::stream::{syllables, Frame};
+use crate::stream::{syllables, Frame, IdleEyes};
 use crate::voice::syllable_voice;
 
 /// A shipped head the demo registers.
@@ -93,9 +93,12 @@ pub async fn register_heads(state: &AppState) -> Result<(), ApiError> {
     Ok(())
 }
 
+/// The demo face's blinks and glances, over the syllables.
+const DEMO_EYES: IdleEyes = IdleEyes { seed: 1 };
+
 /// Plays the syllable stream and its voice on `stream` of every head in `heads`, forever
 /// (until shutdown), with sequence numbers and timestamps that keep increasing across
-/// loops. Each round lasts the 27 syllables' slots; the last frame (at rest, as the
+/// loops, the eyes blinking and glancing ([`IdleEyes`]) as they do not in the file. Each round lasts the 27 syllables' slots; the last frame (at rest, as the
 /// first) is the next round's first.
 pub async fn loop_syllables(state: AppState, heads: Vec<String>, stream: String) {
     let frames: Vec<Frame> = syllables::generate(syllables::SHIPPED_FPS).expect("the shipped fps is valid");
@@ -132,6 +135,7 @@ pub async fn loop_syllables(state: AppState, heads: Vec<String>, stream: String)
             if let Scheduled::Frame(frame) = &mut item {
                 frame.seq = seq;
                 seq += 1;
+                DEMO_EYES.add_to(frame.time_s, &mut frame.arkit);
             }
             for producer in &mut producers {
                 producer.publish(item.clone(), &state.telemetry);

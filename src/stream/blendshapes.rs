@@ -67,6 +67,11 @@ pub fn arkit_index(name: &str) -> Option<u8> {
         .and_then(|i| u8::try_from(i).ok())
 }
 
+/// An ARKit `eyeLook*` weight of 1 turns the eye this far, radians (30 degrees). Apple
+/// documents the weights (0 to 1) but no angle; 30 degrees is about where people turn
+/// the head rather than the eyes alone, so a full weight is a wide, natural look.
+pub const ARKIT_LOOK_RAD: f32 = std::f32::consts::PI / 6.0;
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -17,6 +17,7 @@ mod error;
 pub mod expressions;
 pub mod fap_file;
 mod frame;
+pub mod idle_eyes;
 pub mod jsonl;
 mod lines;
 mod poser;
@@ -34,7 +35,7 @@ use std::sync::Arc;
 
 pub use arkit::{ArkitBasis, ArkitBasisError};
 pub use au_text::{AuTextOptions, AuTextReader, AuTextWriter};
-pub use blendshapes::{arkit_index, ARKIT_BLENDSHAPES};
+pub use blendshapes::{arkit_index, ARKIT_BLENDSHAPES, ARKIT_LOOK_RAD};
 pub use check::{
     MAX_CONTROL, MAX_FAP_ANGLE_COUNT, MAX_FAP_COUNT, MAX_FPS, MAX_LABEL_BYTES, MAX_ROTATION_RAD, MAX_SEQ,
     MAX_TIME_S, MAX_TRANSLATION, MAX_WEIGHT, MIN_FPS,
@@ -42,6 +43,7 @@ pub use check::{
 pub use error::{Location, StreamError};
 pub use fap_file::{FapHeader, FapReader, FapWriter};
 pub use frame::{ExpressionFap, Frame, VisemeFap, HEAD_ROTATION_FAPS, RADIANS_PER_ANGLE_COUNT};
+pub use idle_eyes::IdleEyes;
 pub use jsonl::{JsonlReader, JsonlWriter};
 pub use lines::MAX_LINE_BYTES;
 pub use poser::FramePoser;

@@ -114,15 +114,15 @@ pub(super) fn write(
         out.fill_u32(moved_slot, moved);
         SectionsOut::close(out, slot);
     }
+    if let Some(values) = content.heat {
+        let slot = sections.open(out, HEAT);
+        write_heat(out, values, |out| out.put_u32(values.len() as u32));
+        SectionsOut::close(out, slot);
+    }
     for eye in content.eyes {
         let slot = sections.open(out, EYE_MOTION);
         out.put_u8(eye.eye);
         write_motion(out, &eye.motion);
-        SectionsOut::close(out, slot);
-    }
-    if let Some(values) = content.heat {
-        let slot = sections.open(out, HEAT);
-        write_heat(out, values, |out| out.put_u32(values.len() as u32));
         SectionsOut::close(out, slot);
     }
     sections.finish(out);
