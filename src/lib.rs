@@ -7,6 +7,7 @@
 
 pub mod animate;
 pub mod atomic;
+pub mod cancel;
 #[cfg(feature = "cli")]
 pub mod cli;
 pub mod deform;

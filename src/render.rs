@@ -60,6 +60,25 @@ impl Ink {
     }
 }
 
+/// Most pixels the triangles of one picture may visit (each triangle's clipped bounding
+/// box), per pixel of the picture: a head seen whole visits each pixel a few times (front
+/// and back, lips and teeth); a mesh whose triangles each cover the picture would take
+/// minutes. At 800 x 800 this is 41 million visits, a fraction of a second.
+pub const MAX_VISITS_PER_PIXEL: u64 = 64;
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "drawing its {triangles} triangles would visit {visits} pixels, {per_pixel:.0} per pixel of \
+     the {width} x {height} picture (at most {MAX_VISITS_PER_PIXEL})"
+)]
+pub struct DrawCostError {
+    pub triangles: usize,
+    pub visits: u64,
+    pub per_pixel: f64,
+    pub width: usize,
+    pub height: usize,
+}
+
 /// An RGB image with a depth buffer.
 pub struct Canvas {
     pub width: usize,
@@ -106,13 +125,46 @@ impl Canvas {
         )
     }
 
-    /// Fills shaded triangles. `color` gives the base colour of each triangle.
+    /// Pixels the triangles' bounding boxes, clipped to the picture, hold together.
+    fn fill_visits(&self, positions: &[Vec3], triangles: &[[u32; 3]]) -> u64 {
+        triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|v| self.project(positions[v as usize]));
+                let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
+                let span = |lo: f32, hi: f32, size: usize| {
+                    let (lo, hi) = (lo.floor().max(0.0), hi.ceil().min(size as f32 - 1.0));
+                    if hi >= lo {
+                        (hi - lo) as u64 + 1
+                    } else {
+                        0
+                    }
+                };
+                span(lo.x, hi.x, self.width) * span(lo.y, hi.y, self.height)
+            })
+            .sum()
+    }
+
+    /// Fills shaded triangles. `color` gives the base colour of each triangle. Refuses,
+    /// drawing nothing, when the triangles would visit more than [`MAX_VISITS_PER_PIXEL`]
+    /// pixels per pixel of the picture.
     pub fn draw_mesh(
         &mut self,
         positions: &[Vec3],
         triangles: &[[u32; 3]],
         color: impl Fn(usize) -> [f32; 3],
-    ) {
+    ) -> Result<(), DrawCostError> {
+        let visits = self.fill_visits(positions, triangles);
+        let pixels = (self.width * self.height).max(1) as u64;
+        if visits > MAX_VISITS_PER_PIXEL * pixels {
+            return Err(DrawCostError {
+                triangles: triangles.len(),
+                visits,
+                per_pixel: visits as f64 / pixels as f64,
+                width: self.width,
+                height: self.height,
+            });
+        }
         let light = Vec3::new(-0.35, 0.45, 1.0).normalize();
         for (i, t) in triangles.iter().enumerate() {
             let [a, b, c] = t.map(|v| positions[v as usize]);
@@ -126,6 +178,7 @@ impl Canvas {
             let rgb = base.map(|c| (c * shade * 255.0).clamp(0.0, 255.0) as u8);
             self.fill_triangle(self.project(a), self.project(b), self.project(c), rgb);
         }
+        Ok(())
     }
 
     fn fill_triangle(&mut self, a: Vec3, b: Vec3, c: Vec3, rgb: [u8; 3]) {
@@ -234,18 +287,23 @@ pub fn draw_fitted_mask(canvas: &mut Canvas, fitted: &FittedMask, points: &[Vec3
 
 /// A PNG of `fitted` on `head`, `size` pixels square, framed on the mask and seen from
 /// `view` of the face: the fit's own front, whichever way the head's axes point.
-pub fn fitted_mask_png(head: &Head, fitted: &FittedMask, view: View, size: usize) -> Vec<u8> {
+pub fn fitted_mask_png(
+    head: &Head,
+    fitted: &FittedMask,
+    view: View,
+    size: usize,
+) -> Result<Vec<u8>, DrawCostError> {
     let to_face = fitted.fit.pose.rotation().transpose();
     let positions: Vec<Vec3> = head.positions.iter().map(|&p| to_face * p).collect();
     let mask: Vec<Vec3> = fitted.neutral.iter().map(|&p| to_face * p).collect();
     let mut canvas = Canvas::framing(&mask, view, size, size);
-    canvas.draw_mesh(&positions, &head.triangles, |_| [0.86, 0.76, 0.68]);
+    canvas.draw_mesh(&positions, &head.triangles, |_| [0.86, 0.76, 0.68])?;
     draw_fitted_mask(&mut canvas, fitted, &mask, 0.004 * head.bounds().size().length());
     let mut png = Vec::new();
     canvas
         .write_png(&mut png)
         .expect("encoding a picture into memory cannot fail");
-    png
+    Ok(png)
 }
 
 #[cfg(test)]
@@ -263,13 +321,15 @@ mod tests {
             Vec3::new(0.0, 1.0, 1.0),
         ];
         let mut canvas = Canvas::framing(&p, View::Front, 64, 64);
-        canvas.draw_mesh(&p, &[[0, 1, 2], [3, 4, 5]], |i| {
-            if i == 0 {
-                [1.0, 0.0, 0.0]
-            } else {
-                [0.0, 0.0, 1.0]
-            }
-        });
+        canvas
+            .draw_mesh(&p, &[[0, 1, 2], [3, 4, 5]], |i| {
+                if i == 0 {
+                    [1.0, 0.0, 0.0]
+                } else {
+                    [0.0, 0.0, 1.0]
+                }
+            })
+            .unwrap();
         let centre = canvas.rgb[32 * 64 + 32];
         assert!(centre[2] > 0 && centre[0] == 0, "{centre:?}");
         // a line on the far plane is hidden, one on the near plane shows
@@ -291,5 +351,22 @@ mod tests {
         let mut png = Vec::new();
         canvas.write_png(&mut png).unwrap();
         assert_eq!(&png[1..4], b"PNG");
+    }
+
+    #[test]
+    fn triangles_that_each_cover_the_picture_are_refused_before_drawing() {
+        let p = vec![
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ];
+        // Framed on its middle: each triangle's box holds the whole 40 x 40 picture.
+        let middle = [Vec3::splat(-0.1), Vec3::splat(0.1)];
+        let mut canvas = Canvas::framing(&middle, View::Front, 40, 40);
+        assert_eq!(canvas.draw_mesh(&p, &vec![[0, 1, 2]; 64], |_| [1.0; 3]), Ok(()));
+        let error = canvas
+            .draw_mesh(&p, &vec![[0, 1, 2]; 65], |_| [1.0; 3])
+            .unwrap_err();
+        assert_eq!((error.triangles, error.visits), (65, 65 * 40 * 40));
     }
 }

@@ -442,12 +442,7 @@ async fn broken_stored_heads_are_reported_and_leftovers_cleaned() {
         (listed[0].id.as_str(), listed[0].status.as_str()),
         ("corrupt", "failed")
     );
-    let health: serde_json::Value = reqwest::get(server.http("/healthz"))
-        .await
-        .unwrap()
-        .json()
-        .await
-        .unwrap();
+    let health = server.healthz().await;
     assert!(
         health["stored_problems"][0]
             .as_str()

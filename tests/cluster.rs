@@ -42,12 +42,7 @@ async fn info(server: &Server, id: &str) -> Option<HeadInfo> {
 
 /// An unlabelled metric's value from `server`'s `/metrics`.
 async fn metric(server: &Server, name: &str) -> f64 {
-    let text = reqwest::get(server.http("/metrics"))
-        .await
-        .unwrap()
-        .text()
-        .await
-        .unwrap();
+    let text = server.metrics().await;
     text.lines()
         .find_map(|line| line.strip_prefix(name)?.strip_prefix(' ')?.trim().parse().ok())
         .unwrap_or_else(|| panic!("no {name} in /metrics of {}", server.addr))
@@ -542,4 +537,28 @@ async fn a_producer_s_voice_is_heard_on_another_node() {
         metric(&n2, "facewire_bus_messages_in_total").await,
         2.0 + 25.0 + 12.0 + 1.0
     );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_stream_whose_producers_node_dies_ends_for_the_other_nodes_viewers() {
+    let nats = NatsServer::start();
+    let n1 = node(&nats, "n1").await;
+    let n2 = node(&nats, "n2").await;
+    n1.register(HEAD, "makehuman_head", "").await;
+    n2.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
+    let mut watching = viewer(&n2).await;
+    let mut source = producer(&n1).await;
+    for seq in 0..10 {
+        produce(&mut source, seq).await;
+    }
+    assert!(next_seq(&mut watching, Duration::from_secs(5)).await.is_some());
+    drop(n1); // SIGKILL: the producer's node sends no end, and its producer never returns
+    let killed = Instant::now();
+    // Its lease expires (6 s after its last refresh); node 2 then ends the stream.
+    let (_, reason) = frames_until_end(&mut watching).await;
+    let ended_after = killed.elapsed();
+    assert_eq!(reason, "producer_disconnected");
+    assert!(ended_after < Duration::from_secs(10), "{ended_after:?}");
+    println!("the orphaned stream ended on node 2 {ended_after:?} after its producer's node died");
+    drop(source);
 }

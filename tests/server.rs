@@ -249,12 +249,7 @@ async fn a_slow_viewer_skips_frames_and_holds_nobody_up() {
         memory_after < memory_before + 64 * 1024,
         "memory grew from {memory_before} KiB to {memory_after} KiB"
     );
-    let metrics = reqwest::get(server.http("/metrics"))
-        .await
-        .unwrap()
-        .text()
-        .await
-        .unwrap();
+    let metrics = server.metrics().await;
     assert!(
         metrics.contains("facewire_frames_skipped_total{stage=\"viewer\"}"),
         "{metrics}"

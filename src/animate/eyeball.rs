@@ -121,18 +121,14 @@ impl Eyeball {
         let to_mask = fitted.fit.pose.affine().inverse();
         let forward = fitted.fit.pose.rotation() * Vec3::Z;
         let pieces = Pieces::of(mesh);
-        let mut left = vec![false; pieces.count];
         let mut x_sum = vec![0.0f32; pieces.count];
-        let mut size = vec![0u32; pieces.count];
         for (v, &piece) in pieces.of_vertex.iter().enumerate() {
             if piece != NO_PIECE {
                 x_sum[piece as usize] += to_mask.transform_point3(mesh.positions[v]).x;
-                size[piece as usize] += 1;
             }
         }
-        for k in 0..pieces.count {
-            left[k] = x_sum[k] > 0.0;
-        }
+        // A piece lies on the face's left when its vertices do on average (mask +x).
+        let left: Vec<bool> = x_sum.iter().map(|&x| x > 0.0).collect();
         let sides: Vec<Side> = [Side::Left, Side::Right]
             .into_iter()
             .filter(|&s| left.iter().any(|&l| l == (s == Side::Left)))

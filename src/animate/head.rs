@@ -2,6 +2,8 @@
 //! region the roughness is measured on, the quantization step of viewer frames, the parts
 //! (teeth, gums, tongue) that move with the skull or the jaw, and the eyeballs.
 
+use glam::Vec3;
+
 use super::part_split::split_rows;
 use super::{infer_role, Eyeball, EyeballError, EyelidContact, TeethContact, TongueShaper};
 use crate::deform::Registration;
@@ -63,6 +65,11 @@ pub enum AnimatedHeadError {
     Parts(#[from] PartListError),
     #[error("part {name:?} has no vertices")]
     EmptyPart { name: String },
+    #[error(
+        "part {name:?} lies {outside:.3e} head units outside the head's bounds, {sizes:.2e} times \
+         the head's size: a head's parts lie on it or in it (at most one head size out)"
+    )]
+    OutOfReach { name: String, outside: f32, sizes: f32 },
     #[error("parts {first:?} and {second:?} are both tongues; a head has at most one")]
     TwoTongues { first: String, second: String },
     #[error(transparent)]
@@ -73,6 +80,25 @@ pub enum AnimatedHeadError {
         second: String,
         side: &'static str,
     },
+}
+
+/// A part's bounds may reach at most one head diagonal outside the head's: teeth, tongue
+/// and eyes lie inside a head, and even a face-only cut keeps them within its own size.
+fn check_reach(head: &Head, part: &PartInput) -> Result<(), AnimatedHeadError> {
+    let (bounds, own) = (head.bounds(), part.mesh.bounds());
+    let size = bounds.size().length();
+    let outside = (own.max - bounds.max)
+        .max(bounds.min - own.min)
+        .max(Vec3::ZERO)
+        .length();
+    match outside <= size {
+        true => Ok(()),
+        false => Err(AnimatedHeadError::OutOfReach {
+            name: part.name.clone(),
+            outside,
+            sizes: outside / size.max(f32::MIN_POSITIVE),
+        }),
+    }
 }
 
 impl AnimatedHead {
@@ -95,6 +121,7 @@ impl AnimatedHead {
             if part.mesh.positions.is_empty() {
                 return Err(AnimatedHeadError::EmptyPart { name: part.name });
             }
+            check_reach(&registration.head, &part)?;
             if part.role == Some(PartRole::Eyes) {
                 for eye in Eyeball::of_part(&part.mesh, &part.name, &registration.fitted)? {
                     if let Some(other) = eyes.iter().find(|e| e.side == eye.side) {
@@ -171,7 +198,7 @@ impl AnimatedHead {
     }
 
     /// The mouth at rest (head units): the midpoint of the inner-lip midpoint anchors.
-    pub fn mouth(&self) -> glam::Vec3 {
+    pub fn mouth(&self) -> Vec3 {
         let reg = &self.registration;
         let anchor = |j: usize| reg.head.positions[reg.anchors.vertex[j] as usize];
         (anchor(INNER_LIP_MID_UPPER) + anchor(INNER_LIP_MID_LOWER)) / 2.0

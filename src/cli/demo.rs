@@ -27,8 +27,8 @@ pub fn run(args: Args) -> CliResult {
         default_algorithm: args.default_algorithm,
         ..Config::default()
     };
+    let rt = runtime(&config.limits)?;
     let state = AppState::new(config)?;
-    let rt = runtime()?;
     let served = rt.block_on(async {
         register_heads(&state).await?;
         tokio::spawn(loop_syllables(

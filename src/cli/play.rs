@@ -10,6 +10,7 @@ use tokio_tungstenite::tungstenite::Message;
 use super::serve::runtime;
 use super::{CliResult, FilePath};
 use crate::mask::Mask;
+use crate::server::config::Limits;
 use crate::stream::{open_stream, JsonlWriter};
 use crate::voice::read_wav;
 use facewire_proto::messages::ServerMessage;
@@ -68,7 +69,7 @@ pub fn run(args: Args) -> CliResult {
         messages.sort_by(|a, b| a.0.total_cmp(&b.0));
     }
     let url = with_token(&args.url, args.token.as_deref());
-    runtime()?.block_on(async move {
+    runtime(&Limits::default())?.block_on(async move {
         // Without Nagle: an audio chunk the server does not answer would otherwise hold the
         // next message back until its ACK, delayed up to 40 ms by the server's kernel.
         let (socket, _) = tokio_tungstenite::connect_async_with_config(url.as_str(), None, true)

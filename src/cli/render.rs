@@ -52,7 +52,7 @@ pub fn run(args: Args) -> CliResult {
         _ => head.positions.clone(),
     };
     let mut canvas = Canvas::framing(&frame_points, args.view, args.size, args.size);
-    canvas.draw_mesh(&head.positions, &head.triangles, |_| [0.86, 0.76, 0.68]);
+    canvas.draw_mesh(&head.positions, &head.triangles, |_| [0.86, 0.76, 0.68])?;
     if let Some(fitted) = fitted.as_ref().filter(|_| !args.no_mask) {
         let slack = 0.004 * head.bounds().size().length();
         crate::render::draw_fitted_mask(&mut canvas, fitted, &fitted.neutral, slack);

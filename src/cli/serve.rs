@@ -4,6 +4,7 @@
 use std::net::SocketAddr;
 
 use super::{CliResult, FilePath};
+use crate::server::config::Limits;
 use crate::server::{serve, AppState, Config};
 
 #[derive(Debug, clap::Args)]
@@ -43,8 +44,13 @@ pub(super) fn init_logging(json: bool) {
 /// running on the blocking pool (a registration between its stages) is abandoned after this.
 pub(super) const ABANDON_AFTER: std::time::Duration = std::time::Duration::from_millis(500);
 
-pub(super) fn runtime() -> std::io::Result<tokio::runtime::Runtime> {
-    tokio::runtime::Builder::new_multi_thread().enable_all().build()
+/// The runtime a command runs on; a server's blocking pool is held to its configuration's
+/// `max_blocking_threads` (a client's to the default).
+pub(super) fn runtime(limits: &Limits) -> std::io::Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread()
+        .max_blocking_threads(limits.max_blocking_threads)
+        .enable_all()
+        .build()
 }
 
 pub fn run(args: Args) -> CliResult {
@@ -63,7 +69,7 @@ pub fn run(args: Args) -> CliResult {
         config.default_algorithm = algo;
     }
     init_logging(args.log_json);
-    let rt = runtime()?;
+    let rt = runtime(&config.limits)?;
     let served: CliResult = rt.block_on(async {
         let state = AppState::start(config).await?;
         serve(state, |addr| {

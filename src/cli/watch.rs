@@ -10,6 +10,7 @@ use tokio_tungstenite::tungstenite::Message;
 use super::play::with_token;
 use super::serve::runtime;
 use super::{print_json, CliResult};
+use crate::server::config::Limits;
 use crate::server::now_us;
 use facewire_proto::messages::ServerMessage;
 use facewire_proto::viewer_frame::decode;
@@ -74,7 +75,7 @@ struct Summary {
 
 pub fn run(args: Args) -> CliResult {
     let url = with_token(&args.url, args.token.as_deref());
-    runtime()?.block_on(async move {
+    runtime(&Limits::default())?.block_on(async move {
         let (mut socket, _) = tokio_tungstenite::connect_async(url.as_str())
             .await
             .map_err(|e| format!("cannot connect to {}: {e}", args.url))?;

@@ -17,6 +17,10 @@ pub const SCALE_RANGE: [f32; 2] = [1e-6, 1e6];
 /// Millimetres per head unit: 100 for decimetres, 1 for millimetres, 1e6 for kilometres.
 pub const MM_PER_UNIT_RANGE: [f32; 2] = [1e-6, 1e6];
 
+/// The longest side of a head's bounding box, head units: the mask is a few mask units
+/// across, so a head outside this has no fit within [`SCALE_RANGE`].
+pub const HEAD_EXTENT_RANGE: [f32; 2] = [1e-6, 1e7];
+
 /// A value outside its range, naming the field.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{field}: {reason}")]
@@ -47,6 +51,26 @@ pub fn finite3(field: &str, value: [f32; 3]) -> Result<Vec3, RangeError> {
             reason: format!("{value:?} is not finite"),
         })
     }
+}
+
+/// A head a fit can be found for: its longest side within [`HEAD_EXTENT_RANGE`] and no
+/// coordinate past [`crate::head::obj::MAX_COORDINATE`] (where nearest-point queries stop
+/// being finite).
+pub fn check_head_extent(positions: &[Vec3]) -> Result<(), RangeError> {
+    let farthest = positions
+        .iter()
+        .map(|p| p.abs().max_element())
+        .fold(0.0_f32, f32::max);
+    let limit = crate::head::obj::MAX_COORDINATE;
+    if farthest.is_nan() || farthest > limit {
+        return Err(RangeError {
+            field: "head coordinates".into(),
+            reason: format!("a vertex lies {farthest:e} head units out; at most {limit:e}"),
+        });
+    }
+    let size = crate::head::Bounds::of(positions).size().max_element();
+    in_range("head size (longest side, head units)", size, HEAD_EXTENT_RANGE)?;
+    Ok(())
 }
 
 impl Fit {

@@ -2,10 +2,12 @@
 //! connectivity, spatial indexes and surface distances. Built once per registered head.
 
 pub mod animatable;
+pub mod budget;
 pub mod geodesic;
 pub mod laplacian;
 pub mod obj;
 pub mod part;
+pub mod raster_cost;
 pub mod solid;
 pub mod spatial;
 pub mod subdivide;
@@ -20,10 +22,12 @@ use serde::Serialize;
 use crate::input::{read_file, ReadError, MAX_HEAD_BYTES};
 
 pub use animatable::{check_animatable, AnimatableError};
+pub use budget::{MeshBudget, OverBudget};
 pub use geodesic::SurfaceDistance;
 pub use laplacian::CotanLaplacian;
 pub use obj::ObjError;
 pub use part::{check_part_names, Part, PartListError, PartRole, PartRoleError, MAX_PARTS};
+pub use raster_cost::RasterCostError;
 pub use solid::{closed_piece_count, closed_pieces, surface_of, Pieces, Solid, NO_PIECE};
 pub use spatial::{closest_point_on_triangle, SurfaceIndex, SurfacePoint, VertexIndex};
 pub use topology::{Edge, Fan, Topology};

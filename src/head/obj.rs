@@ -13,6 +13,11 @@ use crate::quote::quote;
 /// Refuses files with more vertices or triangles than this (bounded memory on uploads).
 pub const MAX_ELEMENTS: usize = 5_000_000;
 
+/// Largest coordinate magnitude a vertex may have. Nearest-point queries square
+/// differences of coordinates in f32 (R*-tree envelopes), which overflow to infinity and
+/// then NaN past about 1e19; no head in any unit lies a million kilometres out.
+pub const MAX_COORDINATE: f32 = 1e15;
+
 /// Most corners one `f` line may have. Scanners and modellers write triangles and quads
 /// (n-gons of a dozen corners at most); a polygon of thousands of corners fans into
 /// thousands of thin triangles around one vertex, which no face mesh needs.
@@ -29,6 +34,10 @@ pub enum ObjError {
     },
     #[error("line {line}: vertex {vertex} has a non-finite coordinate ({value})")]
     NotFinite { line: usize, vertex: usize, value: f32 },
+    #[error(
+        "line {line}: vertex {vertex} has a coordinate of {value:e}; at most {MAX_COORDINATE:e} either way"
+    )]
+    TooFar { line: usize, vertex: usize, value: f32 },
     #[error("line {line}: vertex record needs 3 coordinates, found {found}")]
     ShortVertex { line: usize, found: usize },
     #[error("line {line}: face needs at least 3 corners, found {found}")]
@@ -79,6 +88,13 @@ pub fn parse(text: &str) -> Result<ObjMesh, ObjError> {
                     })?;
                     if !value.is_finite() {
                         return Err(ObjError::NotFinite {
+                            line,
+                            vertex: positions.len(),
+                            value,
+                        });
+                    }
+                    if value.abs() > MAX_COORDINATE {
+                        return Err(ObjError::TooFar {
                             line,
                             vertex: positions.len(),
                             value,
@@ -230,6 +246,14 @@ mod tests {
             }) => assert!(value.is_nan()),
             other => panic!("expected NotFinite, got {other:?}"),
         }
+        assert_eq!(
+            parse("v 0 0 0\nv 1 -2e15 0\n"),
+            Err(ObjError::TooFar {
+                line: 2,
+                vertex: 1,
+                value: -2e15
+            })
+        );
         assert_eq!(
             parse("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n"),
             Err(ObjError::IndexOutOfRange {

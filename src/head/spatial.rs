@@ -1,7 +1,7 @@
 //! Nearest-vertex and nearest-surface-point queries on a head, backed by R*-trees.
 //! Used at registration (anchors, fit residuals), never per frame.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rstar::primitives::GeomWithData;
 use rstar::{PointDistance, RTree, RTreeObject, AABB};
 
@@ -57,9 +57,10 @@ impl RTreeObject for IndexedTriangle {
 
 impl PointDistance for IndexedTriangle {
     fn distance_2(&self, point: &[f32; 3]) -> f32 {
-        let p = Vec3::from_array(*point);
-        let [a, b, c] = self.corners;
-        closest_point_on_triangle(p, a, b, c).distance_squared(p)
+        let p = Vec3::from_array(*point).as_dvec3();
+        let [a, b, c] = self.corners.map(|c| c.as_dvec3());
+        // Squared in f64, then held to f32's range: infinite, never NaN.
+        (closest_point_f64(p, a, b, c).distance_squared(p) as f32).min(f32::MAX)
     }
 }
 
@@ -106,8 +107,14 @@ impl SurfaceIndex {
 }
 
 /// Closest point to `p` on triangle `abc`, by Voronoi regions of the corners, edges and
-/// face (works for degenerate triangles too).
+/// face (works for degenerate triangles too). Computed in f64: the region tests multiply
+/// four coordinates together, which overflows f32 for a head a billion units across (NaN
+/// distances then break the R*-tree's ordering) and cannot overflow f64 for any finite f32.
 pub fn closest_point_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    closest_point_f64(p.as_dvec3(), a.as_dvec3(), b.as_dvec3(), c.as_dvec3()).as_vec3()
+}
+
+fn closest_point_f64(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
     let ab = b - a;
     let ac = c - a;
     let ap = p - a;
@@ -141,7 +148,7 @@ pub fn closest_point_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
         return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
     }
     let denom = va + vb + vc;
-    if denom.abs() < f32::MIN_POSITIVE {
+    if denom.abs() < f64::MIN_POSITIVE {
         return a; // all three corners coincide
     }
     let v = vb / denom;
@@ -181,5 +188,19 @@ mod tests {
         let hit = si.closest_point(Vec3::new(0.25, 0.25, 2.0)).unwrap();
         assert_eq!(hit.triangle, 0);
         assert!((hit.distance - 2.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_surface_a_trillion_units_across_still_has_nearest_points() {
+        let s = 1e12;
+        let p = vec![Vec3::ZERO, Vec3::X * s, Vec3::Y * s, Vec3::new(5.0, 5.0, 0.0) * s];
+        let si = SurfaceIndex::new(&p, &[[0, 1, 2], [1, 3, 2]]);
+        for q in [Vec3::new(0.25, 0.25, 2.0), Vec3::new(3.0, 4.0, -1.0)] {
+            let hit = si.closest_point(q * s).unwrap();
+            assert!(hit.distance.is_finite(), "{hit:?}");
+        }
+        let hit = si.closest_point(Vec3::new(0.25, 0.25, 2.0) * s).unwrap();
+        assert_eq!(hit.triangle, 0);
+        assert!((hit.distance / s - 2.0).abs() < 1e-5, "{hit:?}");
     }
 }

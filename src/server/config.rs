@@ -35,6 +35,54 @@ pub struct Config {
     pub node_name: Option<String>,
     pub limits: Limits,
     pub auth: Auth,
+    /// How this node authenticates to the NATS bus.
+    pub bus_auth: BusAuth,
+}
+
+/// A secret from the configuration: read like a string, never printed (`Debug` shows
+/// `***`).
+#[derive(Clone, PartialEq, Eq, Deserialize)]
+#[serde(transparent)]
+pub struct Secret(String);
+
+impl Secret {
+    pub fn expose(&self) -> &str {
+        &self.0
+    }
+}
+
+impl From<&str> for Secret {
+    fn from(text: &str) -> Secret {
+        Secret(text.to_string())
+    }
+}
+
+impl std::fmt::Debug for Secret {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("***")
+    }
+}
+
+/// `[bus_auth]`: credentials and TLS for the NATS bus. At most one way to authenticate
+/// (user and password, token, nkey seed, `.creds` file, or credentials in the bus URL).
+#[derive(Debug, Clone, PartialEq, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BusAuth {
+    pub user: Option<String>,
+    pub password: Option<Secret>,
+    pub token: Option<Secret>,
+    /// An nkey user seed (`SU...`), or a file holding one.
+    pub nkey_seed: Option<Secret>,
+    pub nkey_seed_file: Option<PathBuf>,
+    /// A NATS `.creds` file (user JWT and its seed).
+    pub creds_file: Option<PathBuf>,
+    /// The CA that signed the server's certificate (PEM); implies TLS.
+    pub tls_ca: Option<PathBuf>,
+    /// A client certificate and its key (PEM), for mutual TLS.
+    pub tls_cert: Option<PathBuf>,
+    pub tls_key: Option<PathBuf>,
+    /// Refuse a server that does not speak TLS (also implied by `tls://` URLs).
+    pub tls_required: bool,
 }
 
 /// The bus `Config::bus` names.
@@ -49,8 +97,12 @@ pub enum Bus {
 pub struct Limits {
     /// Largest HTTP body (head uploads, batches), bytes.
     pub max_upload_bytes: usize,
-    /// Largest head a registration accepts, vertices.
+    /// Most vertices of a head and its parts together.
     pub max_vertices: usize,
+    /// Most triangles of a head and its parts together.
+    pub max_triangles: usize,
+    /// Most heads the server holds (ready, registering or failed).
+    pub max_heads: usize,
     /// Largest producer WebSocket message, bytes.
     pub max_message_bytes: usize,
     /// Most frames per second a producer may send.
@@ -70,8 +122,14 @@ pub struct Limits {
     pub stream_linger_s: f64,
     /// Most algorithms bound at once per head; bindings no viewer uses are evicted first.
     pub max_bindings_per_head: usize,
-    /// Most head registrations (upload, parse, fit, surface distances) at once.
+    /// Most deform pipelines (one per algorithm, heat map and frame format watched) per
+    /// stream.
+    pub max_pipelines_per_stream: usize,
+    /// Most head registrations (upload, parse, fit, surface distances) and fit pictures
+    /// at once.
     pub max_registrations: usize,
+    /// Most threads for blocking work (registrations, slow frame jobs, pictures).
+    pub max_blocking_threads: usize,
     /// Most open connections; more wait in the kernel's accept queue.
     pub max_connections: usize,
     /// A connection must send its request headers within this, seconds.
@@ -106,6 +164,7 @@ impl Default for Config {
             node_name: None,
             limits: Limits::default(),
             auth: Auth::default(),
+            bus_auth: BusAuth::default(),
         }
     }
 }
@@ -114,7 +173,9 @@ impl Default for Limits {
     fn default() -> Self {
         Limits {
             max_upload_bytes: 64 << 20,
-            max_vertices: 500_000,
+            max_vertices: 250_000,
+            max_triangles: 500_000,
+            max_heads: 100,
             max_message_bytes: 64 << 10,
             max_fps: 240.0,
             producer_idle_s: 30.0,
@@ -124,7 +185,9 @@ impl Default for Limits {
             max_streams_per_head: 16,
             stream_linger_s: 30.0,
             max_bindings_per_head: 8,
+            max_pipelines_per_stream: 8,
             max_registrations: 2,
+            max_blocking_threads: 64,
             max_connections: 1000,
             header_timeout_s: 10.0,
             request_timeout_s: 120.0,
@@ -175,7 +238,9 @@ impl Config {
 
     /// Applies `FACEWIRE_ADDR`, `FACEWIRE_DATA_DIR`, `FACEWIRE_DEFAULT_ALGORITHM`,
     /// `FACEWIRE_BUS`, `FACEWIRE_NODE_NAME`, `FACEWIRE_PRODUCER_TOKEN`,
-    /// `FACEWIRE_VIEWER_TOKEN`, `FACEWIRE_ADMIN_TOKEN` from `env`.
+    /// `FACEWIRE_VIEWER_TOKEN`, `FACEWIRE_ADMIN_TOKEN` and the `FACEWIRE_BUS_*` of
+    /// `[bus_auth]` (`FACEWIRE_BUS_USER`, `_PASSWORD`, `_TOKEN`, `_NKEY_SEED`,
+    /// `_NKEY_SEED_FILE`, `_CREDS_FILE`, `_TLS_CA`, `_TLS_CERT`, `_TLS_KEY`) from `env`.
     pub fn apply_env(&mut self, env: impl Fn(&str) -> Option<String>) -> Result<(), ConfigError> {
         if let Some(value) = env("FACEWIRE_ADDR") {
             self.addr = value
@@ -207,6 +272,30 @@ impl Config {
                 *slot = Some(value).filter(|v| !v.is_empty());
             }
         }
+        let bus = &mut self.bus_auth;
+        if let Some(value) = env("FACEWIRE_BUS_USER") {
+            bus.user = Some(value).filter(|v| !v.is_empty());
+        }
+        for (name, slot) in [
+            ("FACEWIRE_BUS_PASSWORD", &mut bus.password),
+            ("FACEWIRE_BUS_TOKEN", &mut bus.token),
+            ("FACEWIRE_BUS_NKEY_SEED", &mut bus.nkey_seed),
+        ] {
+            if let Some(value) = env(name) {
+                *slot = Some(Secret(value)).filter(|v| !v.0.is_empty());
+            }
+        }
+        for (name, slot) in [
+            ("FACEWIRE_BUS_NKEY_SEED_FILE", &mut bus.nkey_seed_file),
+            ("FACEWIRE_BUS_CREDS_FILE", &mut bus.creds_file),
+            ("FACEWIRE_BUS_TLS_CA", &mut bus.tls_ca),
+            ("FACEWIRE_BUS_TLS_CERT", &mut bus.tls_cert),
+            ("FACEWIRE_BUS_TLS_KEY", &mut bus.tls_key),
+        ] {
+            if let Some(value) = env(name) {
+                *slot = Some(PathBuf::from(value)).filter(|v| !v.as_os_str().is_empty());
+            }
+        }
         Ok(())
     }
 
@@ -233,7 +322,7 @@ impl Config {
             .any(|scheme| bus.strip_prefix(scheme).is_some_and(|rest| !rest.is_empty()));
         match url_ok {
             true => Ok(Bus::Nats(bus.to_string())),
-            false => Err(ConfigError::Bus(self.bus.clone())),
+            false => Err(ConfigError::Bus(super::cluster::redacted(&self.bus))),
         }
     }
 
@@ -289,6 +378,10 @@ impl Limits {
         for (field, value) in [
             ("max_upload_bytes", self.max_upload_bytes),
             ("max_vertices", self.max_vertices),
+            ("max_triangles", self.max_triangles),
+            ("max_heads", self.max_heads),
+            ("max_pipelines_per_stream", self.max_pipelines_per_stream),
+            ("max_blocking_threads", self.max_blocking_threads),
             ("max_message_bytes", self.max_message_bytes),
             ("max_viewers", self.max_viewers),
             ("max_batch_frames", self.max_batch_frames),

@@ -201,6 +201,16 @@ impl HeadEntry {
         Ok(stream)
     }
 
+    /// Every stream of the head now.
+    pub fn streams(&self) -> Vec<Arc<Stream>> {
+        self.streams
+            .lock()
+            .expect("streams lock")
+            .values()
+            .cloned()
+            .collect()
+    }
+
     /// The stream `name` if it exists.
     pub fn existing_stream(&self, name: &str) -> Option<Arc<Stream>> {
         self.streams.lock().expect("streams lock").get(name).cloned()

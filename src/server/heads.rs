@@ -14,10 +14,12 @@ use serde::{Deserialize, Serialize};
 
 use super::error::ApiError;
 use super::ids::valid_id;
-use super::registration::{fit_automatically, fit_from_landmarks};
+use super::registration::{fit_automatically, fit_from_landmarks, AutomaticFitFailure};
 use super::store::{HeadMeta, HeadRecord, PartRecord};
 use super::AppState;
+use crate::cancel::Cancel;
 use crate::deform::AlgoSpec;
+use crate::fit::AutomaticFitError;
 use crate::fit::FitReport;
 use crate::head::{check_part_names, PartRole};
 use facewire_proto::messages::HeadInfo;
@@ -92,6 +94,7 @@ pub async fn register_head(
     State(state): State<AppState>,
     body: Body,
 ) -> Result<(StatusCode, Json<HeadInfo>), ApiError> {
+    state.registry.check_room()?;
     let slot = state.registry.registration_slot(SLOT_WAIT).await?;
     let limit = state.config.limits.max_upload_bytes;
     let bytes = axum::body::to_bytes(body, limit)
@@ -101,21 +104,35 @@ pub async fn register_head(
         .map_err(|e| ApiError::BadRequest(format!("registration request: {e}")))?;
     drop(bytes);
     let parts = part_records(request.parts)?;
-    let fit_toml = match (request.fit, request.landmarks) {
-        (Some(fit), None) => fit,
+    let budget = state.registry.budget();
+    // A fit runs on the blocking pool holding the slot until it has stopped, even when
+    // this request ends first (timed out, or its client left): `stop` cancels it then.
+    let cancel = Cancel::new();
+    let _stop = cancel.on_drop();
+    let obj = request.obj;
+    let (slot, obj, fit_toml) = match (request.fit, request.landmarks) {
+        (Some(fit), None) => (slot, obj, fit),
         (None, Some(landmarks)) => {
-            let obj = request.obj.clone();
-            tokio::task::spawn_blocking(move || fit_from_landmarks(obj.as_bytes(), &landmarks))
-                .await
-                .map_err(ApiError::internal)?
-                .map_err(|e| ApiError::BadLandmarks(e.to_string()))?
+            let (slot, obj, fit) = tokio::task::spawn_blocking(move || {
+                let fit = fit_from_landmarks(obj.as_bytes(), &landmarks, budget);
+                (slot, obj, fit)
+            })
+            .await
+            .map_err(ApiError::internal)?;
+            (slot, obj, fit.map_err(|e| ApiError::BadLandmarks(e.to_string()))?)
         }
         (None, None) => {
-            let obj = request.obj.clone();
-            tokio::task::spawn_blocking(move || fit_automatically(obj.as_bytes()))
-                .await
-                .map_err(ApiError::internal)?
-                .map_err(|e| ApiError::BadHead(e.to_string()))?
+            let telemetry = state.telemetry.clone();
+            let (slot, obj, fit) = tokio::task::spawn_blocking(move || {
+                let fit = fit_automatically(obj.as_bytes(), budget, &cancel);
+                if let Err(AutomaticFitFailure::Fit(AutomaticFitError::Cancelled { .. })) = fit {
+                    telemetry.fits_cancelled.inc();
+                }
+                (slot, obj, fit)
+            })
+            .await
+            .map_err(ApiError::internal)?;
+            (slot, obj, fit.map_err(|e| ApiError::BadHead(e.to_string()))?)
         }
         (Some(_), Some(_)) => {
             return Err(ApiError::BadRequest(
@@ -125,7 +142,7 @@ pub async fn register_head(
     };
     let record = HeadRecord {
         id: request.id,
-        obj: request.obj.into_bytes(),
+        obj: obj.into_bytes(),
         fit_toml,
         parts,
         meta: HeadMeta::with_producer_token(request.producer_token.as_deref()),
@@ -202,7 +219,7 @@ pub async fn fit_png(
     Query(query): Query<PictureQuery>,
 ) -> Result<Response, ApiError> {
     let ready = state.registry.head(&id)?.ready()?;
-    let (slot, view) = match query.view.as_deref() {
+    let (picture, view) = match query.view.as_deref() {
         None | Some("front") => (0, crate::render::View::Front),
         Some("side") => (1, crate::render::View::Side),
         Some(other) => {
@@ -212,22 +229,23 @@ pub async fn fit_png(
             )))
         }
     };
-    let png = match ready.fit_pictures[slot].get() {
+    let png = match ready.fit_pictures[picture].get() {
         Some(png) => png.clone(),
         None => {
+            // Drawn in a registration slot, held until the drawing is done.
+            let work_slot = state.registry.registration_slot(SLOT_WAIT).await?;
             let drawing = ready.clone();
             let png = tokio::task::spawn_blocking(move || {
+                let _held = work_slot;
                 let reg = &drawing.animated.registration;
-                Bytes::from(crate::render::fitted_mask_png(
-                    &reg.head,
-                    &reg.fitted,
-                    view,
-                    FIT_PICTURE_SIZE,
-                ))
+                crate::render::fitted_mask_png(&reg.head, &reg.fitted, view, FIT_PICTURE_SIZE)
             })
             .await
-            .map_err(ApiError::internal)?;
-            ready.fit_pictures[slot].get_or_init(|| png).clone()
+            .map_err(ApiError::internal)?
+            .map_err(|e| ApiError::BadHead(format!("fit.png of head {id}: {e}")))?;
+            ready.fit_pictures[picture]
+                .get_or_init(|| Bytes::from(png))
+                .clone()
         }
     };
     Ok(([(header::CONTENT_TYPE, "image/png")], png).into_response())

@@ -20,6 +20,10 @@ pub async fn healthz(State(state): State<AppState>) -> impl IntoResponse {
         "ready": count(|s| matches!(s, HeadStatus::Ready(_))),
         "registering": count(|s| matches!(s, HeadStatus::Registering { .. })),
         "failed": count(|s| matches!(s, HeadStatus::Failed(_))),
+        "work": {
+            "busy": state.registry.busy_slots(),
+            "slots": state.config.limits.max_registrations,
+        },
         "streams": heads.iter().map(|h| h.stream_count()).sum::<usize>(),
         "viewers": state.config.limits.max_viewers - state.viewer_slots.available_permits(),
         "stored_problems": state.registry.problems(),

@@ -13,9 +13,10 @@ use super::bindings::BindingCache;
 use super::head::ReadyHead;
 use super::store::PartRecord;
 use crate::animate::{AnimatedHead, AnimatedHeadError, PartInput};
+use crate::cancel::Cancel;
 use crate::deform::Registration;
 use crate::fit::{AutomaticFitError, FitError, FitFile, FitFileError, FitReport, FittedMask, Landmarks};
-use crate::head::{Head, ObjError};
+use crate::head::{obj, raster_cost, Head, MeshBudget, ObjError, OverBudget, RasterCostError};
 use crate::mask::Mask;
 use facewire_proto::mesh::RestMesh;
 use facewire_proto::messages::FitSummary;
@@ -24,14 +25,8 @@ use facewire_proto::messages::FitSummary;
 pub enum RegistrationError {
     #[error("registration cancelled")]
     Cancelled,
-    #[error("head.obj: {0}")]
-    Obj(#[from] ObjError),
-    #[error("head.obj has {count} vertices; this server accepts at most {limit}")]
-    TooManyVertices { count: usize, limit: usize },
-    #[error("parts/{name}.obj: {source}")]
-    PartObj { name: String, source: ObjError },
-    #[error("the parts have {count} vertices together; this server accepts at most {limit}")]
-    TooManyPartVertices { count: usize, limit: usize },
+    #[error(transparent)]
+    Read(#[from] MeshReadError),
     #[error("{0}")]
     Fit(#[from] FitFileError),
     #[error("{0}")]
@@ -42,8 +37,8 @@ pub enum RegistrationError {
 
 #[derive(Debug, thiserror::Error)]
 pub enum LandmarkError {
-    #[error("head.obj: {0}")]
-    Obj(#[from] ObjError),
+    #[error(transparent)]
+    Read(#[from] MeshReadError),
     #[error(transparent)]
     Landmarks(#[from] crate::fit::LandmarkError),
     #[error(transparent)]
@@ -55,8 +50,8 @@ pub struct RegistrationInput {
     pub obj: Vec<u8>,
     pub fit_toml: String,
     pub parts: Vec<PartRecord>,
-    /// For the head, and for its parts together.
-    pub max_vertices: usize,
+    /// The head and its parts together: at most `max_vertices` and `max_triangles`.
+    pub budget: MeshBudget,
     pub max_bindings: usize,
 }
 
@@ -74,31 +69,12 @@ pub fn register(
         progress(share);
         Ok(())
     };
-    let head = Head::from_obj_bytes("head.obj", &input.obj)?;
+    let mut budget = input.budget;
+    let head = read_head(&input.obj, &mut budget)?;
     drop(input.obj);
-    if head.positions.len() > input.max_vertices {
-        return Err(RegistrationError::TooManyVertices {
-            count: head.positions.len(),
-            limit: input.max_vertices,
-        });
-    }
     let mut parts = Vec::with_capacity(input.parts.len());
-    let mut part_vertices = 0;
     for part in input.parts {
-        let mesh =
-            Head::from_obj_bytes(&format!("parts/{}.obj", part.name), &part.obj).map_err(|source| {
-                RegistrationError::PartObj {
-                    name: part.name.clone(),
-                    source,
-                }
-            })?;
-        part_vertices += mesh.positions.len();
-        if part_vertices > input.max_vertices {
-            return Err(RegistrationError::TooManyPartVertices {
-                count: part_vertices,
-                limit: input.max_vertices,
-            });
-        }
+        let mesh = read_mesh(&format!("parts/{}.obj", part.name), &part.obj, &mut budget)?;
         parts.push(PartInput {
             name: part.name,
             role: part.role,
@@ -171,27 +147,75 @@ pub fn register(
     })
 }
 
+/// Why an uploaded mesh was not read; each names its file (`head.obj`, `parts/teeth.obj`).
+#[derive(Debug, thiserror::Error)]
+pub enum MeshReadError {
+    #[error("{mesh}: {source}")]
+    Obj { mesh: String, source: ObjError },
+    #[error(transparent)]
+    OverBudget(#[from] OverBudget),
+    #[error("{mesh}: {source}")]
+    RasterCost { mesh: String, source: RasterCostError },
+}
+
+/// Parses `bytes` (the upload's file `name`) and spends its vertices and triangles from
+/// `budget` before building its topology and indexes: a mesh over the budget costs no
+/// more than its parse.
+fn read_mesh(name: &str, bytes: &[u8], budget: &mut MeshBudget) -> Result<Head, MeshReadError> {
+    let mesh = mesh_within(name, bytes, budget)?;
+    Ok(Head::new(name, mesh.positions, mesh.triangles))
+}
+
+/// [`read_mesh`] for `head.obj`, which is also drawn (by the automatic fit, in fit
+/// pictures): refused before its topology is built when drawing it would cost too much.
+fn read_head(bytes: &[u8], budget: &mut MeshBudget) -> Result<Head, MeshReadError> {
+    let name = "head.obj";
+    let mesh = mesh_within(name, bytes, budget)?;
+    raster_cost::check(&mesh.positions, &mesh.triangles).map_err(|source| MeshReadError::RasterCost {
+        mesh: name.to_string(),
+        source,
+    })?;
+    Ok(Head::new(name, mesh.positions, mesh.triangles))
+}
+
+fn mesh_within(name: &str, bytes: &[u8], budget: &mut MeshBudget) -> Result<obj::ObjMesh, MeshReadError> {
+    let mesh = obj::parse(&String::from_utf8_lossy(bytes)).map_err(|source| MeshReadError::Obj {
+        mesh: name.to_string(),
+        source,
+    })?;
+    budget.spend(name, &mesh)?;
+    Ok(mesh)
+}
+
 /// Why a head with neither fit nor landmarks could not be fitted.
 #[derive(Debug, thiserror::Error)]
 pub enum AutomaticFitFailure {
-    #[error("head.obj: {0}")]
-    Obj(#[from] ObjError),
+    #[error(transparent)]
+    Read(#[from] MeshReadError),
     #[error(transparent)]
     Fit(#[from] AutomaticFitError),
 }
 
 /// Finds the face and fits the mask with no landmarks, for a registration request
-/// (blocking; about a second for a 30,000-triangle head).
-pub fn fit_automatically(obj: &[u8]) -> Result<String, AutomaticFitFailure> {
-    let head = Head::from_obj_bytes("head.obj", obj)?;
+/// (blocking; about a second for a 30,000-triangle head), stopping when `cancel` is set.
+pub fn fit_automatically(
+    obj: &[u8],
+    mut budget: MeshBudget,
+    cancel: &Cancel,
+) -> Result<String, AutomaticFitFailure> {
+    let head = read_head(obj, &mut budget)?;
     let mask = Mask::candide3();
-    let found = crate::fit::fit_automatically(&head, &mask, None)?;
+    let found = crate::fit::fit_automatically_unless(&head, &mask, None, cancel)?;
     Ok(FitFile::from_fit(&found.fit, &mask, None).to_toml())
 }
 
 /// Solves a fit from a `.landmarks.toml` text for a registration request (blocking).
-pub fn fit_from_landmarks(obj: &[u8], landmarks_toml: &str) -> Result<String, LandmarkError> {
-    let head = Head::from_obj_bytes("head.obj", obj)?;
+pub fn fit_from_landmarks(
+    obj: &[u8],
+    landmarks_toml: &str,
+    mut budget: MeshBudget,
+) -> Result<String, LandmarkError> {
+    let head = read_head(obj, &mut budget)?;
     let landmarks = Landmarks::parse("landmarks", landmarks_toml)?;
     let mask = Mask::candide3();
     let solved = crate::fit::fit_from_landmarks(&head, &landmarks, "landmarks", &mask)?;

@@ -17,12 +17,15 @@ use super::ids::valid_id;
 use super::registration::{register, RegistrationError, RegistrationInput};
 use super::store::{HeadMeta, HeadRecord};
 use super::trim::release_memory;
+use crate::head::MeshBudget;
 use facewire_proto::codes::EndReason;
 
 /// Registry limits, from the configuration.
 #[derive(Debug, Clone, Copy)]
 pub struct RegistryLimits {
-    pub max_vertices: usize,
+    /// Vertices and triangles of a head and its parts together.
+    pub budget: MeshBudget,
+    pub max_heads: usize,
     pub max_bindings: usize,
     pub max_registrations: usize,
     pub streams: StreamLimits,
@@ -84,8 +87,34 @@ impl Registry {
         self.inner.problems.lock().expect("problems lock").clone()
     }
 
-    /// A registration slot: at most `max_registrations` uploads and registrations run at
-    /// once. Waits up to `wait` for one.
+    /// The budget a head and its parts are read within.
+    pub fn budget(&self) -> MeshBudget {
+        self.inner.limits.budget
+    }
+
+    /// Registration slots in use now (uploads, fits, registrations, fit pictures).
+    pub fn busy_slots(&self) -> usize {
+        self.inner.limits.max_registrations - self.inner.registrations.available_permits()
+    }
+
+    /// `limit_reached` when the server holds `max_heads` heads already.
+    pub fn check_room(&self) -> Result<(), ApiError> {
+        let held = self.inner.heads.lock().expect("heads lock").len();
+        match held < self.inner.limits.max_heads {
+            true => Ok(()),
+            false => Err(self.full()),
+        }
+    }
+
+    fn full(&self) -> ApiError {
+        ApiError::LimitReached(format!(
+            "this server holds {} heads, the most it takes (max_heads); delete one first",
+            self.inner.limits.max_heads
+        ))
+    }
+
+    /// A registration slot: at most `max_registrations` uploads, registrations and fit
+    /// pictures run at once. Waits up to `wait` for one.
     pub async fn registration_slot(&self, wait: Duration) -> Result<OwnedSemaphorePermit, ApiError> {
         let acquire = self.inner.registrations.clone().acquire_owned();
         match tokio::time::timeout(wait, acquire).await {
@@ -122,6 +151,9 @@ impl Registry {
             if heads.contains_key(&record.id) {
                 return Err(ApiError::HeadExists(record.id));
             }
+            if heads.len() >= self.inner.limits.max_heads {
+                return Err(self.full());
+            }
             let entry = Arc::new(HeadEntry::new(
                 record.id.clone(),
                 record.meta.clone(),
@@ -142,7 +174,7 @@ impl Registry {
             obj: record.obj,
             fit_toml: record.fit_toml,
             parts: record.parts,
-            max_vertices: self.inner.limits.max_vertices,
+            budget: self.inner.limits.budget,
             max_bindings: self.inner.limits.max_bindings,
         };
         let job_entry = entry.clone();

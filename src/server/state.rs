@@ -21,6 +21,7 @@ use super::stream::{ProducerPermit, Stream};
 use super::telemetry::Telemetry;
 use super::trim::Trimmer;
 use crate::deform::AlgoSpec;
+use crate::head::MeshBudget;
 use crate::mask::Mask;
 use crate::stream::ArkitBasis;
 
@@ -79,7 +80,7 @@ impl AppState {
     pub fn new(config: Config) -> Result<AppState, StateError> {
         config.validate()?;
         if let Bus::Nats(url) = config.bus()? {
-            return Err(StateError::NeedsStart(url));
+            return Err(StateError::NeedsStart(super::cluster::redacted(&url)));
         }
         let store = match config.data_dir.as_deref() {
             Some(dir) => HeadStore::Dir(Store::open(dir)?),
@@ -102,7 +103,8 @@ impl AppState {
             .unwrap_or_else(|| super::cluster::unique_name("node"));
         let telemetry = Arc::new(Telemetry::default());
         let mask = Arc::new(Mask::candide3());
-        let cluster = Arc::new(Cluster::connect(&url, &node, mask.clone(), telemetry.clone()).await?);
+        let cluster =
+            Arc::new(Cluster::connect(&url, &config.bus_auth, &node, mask.clone(), telemetry.clone()).await?);
         let store = HeadStore::Cluster(Box::new(cluster.heads.clone()));
         let state = AppState::build(config, store, Some(cluster.clone()), mask, telemetry);
         cluster
@@ -152,7 +154,8 @@ impl AppState {
         let registry = Registry::new(
             store,
             RegistryLimits {
-                max_vertices: limits.max_vertices,
+                budget: MeshBudget::new(limits.max_vertices, limits.max_triangles),
+                max_heads: limits.max_heads,
                 max_bindings: limits.max_bindings_per_head,
                 max_registrations: limits.max_registrations,
                 streams: StreamLimits {

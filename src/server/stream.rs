@@ -75,6 +75,10 @@ pub struct Stream {
     pipelines: Mutex<HashMap<PipelineKey, Arc<Pipeline>>>,
     viewers: AtomicUsize,
     last_activity: Mutex<Instant>,
+    /// When the last frame from another node's producer came, while the stream has not
+    /// ended since: such a stream's end must come over the bus, or from its lease
+    /// expiring (`cluster::orphans`).
+    relayed_at: Mutex<Option<Instant>>,
 }
 
 impl Stream {
@@ -91,6 +95,7 @@ impl Stream {
             pipelines: Mutex::new(HashMap::new()),
             viewers: AtomicUsize::new(0),
             last_activity: Mutex::new(Instant::now()),
+            relayed_at: Mutex::new(None),
         }
     }
 
@@ -153,6 +158,7 @@ impl Stream {
     /// ignored).
     pub fn end(&self, reason: EndReason) {
         self.params.send_if_modified(|t| t.end(reason).is_some());
+        *self.relayed_at.lock().expect("relayed lock") = None;
         self.touch();
     }
 
@@ -161,7 +167,18 @@ impl Stream {
         self.params.send_modify(|t| {
             t.publish(frame);
         });
+        *self.relayed_at.lock().expect("relayed lock") = Some(Instant::now());
         self.touch();
+    }
+
+    /// How long ago the last frame from another node's producer came, if the stream has
+    /// not ended since and no producer is on this node.
+    pub fn relay_silent_for(&self, now: Instant) -> Option<Duration> {
+        if self.has_producer() {
+            return None;
+        }
+        let at = (*self.relayed_at.lock().expect("relayed lock"))?;
+        Some(now.saturating_duration_since(at))
     }
 
     pub fn subscribe(&self) -> watch::Receiver<ParamTimeline> {
@@ -200,10 +217,13 @@ impl Stream {
     }
 
     /// A receiver of the running pipeline for `key`, or of a new one made by `start`;
-    /// retired pipelines (no viewer left) are replaced.
+    /// retired pipelines (no viewer left) are replaced. `full()` when `max_pipelines` run
+    /// already and none is `key`'s.
     pub fn pipeline<E>(
         &self,
         key: PipelineKey,
+        max_pipelines: usize,
+        full: impl FnOnce() -> E,
         start: impl FnOnce(
             watch::Receiver<ParamTimeline>,
         ) -> Result<(Arc<Pipeline>, watch::Receiver<Timeline<Encoded>>), E>,
@@ -211,6 +231,10 @@ impl Stream {
         let mut pipelines = self.pipelines.lock().expect("pipelines lock");
         if let Some(rx) = pipelines.get(&key).and_then(|p| p.subscribe()) {
             return Ok(rx);
+        }
+        pipelines.retain(|_, p| !p.is_retired());
+        if pipelines.len() >= max_pipelines {
+            return Err(full());
         }
         let (pipeline, rx) = start(self.subscribe())?;
         pipelines.insert(key, pipeline);

@@ -61,6 +61,8 @@ pub struct Telemetry {
     /// Deform pipelines running (one per stream and algorithm with viewers).
     pub pipelines: Gauge,
     pub heads: Gauge,
+    /// Automatic fits stopped because their request ended first.
+    pub fits_cancelled: Counter,
     /// Cluster bus messages (frames and ends) published by this node's producers.
     pub bus_messages_out: Counter,
     /// Cluster bus messages received from other nodes.
@@ -100,6 +102,7 @@ impl Default for Telemetry {
             producers: Gauge::default(),
             pipelines: Gauge::default(),
             heads: Gauge::default(),
+            fits_cancelled: Counter::default(),
             bus_messages_out: Counter::default(),
             bus_messages_in: Counter::default(),
             bus_dropped: Family::default(),
@@ -148,6 +151,11 @@ impl Default for Telemetry {
         registry.register("producers", "Connected producers", t.producers.clone());
         registry.register("pipelines", "Deform pipelines running", t.pipelines.clone());
         registry.register("heads", "Registered heads", t.heads.clone());
+        registry.register(
+            "fits_cancelled",
+            "Automatic fits stopped because their request ended first",
+            t.fits_cancelled.clone(),
+        );
         registry.register(
             "bus_messages_out",
             "Cluster bus messages published",

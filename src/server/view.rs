@@ -184,8 +184,16 @@ async fn open_view(
         heat,
         format,
     };
+    let max_pipelines = state.config.limits.max_pipelines_per_stream;
+    let full = || {
+        ApiError::LimitReached(format!(
+            "stream {} runs {max_pipelines} pipelines (one per algorithm, heat map and format \
+             watched), the most per stream; watch with one of those",
+            crate::quote::quote(name)
+        ))
+    };
     let frames = stream
-        .pipeline(key, |params| {
+        .pipeline(key, max_pipelines, full, |params| {
             let job = FrameJob::new(ready.animated.clone(), binding, state.arkit.clone(), heat)
                 .map_err(ApiError::internal)?;
             Ok(Pipeline::start(

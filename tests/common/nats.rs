@@ -12,6 +12,9 @@ pub struct NatsServer {
     pub port: u16,
     storage: tempfile::TempDir,
     child: Option<Child>,
+    /// A configuration file the server reads (`-c`); the port and storage folder given on
+    /// the command line override its own.
+    config: Option<PathBuf>,
 }
 
 fn binary() -> PathBuf {
@@ -23,6 +26,20 @@ fn binary() -> PathBuf {
 impl NatsServer {
     /// Starts a server; panics with what to install when there is none.
     pub fn start() -> NatsServer {
+        NatsServer::start_with(None)
+    }
+
+    /// Starts a server that also reads `config` (nats-server's configuration format).
+    pub fn start_with_config(config: &str) -> NatsServer {
+        NatsServer::start_with(Some(config))
+    }
+
+    /// The folder the server stores in, for files its configuration names.
+    pub fn folder(&self) -> &std::path::Path {
+        self.storage.path()
+    }
+
+    fn start_with(config: Option<&str>) -> NatsServer {
         let free_port = || {
             TcpListener::bind("127.0.0.1:0")
                 .unwrap()
@@ -30,10 +47,17 @@ impl NatsServer {
                 .unwrap()
                 .port()
         };
+        let storage = tempfile::tempdir().unwrap();
+        let config = config.map(|text| {
+            let path = storage.path().join("nats-server.conf");
+            std::fs::write(&path, text).unwrap();
+            path
+        });
         let mut server = NatsServer {
             port: free_port(),
-            storage: tempfile::tempdir().unwrap(),
+            storage,
             child: None,
+            config,
         };
         // A port found free can be taken before nats-server binds it (tests run in
         // parallel, each with its own server): then it exits, and another port is tried.
@@ -53,7 +77,11 @@ impl NatsServer {
     /// Runs the server on `self.port`; false when it exited instead of listening (its port
     /// was taken).
     fn run(&mut self) -> bool {
-        let child = Command::new(binary())
+        let mut command = Command::new(binary());
+        if let Some(config) = &self.config {
+            command.arg("-c").arg(config);
+        }
+        let child = command
             .args(["-js", "-a", "127.0.0.1", "-p", &self.port.to_string(), "-sd"])
             .arg(self.storage.path())
             .stdout(Stdio::null())

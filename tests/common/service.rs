@@ -196,6 +196,26 @@ impl Server {
         }
     }
 
+    /// `/healthz` as JSON.
+    pub async fn healthz(&self) -> serde_json::Value {
+        reqwest::get(self.http("/healthz"))
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap()
+    }
+
+    /// `/metrics` as text.
+    pub async fn metrics(&self) -> String {
+        reqwest::get(self.http("/metrics"))
+            .await
+            .unwrap()
+            .text()
+            .await
+            .unwrap()
+    }
+
     pub async fn info(&self, id: &str, query: &str) -> HeadInfo {
         reqwest::get(self.http(&format!("/v1/heads/{id}{query}")))
             .await

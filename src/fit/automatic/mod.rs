@@ -23,10 +23,11 @@ mod profile;
 
 use glam::{DMat3, DVec3, Vec3};
 
-use super::limits::{in_range, RangeError, MM_PER_UNIT_RANGE};
+use super::limits::{check_head_extent, in_range, RangeError, MM_PER_UNIT_RANGE};
 use super::umeyama::Similarity;
 use super::{Fit, FitSolution, SolveError};
-use crate::head::Head;
+use crate::cancel::Cancel;
+use crate::head::{raster_cost, Head, RasterCostError};
 use crate::mask::{fap, Mask};
 use closest_points::{lay_mask, screen_start, Pin, Surface};
 use depth_map::{DepthMap, NoseCandidate, View};
@@ -140,8 +141,12 @@ pub enum AutomaticFitError {
     },
     #[error("{head}: {source}")]
     Solve { head: String, source: SolveError },
-    #[error("{head}: the solved fit is out of range: {source}")]
+    #[error("{head}: out of range: {source}")]
     Range { head: String, source: RangeError },
+    #[error("{head}: not fitted: {source}")]
+    RasterCost { head: String, source: RasterCostError },
+    #[error("{head}: the fit was cancelled")]
+    Cancelled { head: String },
 }
 
 /// A fit found without landmarks, with what was assumed and found on the way.
@@ -213,14 +218,36 @@ pub fn fit_automatically(
     mask: &Mask,
     mm_per_unit: Option<f32>,
 ) -> Result<AutomaticFit, AutomaticFitError> {
+    fit_automatically_unless(head, mask, mm_per_unit, &Cancel::new())
+}
+
+/// [`fit_automatically`], stopping with [`AutomaticFitError::Cancelled`] at the next step
+/// once `cancel` is set (steps take a fraction of a second: the head's raster cost is
+/// checked first, [`raster_cost`]).
+pub fn fit_automatically_unless(
+    head: &Head,
+    mask: &Mask,
+    mm_per_unit: Option<f32>,
+    cancel: &Cancel,
+) -> Result<AutomaticFit, AutomaticFitError> {
     let name = || head.name.clone();
+    let go_on = || match cancel.is_cancelled() {
+        true => Err(AutomaticFitError::Cancelled { head: name() }),
+        false => Ok(()),
+    };
+    go_on()?;
+    check_head_extent(&head.positions).map_err(|source| AutomaticFitError::Range { head: name(), source })?;
+    raster_cost::check(&head.positions, &head.triangles)
+        .map_err(|source| AutomaticFitError::RasterCost { head: name(), source })?;
     let winding = depth_map::outward_winding(&head.positions, &head.triangles);
     let no_nose = |prominence| AutomaticFitError::NoNose {
         head: name(),
         prominence,
     };
     let plane = mirror_plane::mirror_plane(head).ok_or_else(|| no_nose(0.0))?;
+    go_on()?;
     let views = find_nose(head, winding, &plane);
+    go_on()?;
     let Some(nose) = views.first().map(|(_, noses)| noses[0]) else {
         return Err(no_nose(0.0));
     };
@@ -243,6 +270,7 @@ pub fn fit_automatically(
     // closest few laid in full, the closest of those first.
     let mut screened: Vec<(closest_points::Laid, View, NoseCandidate)> = Vec::new();
     for (view, noses) in &views {
+        go_on()?;
         for view in [*view, view.upside_down()] {
             let rotation = DMat3::from_cols(
                 view.lateral.as_dvec3(),
@@ -269,6 +297,7 @@ pub fn fit_automatically(
     screened.sort_by(|a, b| a.0.score.total_cmp(&b.0.score));
     let mut starts = Vec::with_capacity(LAID_STARTS);
     for (screen, view, candidate) in screened.into_iter().take(LAID_STARTS) {
+        go_on()?;
         let tip = candidate.tip.as_dvec3();
         let pins = with_midline(&[Pin::at(MASK_NOSE_TIP, tip)], &midline);
         let laid = lay_mask(&surface, mask, &used, screen.solution.similarity, &pins).map_err(solve_error)?;
@@ -279,6 +308,7 @@ pub fn fit_automatically(
     // stand out and be as symmetric as a face, but shows none.
     let mut chosen = None;
     for (laid, view, candidate) in starts {
+        go_on()?;
         if let Some(read) =
             read_features(head, mask, &surface, &used, &midline, laid, winding).map_err(solve_error)?
         {
@@ -292,6 +322,7 @@ pub fn fit_automatically(
             nose_tip: nose.tip,
         });
     };
+    go_on()?;
     let sunken = sunken_corner_pins(&image, mask, &seen_from.similarity, &best.solution);
     if !sunken.is_empty() {
         found.outer_eye_corners_on_skin = true;

@@ -143,6 +143,16 @@ impl Leases {
         )))
     }
 
+    /// Whether some node holds the lease of `head`'s `stream` now.
+    pub async fn is_held(&self, head: &str, stream: &str) -> Result<bool, LeaseError> {
+        let entry = self
+            .kv
+            .entry(format!("{head}.{stream}"))
+            .await
+            .map_err(|e| LeaseError::Unavailable(e.to_string()))?;
+        Ok(entry.is_some_and(|e| e.operation == kv::Operation::Put))
+    }
+
     async fn alive(&self, node: &str) -> bool {
         let check = self.client.request(alive_subject(node), Bytes::new());
         matches!(tokio::time::timeout(LIVENESS_TIMEOUT, check).await, Ok(Ok(_)))

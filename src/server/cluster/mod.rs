@@ -7,10 +7,13 @@
 //! Subjects, buckets and message formats: `proto/PROTOCOL.md` "Cluster bus".
 //!
 //! - [`relay`]: frames and ends between nodes; [`lease`]: one producer per stream and
-//!   node liveness; [`heads`]: the shared registry.
+//!   node liveness; [`orphans`]: ends for streams whose producer's node vanished;
+//!   [`heads`]: the shared registry; [`credentials`]: how a node authenticates to NATS.
 
+mod credentials;
 mod heads;
 mod lease;
+mod orphans;
 mod relay;
 
 use std::sync::Arc;
@@ -18,9 +21,11 @@ use std::time::Duration;
 
 use async_nats::jetstream;
 
+use super::config::BusAuth;
 use super::registry::Registry;
 use super::telemetry::Telemetry;
 use crate::mask::Mask;
+pub use credentials::{redacted, CredentialError};
 pub use heads::{ClusterHeads, SharedHeadError};
 pub use lease::LeaseError;
 
@@ -32,6 +37,8 @@ const JETSTREAM_TIMEOUT: Duration = Duration::from_secs(3);
 
 #[derive(Debug, thiserror::Error)]
 pub enum ClusterError {
+    #[error(transparent)]
+    Credentials(#[from] CredentialError),
     #[error("bus {url:?}: cannot connect to NATS: {source}")]
     Connect {
         url: String,
@@ -58,7 +65,7 @@ pub struct Cluster {
     /// This node's name: in leases, in liveness subjects, in logs.
     pub node: String,
     pub heads: ClusterHeads,
-    leases: lease::Leases,
+    leases: Arc<lease::Leases>,
     outbox: relay::Outbox,
 }
 
@@ -68,11 +75,14 @@ impl Cluster {
     /// for as long as the node runs.
     pub async fn connect(
         url: &str,
+        auth: &BusAuth,
         node: &str,
         mask: Arc<Mask>,
         telemetry: Arc<Telemetry>,
     ) -> Result<Cluster, ClusterError> {
-        let client = async_nats::ConnectOptions::new()
+        let (options, bare_url) = credentials::connect_options(auth, url).await?;
+        let url = &redacted(url);
+        let client = options
             .name(format!("facewire {node}"))
             // A node never needs its own messages back: its viewers read its producers
             // directly.
@@ -86,7 +96,7 @@ impl Cluster {
                     other => tracing::info!(event = %other, "bus event"),
                 }
             })
-            .connect(url)
+            .connect(bare_url)
             .await
             .map_err(|source| ClusterError::Connect {
                 url: url.to_string(),
@@ -112,7 +122,7 @@ impl Cluster {
             client,
             node: node.to_string(),
             heads,
-            leases,
+            leases: Arc::new(leases),
             outbox,
         })
     }
@@ -131,6 +141,11 @@ impl Cluster {
         tokio::spawn(liveness);
         let inbound = relay::inbound(&self.client, registry.clone(), mask, telemetry).await?;
         tokio::spawn(inbound);
+        tokio::spawn(orphans::end_orphans(
+            registry.clone(),
+            self.leases.clone(),
+            shutdown.clone(),
+        ));
         let follow = self.heads.clone().follow(registry, shutdown);
         tokio::spawn(follow);
         Ok(())
