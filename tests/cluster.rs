@@ -562,3 +562,163 @@ async fn a_stream_whose_producers_node_dies_ends_for_the_other_nodes_viewers() {
     println!("the orphaned stream ended on node 2 {ended_after:?} after its producer's node died");
     drop(source);
 }
+
+/// A labelled counter's value from `server`'s `/metrics` (0 when never counted).
+async fn dropped(server: &Server, code: &str) -> f64 {
+    let prefix = format!("facewire_bus_dropped_total{{code=\"{code}\"}} ");
+    server
+        .metrics()
+        .await
+        .lines()
+        .find_map(|line| line.strip_prefix(&prefix)?.trim().parse().ok())
+        .unwrap_or(0.0)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn with_a_cluster_key_a_client_on_the_bus_changes_nothing_a_viewer_sees() {
+    let nats = NatsServer::start();
+    let keyed = |name: &str| {
+        format!(
+            "bus = \"{}\"\nnode_name = \"{name}\"\n[limits]\nproducer_idle_s = 60.0\n\
+             [bus_auth]\ncluster_key = \"a key only the cluster's nodes hold\"\n",
+            nats.url()
+        )
+    };
+    let n1 = Server::spawn(&keyed("n1")).await;
+    let n2 = Server::spawn(&keyed("n2")).await;
+    n1.register(HEAD, "makehuman_head", "").await;
+    n2.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
+    let mut on_n1 = viewer(&n1).await;
+    let mut on_n2 = viewer(&n2).await;
+    let mut source = producer(&n1).await;
+    // A plain client on the bus, without the key: forged frames (a seq far ahead, an
+    // old and a future receive time, the newest lease there could be), forged ends, and
+    // frames with no headers at all, on the live stream's subject.
+    let forger = async_nats::connect(nats.url()).await.unwrap();
+    let subject = format!("facewire.params.{HEAD}.{STREAM}");
+    let mut forged = 0;
+    for seq in 0..40 {
+        produce(&mut source, seq).await;
+        if seq % 10 == 5 {
+            for received_us in ["0", "18446744073709551615"] {
+                let mut headers = async_nats::HeaderMap::new();
+                headers.insert("Facewire-Received-Us", received_us);
+                headers.insert("Facewire-Lease", "18446744073709551615");
+                headers.insert("Facewire-Mac", "00".repeat(32).as_str());
+                let line = moving_jaw_line(1_000_000 + seq);
+                forger
+                    .publish_with_headers(subject.clone(), headers, line.into())
+                    .await
+                    .unwrap();
+            }
+            let mut end = async_nats::HeaderMap::new();
+            end.insert("Facewire-End", "producer_cancelled");
+            end.insert("Facewire-Lease", "18446744073709551615");
+            forger
+                .publish_with_headers(subject.clone(), end, bytes::Bytes::new())
+                .await
+                .unwrap();
+            forger
+                .publish(subject.clone(), moving_jaw_line(2_000_000 + seq).into())
+                .await
+                .unwrap();
+            forged += 4;
+        }
+    }
+    forger.flush().await.unwrap();
+    source
+        .send(Message::Text(r#"{"type":"end"}"#.into()))
+        .await
+        .unwrap();
+    for (node, socket) in [("n1", &mut on_n1), ("n2", &mut on_n2)] {
+        let (frames, reason) = frames_until_end(socket).await;
+        assert_eq!(reason, "producer_ended", "{node}");
+        let last = frames.keys().next_back().copied();
+        assert_eq!(last, Some(39), "{node}: {:?}", frames.keys().collect::<Vec<_>>());
+    }
+    // Every forged message was refused for its proof: on n2 as bad_mac, on n1 as well
+    // (the producer's own node takes nothing from the bus into its stream).
+    for node in [&n1, &n2] {
+        let refused = dropped(node, "bad_mac").await;
+        assert_eq!(refused, forged as f64, "{}", node.addr);
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn without_a_key_the_bus_is_still_held_to_a_producers_rules() {
+    use futures_util::StreamExt;
+    let nats = NatsServer::start();
+    let n1 = node(&nats, "n1").await;
+    let n2 = node(&nats, "n2").await;
+    n1.register(HEAD, "makehuman_head", "").await;
+    n2.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
+    let mut on_n2 = viewer(&n2).await;
+    let mut source = producer(&n1).await;
+    let client = async_nats::connect(nats.url()).await.unwrap();
+    let subject = format!("facewire.params.{HEAD}.{STREAM}");
+    let mut overheard = client.subscribe(subject.clone()).await.unwrap();
+    client.flush().await.unwrap();
+    for seq in 0..10 {
+        produce(&mut source, seq).await;
+    }
+    // Node 2 has every real frame before anything is forged (two publishers' messages
+    // are not ordered against each other).
+    let mut seen = Vec::new();
+    while seen.last() != Some(&9) {
+        seen.push(
+            next_seq(&mut on_n2, Duration::from_secs(5))
+                .await
+                .expect("frames on n2"),
+        );
+    }
+    // A real frame overheard, replayed as it was: its seq is old by now.
+    let real = overheard.next().await.unwrap();
+    let lease = real
+        .headers
+        .as_ref()
+        .unwrap()
+        .get("Facewire-Lease")
+        .unwrap()
+        .to_string();
+    client
+        .publish_with_headers(
+            subject.clone(),
+            real.headers.clone().unwrap(),
+            real.payload.clone(),
+        )
+        .await
+        .unwrap();
+    // Under an earlier lease than the stream's: fenced.
+    let mut old_lease = async_nats::HeaderMap::new();
+    old_lease.insert("Facewire-Lease", "0");
+    old_lease.insert("Facewire-Received-Us", "1");
+    client
+        .publish_with_headers(subject.clone(), old_lease, moving_jaw_line(500).into())
+        .await
+        .unwrap();
+    // Under the stream's own lease with a receive time at the epoch: admitted (there is
+    // no key to prove otherwise) but its hop held to 60 s.
+    let mut epoch = async_nats::HeaderMap::new();
+    epoch.insert("Facewire-Lease", lease.as_str());
+    epoch.insert("Facewire-Received-Us", "0");
+    client
+        .publish_with_headers(subject.clone(), epoch, moving_jaw_line(600).into())
+        .await
+        .unwrap();
+    client.flush().await.unwrap();
+    while seen.last() != Some(&600) {
+        seen.push(
+            next_seq(&mut on_n2, Duration::from_secs(5))
+                .await
+                .expect("frames on n2"),
+        );
+    }
+    assert!(seen.windows(2).all(|w| w[0] < w[1]), "{seen:?}");
+    assert!(!seen.contains(&500), "{seen:?}");
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    assert_eq!(dropped(&n2, "stale").await, 1.0);
+    assert_eq!(dropped(&n2, "fenced").await, 1.0);
+    let hops = metric(&n2, "facewire_bus_hop_seconds_sum").await;
+    let count = metric(&n2, "facewire_bus_hop_seconds_count").await;
+    assert!(hops <= 60.0 + count, "hop sum {hops} s over {count} frames");
+}

@@ -83,6 +83,9 @@ pub struct BusAuth {
     pub tls_key: Option<PathBuf>,
     /// Refuse a server that does not speak TLS (also implied by `tls://` URLs).
     pub tls_required: bool,
+    /// The key every node of the cluster shares (16 bytes or more): each bus message
+    /// carries its HMAC, and messages without a valid one are dropped.
+    pub cluster_key: Option<Secret>,
 }
 
 /// The bus `Config::bus` names.
@@ -240,7 +243,8 @@ impl Config {
     /// `FACEWIRE_BUS`, `FACEWIRE_NODE_NAME`, `FACEWIRE_PRODUCER_TOKEN`,
     /// `FACEWIRE_VIEWER_TOKEN`, `FACEWIRE_ADMIN_TOKEN` and the `FACEWIRE_BUS_*` of
     /// `[bus_auth]` (`FACEWIRE_BUS_USER`, `_PASSWORD`, `_TOKEN`, `_NKEY_SEED`,
-    /// `_NKEY_SEED_FILE`, `_CREDS_FILE`, `_TLS_CA`, `_TLS_CERT`, `_TLS_KEY`) from `env`.
+    /// `_NKEY_SEED_FILE`, `_CREDS_FILE`, `_TLS_CA`, `_TLS_CERT`, `_TLS_KEY`) and
+    /// `FACEWIRE_CLUSTER_KEY` from `env`.
     pub fn apply_env(&mut self, env: impl Fn(&str) -> Option<String>) -> Result<(), ConfigError> {
         if let Some(value) = env("FACEWIRE_ADDR") {
             self.addr = value
@@ -280,6 +284,7 @@ impl Config {
             ("FACEWIRE_BUS_PASSWORD", &mut bus.password),
             ("FACEWIRE_BUS_TOKEN", &mut bus.token),
             ("FACEWIRE_BUS_NKEY_SEED", &mut bus.nkey_seed),
+            ("FACEWIRE_CLUSTER_KEY", &mut bus.cluster_key),
         ] {
             if let Some(value) = env(name) {
                 *slot = Some(Secret(value)).filter(|v| !v.0.is_empty());

@@ -79,6 +79,18 @@ pub struct Stream {
     /// ended since: such a stream's end must come over the bus, or from its lease
     /// expiring (`cluster::orphans`).
     relayed_at: Mutex<Option<Instant>>,
+    /// What this node has admitted from the bus for the stream.
+    fence: Mutex<RelayFence>,
+}
+
+/// The newest producer lease (fencing token) a stream's bus messages came under, and the
+/// last frame's seq and time under it: what arrives from the bus is held to the rules a
+/// producer's socket is (seq increasing, time never going back), and nothing from an
+/// earlier lease's holder is admitted.
+#[derive(Debug, Default)]
+struct RelayFence {
+    lease: u64,
+    last: Option<(u64, f64)>,
 }
 
 impl Stream {
@@ -96,6 +108,7 @@ impl Stream {
             viewers: AtomicUsize::new(0),
             last_activity: Mutex::new(Instant::now()),
             relayed_at: Mutex::new(None),
+            fence: Mutex::new(RelayFence::default()),
         }
     }
 
@@ -169,6 +182,26 @@ impl Stream {
         });
         *self.relayed_at.lock().expect("relayed lock") = Some(Instant::now());
         self.touch();
+    }
+
+    /// Admits a bus message for this stream sent under lease `lease`: a frame (`frame`:
+    /// its seq and time) or an end or audio chunk (`None`). `fenced` when an earlier
+    /// lease's, `stale` when the frame's seq does not increase or its time goes back.
+    pub fn admit_relayed(&self, lease: u64, frame: Option<(u64, f64)>) -> Result<(), &'static str> {
+        let mut fence = self.fence.lock().expect("fence lock");
+        if lease < fence.lease {
+            return Err("fenced");
+        }
+        if lease > fence.lease {
+            *fence = RelayFence { lease, last: None };
+        }
+        if let Some((seq, time_s)) = frame {
+            if fence.last.is_some_and(|(s, t)| seq <= s || time_s < t) {
+                return Err("stale");
+            }
+            fence.last = Some((seq, time_s));
+        }
+        Ok(())
     }
 
     /// How long ago the last frame from another node's producer came, if the stream has

@@ -8,6 +8,8 @@
 //! producer whose node died can reconnect elsewhere at once.
 
 use std::future::Future;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 
 use async_nats::jetstream::{self, kv};
@@ -160,21 +162,44 @@ impl Leases {
 
     fn hold(&self, key: String, revision: u64, cancel_producer: CancellationToken) -> Lease {
         let released = CancellationToken::new();
+        let fence = Arc::new(AtomicU64::new(revision));
         tokio::spawn(keep(
-            self.kv.clone(),
-            self.node.clone(),
-            key,
-            revision,
+            Held {
+                kv: self.kv.clone(),
+                node: self.node.clone(),
+                key,
+                revision,
+                fence: fence.clone(),
+            },
             released.clone(),
             cancel_producer,
         ));
-        Lease { released }
+        Lease { released, fence }
     }
 }
 
 /// A held lease; dropping it releases the lease.
 pub struct Lease {
     released: CancellationToken,
+    /// The revision the lease was claimed at: its fencing token. A later holder's is
+    /// larger (revisions only grow), so other nodes drop what an earlier holder still
+    /// relays after losing it.
+    fence: Arc<AtomicU64>,
+}
+
+impl Lease {
+    pub fn fence(&self) -> u64 {
+        self.fence.load(Ordering::Acquire)
+    }
+}
+
+/// What [`keep`] holds.
+struct Held {
+    kv: kv::Store,
+    node: String,
+    key: String,
+    revision: u64,
+    fence: Arc<AtomicU64>,
 }
 
 impl Drop for Lease {
@@ -185,14 +210,14 @@ impl Drop for Lease {
 
 /// Refreshes the lease until it is released (then deletes it, if still ours) or lost
 /// (then cancels the producer).
-async fn keep(
-    kv: kv::Store,
-    node: String,
-    key: String,
-    mut revision: u64,
-    released: CancellationToken,
-    cancel_producer: CancellationToken,
-) {
+async fn keep(held: Held, released: CancellationToken, cancel_producer: CancellationToken) {
+    let Held {
+        kv,
+        node,
+        key,
+        mut revision,
+        fence,
+    } = held;
     let mut ticks = tokio::time::interval_at(tokio::time::Instant::now() + REFRESH, REFRESH);
     loop {
         tokio::select! {
@@ -204,7 +229,10 @@ async fn keep(
             Err(e) if e.kind() == kv::UpdateErrorKind::WrongLastRevision => {
                 // Expired while NATS was away, or taken over: take it back if it is free.
                 match kv.create(&key, node.clone().into()).await {
-                    Ok(next) => revision = next,
+                    Ok(next) => {
+                        revision = next;
+                        fence.store(next, Ordering::Release);
+                    }
                     Err(_) => {
                         tracing::warn!(%key, "producer lease lost to another node; closing this producer");
                         cancel_producer.cancel();

@@ -15,6 +15,7 @@ mod heads;
 mod lease;
 mod orphans;
 mod relay;
+mod seal;
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -67,6 +68,7 @@ pub struct Cluster {
     pub heads: ClusterHeads,
     leases: Arc<lease::Leases>,
     outbox: relay::Outbox,
+    seal: Arc<seal::Seal>,
 }
 
 impl Cluster {
@@ -81,6 +83,12 @@ impl Cluster {
         telemetry: Arc<Telemetry>,
     ) -> Result<Cluster, ClusterError> {
         let (options, bare_url) = credentials::connect_options(auth, url).await?;
+        let seal = Arc::new(seal::Seal::new(auth.cluster_key.as_ref())?);
+        if !seal.is_keyed() {
+            tracing::warn!(
+                "no cluster_key: every message on the bus is believed; set [bus_auth] cluster_key on every node"
+            );
+        }
         let url = &redacted(url);
         let client = options
             .name(format!("facewire {node}"))
@@ -117,13 +125,14 @@ impl Cluster {
         let leases = lease::Leases::open(&js, client.clone(), node)
             .await
             .map_err(|e| bucket_error(lease::BUCKET)(&e))?;
-        let outbox = relay::Outbox::start(client.clone(), mask, telemetry);
+        let outbox = relay::Outbox::start(client.clone(), seal.clone(), mask, telemetry);
         Ok(Cluster {
             client,
             node: node.to_string(),
             heads,
             leases: Arc::new(leases),
             outbox,
+            seal,
         })
     }
 
@@ -139,7 +148,8 @@ impl Cluster {
     ) -> Result<(), ClusterError> {
         let liveness = self.leases.answer_liveness(&self.client).await?;
         tokio::spawn(liveness);
-        let inbound = relay::inbound(&self.client, registry.clone(), mask, telemetry).await?;
+        let inbound =
+            relay::inbound(&self.client, self.seal.clone(), registry.clone(), mask, telemetry).await?;
         tokio::spawn(inbound);
         tokio::spawn(orphans::end_orphans(
             registry.clone(),

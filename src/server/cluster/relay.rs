@@ -20,6 +20,7 @@ use futures_util::StreamExt;
 use tokio::sync::mpsc;
 
 use super::lease::Lease;
+use super::seal::Seal;
 use super::{ClusterError, PREFIX};
 use crate::mask::Mask;
 use crate::server::registry::Registry;
@@ -33,6 +34,11 @@ use facewire_proto::codes::EndReason;
 const RECEIVED_US: &str = "Facewire-Received-Us";
 /// Header that makes a message a stream end; its value is the end reason's wire name.
 const END: &str = "Facewire-End";
+/// Header with the fencing token of the producer's lease the message was sent under.
+const LEASE: &str = "Facewire-Lease";
+/// A producer's node's receive time is taken as at most this old (µs); older or future
+/// stamps are held to the range, so no header can throw the hop histogram.
+const MAX_HOP_US: u64 = 60_000_000;
 /// Messages waiting to be published, over all of this node's producers: 1 s of 64
 /// streams at 30 fps, each with 50 audio chunks a second in two codecs.
 const QUEUE: usize = 8192;
@@ -44,19 +50,17 @@ fn subject(kind: &str, head: &str, stream: &str) -> String {
     format!("{PREFIX}.{kind}.{head}.{stream}")
 }
 
-enum Outgoing {
-    Frame {
-        subject: Arc<str>,
-        frame: Arc<ReceivedFrame>,
-    },
-    Audio {
-        subject: Arc<str>,
-        audio: Arc<RelayedAudio>,
-    },
-    End {
-        subject: Arc<str>,
-        reason: EndReason,
-    },
+/// A message to publish, with the fencing token of the lease it goes under.
+struct Outgoing {
+    subject: Arc<str>,
+    fence: u64,
+    body: Body,
+}
+
+enum Body {
+    Frame(Arc<ReceivedFrame>),
+    Audio(Arc<RelayedAudio>),
+    End(EndReason),
 }
 
 /// The sending side: a queue and the task that publishes what is in it.
@@ -66,9 +70,14 @@ pub struct Outbox {
 }
 
 impl Outbox {
-    pub fn start(client: async_nats::Client, mask: Arc<Mask>, telemetry: Arc<Telemetry>) -> Outbox {
+    pub fn start(
+        client: async_nats::Client,
+        seal: Arc<Seal>,
+        mask: Arc<Mask>,
+        telemetry: Arc<Telemetry>,
+    ) -> Outbox {
         let (queue, outgoing) = mpsc::channel(QUEUE);
-        tokio::spawn(publish(client, mask, outgoing, telemetry.clone()));
+        tokio::spawn(publish(client, seal, mask, outgoing, telemetry.clone()));
         Outbox { queue, telemetry }
     }
 
@@ -79,7 +88,7 @@ impl Outbox {
             audio_subject: subject(AUDIO, head, stream).into(),
             queue: self.queue.clone(),
             telemetry: self.telemetry.clone(),
-            _lease: lease,
+            lease,
         }
     }
 }
@@ -90,11 +99,16 @@ pub struct BusRelay {
     audio_subject: Arc<str>,
     queue: mpsc::Sender<Outgoing>,
     telemetry: Arc<Telemetry>,
-    _lease: Lease,
+    lease: Lease,
 }
 
 impl BusRelay {
-    fn send(&self, outgoing: Outgoing) {
+    fn send(&self, subject: &Arc<str>, body: Body) {
+        let outgoing = Outgoing {
+            subject: subject.clone(),
+            fence: self.lease.fence(),
+            body,
+        };
         if self.queue.try_send(outgoing).is_err() {
             self.telemetry.bus_dropped("queue_full");
         }
@@ -103,42 +117,35 @@ impl BusRelay {
 
 impl Relay for BusRelay {
     fn frame(&self, frame: &Arc<ReceivedFrame>) {
-        self.send(Outgoing::Frame {
-            subject: self.subject.clone(),
-            frame: frame.clone(),
-        });
+        self.send(&self.subject, Body::Frame(frame.clone()));
     }
 
     fn audio(&self, audio: &Arc<RelayedAudio>) {
-        self.send(Outgoing::Audio {
-            subject: self.audio_subject.clone(),
-            audio: audio.clone(),
-        });
+        self.send(&self.audio_subject, Body::Audio(audio.clone()));
     }
 
     fn end(&self, reason: EndReason) {
         // A node shutting down is not the stream ending: its producer may go on from
         // another node, and the other nodes' viewers keep watching.
         if reason != EndReason::ServerShutdown {
-            self.send(Outgoing::End {
-                subject: self.subject.clone(),
-                reason,
-            });
+            self.send(&self.subject, Body::End(reason));
         }
     }
 }
 
 async fn publish(
     client: async_nats::Client,
+    seal: Arc<Seal>,
     mask: Arc<Mask>,
     mut outgoing: mpsc::Receiver<Outgoing>,
     telemetry: Arc<Telemetry>,
 ) {
     let mut line = Vec::new();
-    while let Some(message) = outgoing.recv().await {
+    while let Some(Outgoing { subject, fence, body }) = outgoing.recv().await {
         let mut headers = HeaderMap::new();
-        let (subject, payload) = match message {
-            Outgoing::Frame { subject, frame } => {
+        headers.insert(LEASE, fence.to_string().as_str());
+        let payload = match body {
+            Body::Frame(frame) => {
                 line.clear();
                 let mut writer = JsonlWriter::new(&mut line, &mask);
                 if let Err(e) = writer.write_frame(&frame.frame) {
@@ -148,14 +155,15 @@ async fn publish(
                     continue;
                 }
                 headers.insert(RECEIVED_US, frame.received_us.to_string().as_str());
-                (subject, Bytes::copy_from_slice(&line))
+                Bytes::copy_from_slice(&line)
             }
-            Outgoing::Audio { subject, audio } => (subject, audio.bytes.clone()),
-            Outgoing::End { subject, reason } => {
+            Body::Audio(audio) => audio.bytes.clone(),
+            Body::End(reason) => {
                 headers.insert(END, reason.as_str());
-                (subject, Bytes::new())
+                Bytes::new()
             }
         };
+        seal.sign(&subject, &mut headers, &payload);
         match client
             .publish_with_headers(subject.to_string(), headers, payload)
             .await
@@ -175,6 +183,7 @@ async fn publish(
 /// them into `registry`'s streams until the connection closes.
 pub async fn inbound(
     client: &async_nats::Client,
+    seal: Arc<Seal>,
     registry: Registry,
     mask: Arc<Mask>,
     telemetry: Arc<Telemetry>,
@@ -197,20 +206,25 @@ pub async fn inbound(
     Ok(async move {
         while let Some(message) = messages.next().await {
             telemetry.bus_messages_in.inc();
-            if let Err(code) = deliver(&message, &registry, &mask, &telemetry) {
+            if let Err(code) = deliver(&message, &seal, &registry, &mask, &telemetry) {
                 telemetry.bus_dropped(code);
             }
         }
     })
 }
 
-/// Publishes one bus message into its local stream; the error is why it was dropped.
+/// Publishes one bus message into its local stream after the checks a producer's socket
+/// makes (and the cluster key's proof, when set); the error is why it was dropped.
 fn deliver(
     message: &async_nats::Message,
+    seal: &Seal,
     registry: &Registry,
     mask: &Mask,
     telemetry: &Telemetry,
 ) -> Result<(), &'static str> {
+    if !seal.admits(&message.subject, message.headers.as_ref(), &message.payload) {
+        return Err("bad_mac");
+    }
     let mut tokens = message.subject.split('.').skip(1);
     let (Some(kind), Some(head), Some(stream), None) =
         (tokens.next(), tokens.next(), tokens.next(), tokens.next())
@@ -227,9 +241,17 @@ fn deliver(
             .and_then(|h| h.get(name))
             .map(|v| v.as_str().to_string())
     };
+    let lease = header(LEASE)
+        .and_then(|v| v.parse::<u64>().ok())
+        .ok_or("bad_header")?;
     let head = registry.get(head).ok_or("unknown_head")?;
     let stream = head.stream(stream).map_err(|_| "stream_limit")?;
+    // This node's own producer is the stream's: nothing from the bus goes into it.
+    if stream.has_producer() {
+        return Err("local_producer");
+    }
     if kind == AUDIO {
+        stream.admit_relayed(lease, None)?;
         // Checked as a producer's chunk is; the bytes go on as they came.
         let chunk = AudioChunk::decode(&message.payload).map_err(|e| {
             tracing::warn!(subject = %message.subject, error = %e, "bus audio refused");
@@ -244,6 +266,7 @@ fn deliver(
     if let Some(reason) = header(END) {
         let reason: EndReason =
             serde_json::from_value(serde_json::Value::String(reason)).map_err(|_| "bad_end")?;
+        stream.admit_relayed(lease, None)?;
         stream.end(reason);
         return Ok(());
     }
@@ -255,9 +278,12 @@ fn deliver(
         tracing::warn!(subject = %message.subject, error = %e, "bus frame refused");
         "bad_frame"
     })?;
+    stream.admit_relayed(lease, Some((frame.seq, frame.time_s)))?;
+    let now = crate::server::now_us();
+    let received_us = received_us.clamp(now.saturating_sub(MAX_HOP_US), now);
     telemetry
         .bus_hop_seconds
-        .observe(crate::server::now_us().saturating_sub(received_us) as f64 * 1e-6);
+        .observe((now - received_us) as f64 * 1e-6);
     stream.publish_relayed(Arc::new(ReceivedFrame { frame, received_us }));
     Ok(())
 }
