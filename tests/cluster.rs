@@ -722,3 +722,64 @@ async fn without_a_key_the_bus_is_still_held_to_a_producers_rules() {
     let count = metric(&n2, "facewire_bus_hop_seconds_count").await;
     assert!(hops <= 60.0 + count, "hop sum {hops} s over {count} frames");
 }
+
+/// Sends `signal` (`STOP`, `CONT`) to a node's process.
+fn signal(server: &Server, signal: &str) {
+    let pid = server.pid().expect("a child process").to_string();
+    let status = std::process::Command::new("kill")
+        .args([&format!("-{signal}"), &pid])
+        .status()
+        .unwrap();
+    assert!(status.success(), "kill -{signal} {pid}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_node_frozen_while_its_stream_was_taken_over_relays_nothing_when_it_wakes() {
+    let nats = NatsServer::start();
+    let (n1, n2, n3) = three_nodes_with_the_head(&nats).await;
+    let mut on_n3 = viewer(&n3).await;
+    let mut first = producer(&n1).await;
+    for seq in 0..10 {
+        produce(&mut first, seq).await;
+    }
+    while next_seq(&mut on_n3, Duration::from_secs(5)).await != Some(9) {}
+    signal(&n1, "STOP");
+    // Frames sent to the frozen node wait in its socket ...
+    for seq in 10..20 {
+        first
+            .send(Message::Text(moving_jaw_line(seq).into()))
+            .await
+            .unwrap();
+    }
+    // ... while the producer moves on: node 2 takes the lease over (node 1 does not
+    // answer its liveness check).
+    let mut second = producer(&n2).await;
+    for seq in 100..110 {
+        produce(&mut second, seq).await;
+    }
+    // Node 1 wakes, takes in what waited and finds its lease gone.
+    signal(&n1, "CONT");
+    for seq in 110..140 {
+        produce(&mut second, seq).await;
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    let mut seen = Vec::new();
+    while seen.last() != Some(&139) {
+        match next_message(&mut on_n3).await {
+            Some(Message::Binary(bytes)) => seen.push(decode(&bytes).unwrap().header.seq),
+            Some(Message::Text(text)) => {
+                if let ServerMessage::End { reason, .. } = serde_json::from_str(text.as_str()).unwrap() {
+                    panic!("ended ({reason}) after {seen:?}");
+                }
+            }
+            other => panic!("expected frames, got {other:?} after {seen:?}"),
+        }
+    }
+    assert!(seen.iter().all(|&s| s >= 100), "{seen:?}");
+    assert!(seen.windows(2).all(|w| w[0] < w[1]), "{seen:?}");
+    println!(
+        "node 3 dropped {} messages of node 1's lost lease",
+        dropped(&n3, "fenced").await
+    );
+    drop(first);
+}

@@ -118,6 +118,14 @@ impl Server {
         }
     }
 
+    /// The child process's id (`None` when the server runs in this process).
+    pub fn pid(&self) -> Option<u32> {
+        match &self.runs {
+            Runs::InProcess { .. } => None,
+            Runs::Child { child, .. } => Some(child.0.id()),
+        }
+    }
+
     pub fn http(&self, path: &str) -> String {
         format!("http://{}{path}", self.addr)
     }
