@@ -5,7 +5,7 @@
 //! frame newer than `stream_linger_s`; the head's sweep drops it after that.
 
 use std::collections::HashMap;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -81,6 +81,10 @@ pub struct Stream {
     relayed_at: Mutex<Option<Instant>>,
     /// What this node has admitted from the bus for the stream.
     fence: Mutex<RelayFence>,
+    /// A producer here holds the stream's cluster lease (its relay is attached): the
+    /// stream is this node's, and nothing from the bus goes into it. A producer whose
+    /// claim is still being decided does not count.
+    leased_here: AtomicBool,
 }
 
 /// The newest producer lease (fencing token) a stream's bus messages came under, and the
@@ -109,6 +113,7 @@ impl Stream {
             last_activity: Mutex::new(Instant::now()),
             relayed_at: Mutex::new(None),
             fence: Mutex::new(RelayFence::default()),
+            leased_here: AtomicBool::new(false),
         }
     }
 
@@ -202,6 +207,11 @@ impl Stream {
             fence.last = Some((seq, time_s));
         }
         Ok(())
+    }
+
+    /// Whether a producer on this node holds the stream's cluster lease.
+    pub fn is_leased_here(&self) -> bool {
+        self.leased_here.load(Ordering::Acquire)
     }
 
     /// How long ago the last frame from another node's producer came, if the stream has
@@ -342,6 +352,7 @@ impl ProducerPermit {
     /// Sends this producer's frames and end to `relay` too.
     pub fn relay_to(&mut self, relay: Box<dyn Relay>) {
         self.relay = Some(relay);
+        self.stream.leased_here.store(true, Ordering::Release);
     }
 
     /// Gives the slot back without ending the stream (the producer was refused before
@@ -369,6 +380,9 @@ impl Drop for ProducerPermit {
     fn drop(&mut self) {
         if !self.ended {
             self.end_everywhere(EndReason::ProducerDisconnected);
+        }
+        if self.relay.is_some() {
+            self.stream.leased_here.store(false, Ordering::Release);
         }
         *self.stream.producer.lock().expect("producer lock") = None;
         self.stream.released.notify_waiters();

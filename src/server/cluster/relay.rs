@@ -246,8 +246,8 @@ fn deliver(
         .ok_or("bad_header")?;
     let head = registry.get(head).ok_or("unknown_head")?;
     let stream = head.stream(stream).map_err(|_| "stream_limit")?;
-    // This node's own producer is the stream's: nothing from the bus goes into it.
-    if stream.has_producer() {
+    // This node's own producer holds the stream: nothing from the bus goes into it.
+    if stream.is_leased_here() {
         return Err("local_producer");
     }
     if kind == AUDIO {
