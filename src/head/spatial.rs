@@ -106,96 +106,73 @@ impl SurfaceIndex {
     }
 }
 
-/// Closest point to `p` on triangle `abc`, by Voronoi regions of the corners, edges and
-/// face (works for degenerate triangles too). f32, for per-frame use on heads of sane
-/// size: the region tests multiply four coordinates, which overflows f32 past about 1e9
-/// head units; the nearest-point indexes use [`closest_point_f64`] instead.
-pub fn closest_point_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
-    let ab = b - a;
-    let ac = c - a;
-    let ap = p - a;
-    let d1 = ab.dot(ap);
-    let d2 = ac.dot(ap);
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
-    }
-    let bp = p - b;
-    let d3 = ab.dot(bp);
-    let d4 = ac.dot(bp);
-    if d3 >= 0.0 && d4 <= d3 {
-        return b;
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return a + ab * (d1 / (d1 - d3));
-    }
-    let cp = p - c;
-    let d5 = ab.dot(cp);
-    let d6 = ac.dot(cp);
-    if d6 >= 0.0 && d5 <= d6 {
-        return c;
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return a + ac * (d2 / (d2 - d6));
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    }
-    let denom = va + vb + vc;
-    if denom.abs() < f32::MIN_POSITIVE {
-        return a; // all three corners coincide
-    }
-    let v = vb / denom;
-    let w = vc / denom;
-    a + ab * v + ac * w
+/// Defines a closest-point-on-triangle function for one precision: the Voronoi-region
+/// test (corners, edges, face; degenerate triangles too), written once for both.
+macro_rules! closest_point_in {
+    ($(#[$doc:meta])* $name:ident, $vec:ty, $float:ty) => {
+        $(#[$doc])*
+        pub fn $name(p: $vec, a: $vec, b: $vec, c: $vec) -> $vec {
+            let ab = b - a;
+            let ac = c - a;
+            let ap = p - a;
+            let d1 = ab.dot(ap);
+            let d2 = ac.dot(ap);
+            if d1 <= 0.0 && d2 <= 0.0 {
+                return a;
+            }
+            let bp = p - b;
+            let d3 = ab.dot(bp);
+            let d4 = ac.dot(bp);
+            if d3 >= 0.0 && d4 <= d3 {
+                return b;
+            }
+            let vc = d1 * d4 - d3 * d2;
+            if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+                return a + ab * (d1 / (d1 - d3));
+            }
+            let cp = p - c;
+            let d5 = ab.dot(cp);
+            let d6 = ac.dot(cp);
+            if d6 >= 0.0 && d5 <= d6 {
+                return c;
+            }
+            let vb = d5 * d2 - d1 * d6;
+            if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+                return a + ac * (d2 / (d2 - d6));
+            }
+            let va = d3 * d6 - d5 * d4;
+            if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+                return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+            }
+            let denom = va + vb + vc;
+            if denom.abs() < <$float>::MIN_POSITIVE {
+                return a; // all three corners coincide
+            }
+            let v = vb / denom;
+            let w = vc / denom;
+            a + ab * v + ac * w
+        }
+    };
 }
 
-/// [`closest_point_on_triangle`] in f64, for the nearest-point indexes (registration and
-/// fitting, never per frame): for any finite f32 input it cannot overflow, so an R*-tree
-/// over a head a billion units across still orders its distances (a NaN there panics).
-pub fn closest_point_f64(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
-    let ab = b - a;
-    let ac = c - a;
-    let ap = p - a;
-    let d1 = ab.dot(ap);
-    let d2 = ac.dot(ap);
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
-    }
-    let bp = p - b;
-    let d3 = ab.dot(bp);
-    let d4 = ac.dot(bp);
-    if d3 >= 0.0 && d4 <= d3 {
-        return b;
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return a + ab * (d1 / (d1 - d3));
-    }
-    let cp = p - c;
-    let d5 = ab.dot(cp);
-    let d6 = ac.dot(cp);
-    if d6 >= 0.0 && d5 <= d6 {
-        return c;
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return a + ac * (d2 / (d2 - d6));
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    }
-    let denom = va + vb + vc;
-    if denom.abs() < f64::MIN_POSITIVE {
-        return a; // all three corners coincide
-    }
-    let v = vb / denom;
-    let w = vc / denom;
-    a + ab * v + ac * w
-}
+closest_point_in!(
+    /// Closest point to `p` on triangle `abc`. f32, for per-frame use on heads of sane
+    /// size: the region tests multiply four coordinates, which overflows f32 past about
+    /// 1e9 head units; the nearest-point indexes use [`closest_point_f64`] instead.
+    closest_point_on_triangle,
+    Vec3,
+    f32
+);
+
+closest_point_in!(
+    /// [`closest_point_on_triangle`] in f64, for the nearest-point indexes (registration
+    /// and fitting, never per frame): for any finite f32 input it cannot overflow, so an
+    /// R*-tree over a head a billion units across still orders its distances (a NaN there
+    /// panics).
+    closest_point_f64,
+    DVec3,
+    f64
+);
 
 #[cfg(test)]
 mod tests {
