@@ -23,6 +23,7 @@ pub mod render;
 pub mod report;
 #[cfg(feature = "server")]
 pub mod server;
+pub mod speech;
 pub mod stream;
 pub mod targets;
 pub mod text_table;

@@ -15,6 +15,7 @@ mod population;
 mod population_animation;
 mod render;
 mod serve;
+mod speech;
 mod syllables;
 mod watch;
 
@@ -74,6 +75,9 @@ pub enum Command {
     /// Fit a population of heads automatically (ICT identities, MakeHuman, the scan and
     /// their variants) and print how close each lies to its landmark fit.
     Population(population::Args),
+    /// Derive a parameter stream from a voice alone: the WAV file's visemes, every 10 ms,
+    /// as a JSONL stream.
+    Speech(speech::Args),
 }
 
 pub fn run(cli: Cli) -> CliResult {
@@ -92,6 +96,7 @@ pub fn run(cli: Cli) -> CliResult {
         Command::Deform(args) => deform::run(args),
         Command::Compare(args) => compare::run(args),
         Command::Population(args) => population::run(args),
+        Command::Speech(args) => speech::run(args),
     }
 }
 

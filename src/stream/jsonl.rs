@@ -14,7 +14,7 @@ use super::frame::{ExpressionFap, Frame, VisemeFap};
 use super::lines::{Decoding, LineReader};
 use super::reader::{FrameReader, LineFormat};
 use super::strict_json::{self, StrictJsonError};
-use super::visemes::{VisemeScheme, VISEMES};
+use super::visemes::{single, VisemeScheme, VISEMES};
 use crate::mask::fap::{fap_by_name, fap_info, FAPS};
 use crate::mask::Mask;
 
@@ -465,6 +465,29 @@ impl OrderedMap<'_> {
     }
 }
 
+/// A frame's viseme as written: one viseme held fully by its Oculus name (`{"oculus":
+/// "PP"}`, how a text-to-speech engine or `facewire speech` says it), anything else as
+/// FAP 1's four fields. Both read back as the same [`VisemeFap`].
+#[derive(serde::Serialize)]
+#[serde(untagged)]
+enum JsonViseme<'f> {
+    Named { oculus: &'static str },
+    Fap(&'f VisemeFap),
+}
+
+impl<'f> JsonViseme<'f> {
+    fn of(viseme: &'f VisemeFap) -> Self {
+        let held = usize::try_from(viseme.select1)
+            .ok()
+            .filter(|_| *viseme == single(viseme.select1 as u8))
+            .and_then(|number| VISEMES.get(number));
+        match held {
+            Some(v) => JsonViseme::Named { oculus: v.oculus },
+            None => JsonViseme::Fap(viseme),
+        }
+    }
+}
+
 #[derive(serde::Serialize)]
 struct JsonFrame<'f> {
     seq: u64,
@@ -484,7 +507,7 @@ struct JsonFrame<'f> {
     #[serde(skip_serializing_if = "Option::is_none")]
     controls: Option<&'f [[f32; 3]]>,
     #[serde(skip_serializing_if = "Option::is_none")]
-    viseme: Option<&'f VisemeFap>,
+    viseme: Option<JsonViseme<'f>>,
     #[serde(skip_serializing_if = "Option::is_none")]
     expression: Option<&'f ExpressionFap>,
 }
@@ -546,7 +569,7 @@ impl<'m, W: Write> JsonlWriter<'m, W> {
             head_rotation_rad: frame.head_rotation_rad,
             head_translation: frame.head_translation,
             controls: frame.controls.as_deref(),
-            viseme: frame.viseme.as_ref(),
+            viseme: frame.viseme.as_ref().map(JsonViseme::of),
             expression: frame.expression.as_ref(),
         };
         self.line.clear();
