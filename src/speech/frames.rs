@@ -114,4 +114,55 @@ mod tests {
         assert_eq!(times, [0.0, 0.04, 0.08, 0.12, 0.16]);
         assert!(frames.iter().enumerate().all(|(k, f)| f.seq == k as u64));
     }
+
+    /// The shipped syllable voice (eSpeak NG's Spanish voice, which training never heard)
+    /// against its own phoneme timing: every p/b/m closure and f/v found near where it
+    /// sounds, and the vowels read.
+    #[test]
+    fn the_syllable_voice_shows_its_closures_and_its_vowels() {
+        use crate::stream::syllable_phonemes::{read_timings, PHONEMES_TSV};
+        use crate::stream::syllables::{SYLLABLES, SYLLABLE_S};
+        use crate::voice::syllable_voice;
+        let voice = syllable_voice().unwrap();
+        let model = Arc::new(VisemeModel::embedded().unwrap());
+        let (_, decisions) = speech_frames(&voice, model, 30.0).unwrap();
+        let timings = read_timings(PHONEMES_TSV, &SYLLABLES, SYLLABLE_S).unwrap();
+        let shown = |from_s: f64, to_s: f64| -> Vec<u8> {
+            decisions
+                .iter()
+                .filter(|d| d.time_s >= from_s && d.time_s < to_s)
+                .map(|d| d.viseme)
+                .collect()
+        };
+        let (mut closures, mut vowel_frames, mut vowel_hits) = (Vec::new(), 0, 0);
+        for (k, (name, t)) in SYLLABLES.iter().zip(&timings).enumerate() {
+            let slot_s = k as f64 * SYLLABLE_S;
+            let (consonant, vowel) = name.split_at(1);
+            let want = match consonant {
+                "p" | "b" | "m" => Some(1),
+                "f" => Some(2),
+                _ => None,
+            };
+            if let Some(viseme) = want {
+                // Found if shown within 20 ms of the consonant's span.
+                let around = shown(slot_s + t.consonant_s - 0.02, slot_s + t.vowel_s + 0.02);
+                closures.push((*name, around.contains(&viseme)));
+            }
+            let vowel_viseme = match vowel {
+                "a" => 10,
+                "i" => 12,
+                _ => 14,
+            };
+            let during = shown(slot_s + t.vowel_s + 0.03, slot_s + t.vowel_end_s);
+            vowel_frames += during.len();
+            vowel_hits += during.iter().filter(|&&v| v == vowel_viseme).count();
+        }
+        assert!(closures.iter().all(|&(_, found)| found), "{closures:?}");
+        assert_eq!(closures.len(), 12);
+        let vowel_accuracy = vowel_hits as f64 / vowel_frames as f64;
+        assert!(
+            vowel_accuracy > 0.85,
+            "{vowel_hits} of {vowel_frames} vowel frames read"
+        );
+    }
 }
