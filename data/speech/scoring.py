@@ -44,15 +44,13 @@ def frame_labels(lab_path, frames):
     starts, visemes = [], []
     with open(lab_path) as lab:
         for line in lab:
-            start, _end, _phoneme, viseme = line.rstrip("\n").split("\t")
+            start, end, _phoneme, viseme = line.rstrip("\n").split("\t")
             starts.append(float(start))
             visemes.append(VISEMES.index(viseme))
     centre = frame_centre_s(np.arange(frames))
     at = np.searchsorted(np.array(starts), centre, side="right") - 1
     labels = np.array(visemes)[np.clip(at, 0, len(visemes) - 1)]
-    with open(lab_path) as lab:
-        end = float(lab.readlines()[-1].split("\t")[1])
-    labels[centre >= end] = 0
+    labels[centre >= float(end)] = 0
     return labels
 
 
@@ -65,8 +63,7 @@ def runs(track, viseme):
 
 def match(truth, found):
     """Pairs each true run with the found run that starts nearest it among those
-    overlapping it widened by the tolerance; each found run pairs once. Returns
-    (pairs, found runs that pair with none)."""
+    overlapping it widened by the tolerance; each found run pairs once."""
     pairs, used = [], set()
     for t0, t1 in truth:
         near = [
@@ -78,7 +75,7 @@ def match(truth, found):
             k = min(near)[1]
             used.add(k)
             pairs.append(((t0, t1), found[k]))
-    return pairs, len(found) - len(used)
+    return pairs
 
 
 def score(pairs):
@@ -95,7 +92,7 @@ def score(pairs):
         class_hits += int((_CLASS[labels[speech]] == _CLASS[track[speech]]).sum())
         for viseme in range(1, len(VISEMES)):
             truth, found = runs(labels, viseme), runs(track, viseme)
-            paired, _ = match(truth, found)
+            paired = match(truth, found)
             onsets = [(f[0] - t[0]) * FRAME_S * 1000 for t, f in paired]
             signed.extend(onsets)
             name = VISEMES[viseme]
