@@ -112,6 +112,7 @@ fn frame_job(c: &mut Criterion) {
             tongue: None,
             folds: None,
             eyes: &[],
+            viseme: None,
         };
         group.bench_function(name, |b| {
             b.iter(|| black_box(encoder.encode(layout, &header, black_box(&content)).len()))

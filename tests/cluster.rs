@@ -783,3 +783,75 @@ async fn a_node_frozen_while_its_stream_was_taken_over_relays_nothing_when_it_wa
     );
     drop(first);
 }
+
+/// A voice alone, as Opus packets on node 1, animates the head for a viewer on node 2.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_face_derived_from_a_voice_on_one_node_is_seen_on_another() {
+    use facewire::stream::syllables::SYLLABLE_S;
+    use facewire::stream::visemes::VISEMES;
+    use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
+    let nats = NatsServer::start();
+    let n1 = node(&nats, "n1").await;
+    let n2 = node(&nats, "n2").await;
+    n1.register(HEAD, "makehuman_head", "").await;
+    n2.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
+    let mut watcher = connect(&n2.ws(&format!("/v1/heads/{HEAD}/streams/{STREAM}/view?format=fwf2"))).await;
+    assert!(matches!(
+        next_json(&mut watcher).await,
+        ServerMessage::Snapshot(_)
+    ));
+
+    // "ma", "mi" of the syllable voice as 20 ms Opus packets (16 kHz in, 48 kHz out).
+    let voice = facewire::voice::syllable_voice().unwrap();
+    let from = (12.0 * SYLLABLE_S * 16_000.0).round() as usize;
+    let mut encoder = opus::Encoder::new(16_000, opus::Channels::Mono, opus::Application::Voip).unwrap();
+    let mut socket = connect(&n1.ws(&format!(
+        "/v1/heads/{HEAD}/streams/{STREAM}/produce?derive=visemes&derived=1"
+    )))
+    .await;
+    for k in 0..60 {
+        let pcm = &voice.samples[from + 320 * k..from + 320 * (k + 1)];
+        let chunk = AudioChunk {
+            t_s: 0.02 * k as f64,
+            server_receive_us: 0,
+            body: AudioBody::Opus {
+                packet: encoder.encode_vec(pcm, 1275).unwrap(),
+            },
+            ignored: Vec::new(),
+        };
+        socket.send(Message::Binary(chunk.encode().into())).await.unwrap();
+    }
+    socket
+        .send(Message::Text(r#"{"type":"end"}"#.into()))
+        .await
+        .unwrap();
+    let mut derived = BTreeMap::new();
+    loop {
+        match next_json(&mut socket).await {
+            ServerMessage::Derived { seq, viseme, .. } => {
+                derived.insert(seq, viseme.oculus);
+            }
+            ServerMessage::End { .. } => break,
+            other => panic!("{other:?}"),
+        }
+    }
+    // 30 frames a second over 1.2 s, and perhaps a closing one.
+    assert!((36..=37).contains(&derived.len()), "{}", derived.len());
+    assert!(derived.values().any(|name| name == "PP"), "{derived:?}");
+
+    let (frames, reason) = frames_until_end(&mut watcher).await;
+    assert_eq!(reason, "producer_ended");
+    assert_eq!(frames.keys().last(), derived.keys().last());
+    for (seq, frame) in &frames {
+        let viseme = frame.viseme.expect("the viseme in every derived frame");
+        assert_eq!(
+            VISEMES[usize::from(viseme.select1)].oculus,
+            derived[seq],
+            "frame {seq}"
+        );
+    }
+    assert!(
+        frames.values().any(|f| f.moved.len() > 100),
+        "the mouth never moved"
+    );
+}

@@ -1005,3 +1005,191 @@ async fn a_batch_carries_its_voice_as_a_wav_part() {
     }
     server.stop().await;
 }
+
+/// `count` 20 ms chunks of the syllable voice (16 kHz) from `from_s`, each at its own `t`.
+fn voice_chunks(from_s: f64, count: usize) -> Vec<facewire_proto::audio_chunk::AudioChunk> {
+    use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
+    let voice = facewire::voice::syllable_voice().unwrap();
+    let first = (from_s * 16_000.0).round() as usize;
+    (0..count)
+        .map(|k| AudioChunk {
+            t_s: from_s + 0.02 * k as f64,
+            server_receive_us: 0,
+            body: AudioBody::Pcm {
+                sample_rate: 16_000,
+                samples: voice.samples[first + 320 * k..first + 320 * (k + 1)].to_vec(),
+            },
+            ignored: Vec::new(),
+        })
+        .collect()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_voice_alone_animates_the_head_and_the_producer_sees_what_was_derived() {
+    use facewire::stream::syllables::SYLLABLE_S;
+    let server = Server::start(memory_config()).await;
+    server.register("mh", "makehuman_head", "").await;
+    // A derived face is asked for by name, with its frame rate in range.
+    for query in [
+        "derive=mfcc",
+        "derive=visemes&fps=0",
+        "derive=visemes&fps=1000",
+        "fps=30",
+    ] {
+        let url = server.ws(&format!("/v1/heads/mh/streams/s/produce?{query}"));
+        match tokio_tungstenite::connect_async(url).await {
+            Err(tokio_tungstenite::tungstenite::Error::Http(response)) => {
+                assert_eq!(response.status(), 400, "{query}")
+            }
+            other => panic!("{query}: {other:?}"),
+        }
+    }
+    let mut viewer = connect(&server.ws("/v1/heads/mh/streams/s/view?format=fwf2")).await;
+    assert!(matches!(next_json(&mut viewer).await, ServerMessage::Snapshot(_)));
+    let mut producer =
+        connect(&server.ws("/v1/heads/mh/streams/s/produce?derive=visemes&fps=25&derived=1")).await;
+    // "ba", "bi", "bu": 1.8 s of voice from the syllables' 5.4 s, sent at once (the lead
+    // allows 2 s), then a parameter frame, which a derived stream refuses.
+    let from_s = 9.0 * SYLLABLE_S;
+    for chunk in voice_chunks(from_s, 90) {
+        producer
+            .send(Message::Binary(chunk.encode().into()))
+            .await
+            .unwrap();
+    }
+    producer
+        .send(Message::Text(jaw_line(7, from_s).into()))
+        .await
+        .unwrap();
+    let mut derived = Vec::new();
+    loop {
+        match next_json(&mut producer).await {
+            ServerMessage::Derived {
+                seq,
+                t,
+                viseme,
+                confidence,
+            } => {
+                assert!((0.0..=1.0).contains(&confidence), "{confidence}");
+                derived.push((seq, t, viseme.oculus));
+            }
+            ServerMessage::Error { code, field, seq, .. } => {
+                assert_eq!(
+                    (code.as_str(), field.as_deref(), seq),
+                    ("bad_frame", Some("derive"), Some(7))
+                );
+                break;
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+    producer
+        .send(Message::Text(r#"{"type":"end"}"#.into()))
+        .await
+        .unwrap();
+    loop {
+        match next_json(&mut producer).await {
+            ServerMessage::Derived { seq, t, viseme, .. } => derived.push((seq, t, viseme.oculus)),
+            ServerMessage::End { .. } => break,
+            other => panic!("{other:?}"),
+        }
+    }
+    // 25 frames a second from the first chunk's t over the 1.8 s, and perhaps a last one
+    // closing the mouth; each b closes the lips within its syllable's first 0.25 s.
+    assert!((45..=46).contains(&derived.len()), "{}", derived.len());
+    for (k, (seq, t, _)) in derived.iter().enumerate() {
+        assert_eq!(*seq, k as u64);
+        assert!((t - (from_s + k as f64 / 25.0)).abs() < 1e-9, "{t}");
+    }
+    for syllable in 0..3 {
+        let start = from_s + SYLLABLE_S * f64::from(syllable);
+        assert!(
+            derived
+                .iter()
+                .any(|(_, t, name)| name == "PP" && *t >= start && *t < start + 0.25),
+            "no closure in syllable {syllable}: {derived:?}"
+        );
+    }
+    // The viewer sees the derived frames (newest wins, the last one always), the mouth
+    // moving, then the end.
+    let (mut seen, mut moved) = (Vec::new(), 0usize);
+    loop {
+        match next_message(&mut viewer).await {
+            Some(Message::Binary(bytes)) => {
+                let frame = facewire_proto::viewer_frame::decode(&bytes).unwrap();
+                moved = moved.max(frame.moved.len());
+                let viseme = frame.viseme.expect("a derived frame names its viseme");
+                assert_eq!((viseme.select1, viseme.blend), (viseme.select2, 63));
+                let name = facewire::stream::visemes::VISEMES[usize::from(viseme.select1)].oculus;
+                seen.push((frame.header.seq, frame.header.producer_time_s, name));
+            }
+            Some(Message::Text(text)) => {
+                let message: ServerMessage = serde_json::from_str(text.as_str()).unwrap();
+                assert!(matches!(message, ServerMessage::End { .. }), "{message:?}");
+                break;
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+    assert!(moved > 100, "the mouth never moved: {moved} vertices");
+    assert_eq!(seen.last().map(|s| s.0), derived.last().map(|d| d.0));
+    for (seq, t, name) in &seen {
+        assert_eq!(
+            (derived[*seq as usize].1, derived[*seq as usize].2.as_str()),
+            (*t, *name)
+        );
+    }
+    server.stop().await;
+}
+
+/// From a sample arriving to the face that shows it leaving the server: the model's
+/// look-ahead (52.5 ms), up to a chunk of waiting for the sample that completes it, and
+/// the deform. The voice is sent at its own rate, 20 ms at a time.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_derived_face_follows_its_voice_by_the_look_ahead() {
+    let server = Server::start(memory_config()).await;
+    server.register("mh", "makehuman_head", "").await;
+    let mut viewer = connect(&server.ws("/v1/heads/mh/streams/s/view?format=fwf2")).await;
+    assert!(matches!(next_json(&mut viewer).await, ServerMessage::Snapshot(_)));
+    let mut producer = connect(&server.ws("/v1/heads/mh/streams/s/produce?derive=visemes")).await;
+    let chunks = voice_chunks(0.0, 75);
+    let started = std::time::Instant::now();
+    let sender = tokio::spawn(async move {
+        for (k, chunk) in chunks.iter().enumerate() {
+            tokio::time::sleep_until((started + Duration::from_millis(20 * k as u64)).into()).await;
+            producer
+                .send(Message::Binary(chunk.encode().into()))
+                .await
+                .unwrap();
+        }
+        producer
+    });
+    let (mut wall_ms, mut server_ms) = (Vec::new(), Vec::new());
+    while let Some(message) = tokio::time::timeout(Duration::from_millis(400), viewer.next())
+        .await
+        .ok()
+        .flatten()
+    {
+        let Ok(Message::Binary(bytes)) = message else {
+            continue;
+        };
+        let frame = facewire_proto::viewer_frame::decode(&bytes).unwrap();
+        let t = frame.header.producer_time_s;
+        // The chunk holding the frame's own sample left the producer at its slot.
+        let sent_ms = (t / 0.02).floor() * 20.0;
+        wall_ms.push(started.elapsed().as_secs_f64() * 1e3 - sent_ms);
+        server_ms.push((frame.header.server_send_us - frame.header.server_receive_us) as f64 / 1e3);
+    }
+    let producer = sender.await.unwrap();
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    assert!(wall_ms.len() > 30, "{} frames", wall_ms.len());
+    let (wall, on_server) = (median(&mut wall_ms), median(&mut server_ms));
+    println!("sample to face: median {wall:.1} ms at the viewer, {on_server:.1} ms in the server");
+    assert!((25.0..150.0).contains(&wall), "median {wall} ms");
+    assert!((25.0..150.0).contains(&on_server), "median {on_server} ms");
+    drop(producer);
+    server.stop().await;
+}

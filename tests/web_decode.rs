@@ -14,8 +14,8 @@ use std::process::Command;
 
 use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
 use facewire_proto::viewer_frame::{
-    decode, EyeMotion, FrameContent, FrameEncoder, FrameHeader, FrameLayout, LipFolds, LipRoughness,
-    RigidMotion,
+    decode, EyeMotion, FrameContent, FrameEncoder, FrameHeader, FrameLayout, FrameViseme, LipFolds,
+    LipRoughness, RigidMotion,
 };
 use facewire_proto::DecodeError;
 use serde_json::{json, Value};
@@ -40,6 +40,8 @@ struct Case<'a> {
     folds: Option<LipFolds>,
     /// Turned eyeballs (FWF2 carries them, FWF1 cannot).
     eyes: Vec<EyeMotion>,
+    /// The frame's viseme (FWF2 only).
+    viseme: Option<FrameViseme>,
 }
 
 fn frame_case(
@@ -64,6 +66,7 @@ fn frame_case(
                 tongue: case.tongue.as_ref().map(|(p, d)| (*p, d.as_slice())),
                 folds: case.folds,
                 eyes: &case.eyes,
+                viseme: case.viseme,
             },
         )
         .to_vec();
@@ -136,6 +139,11 @@ fn frame_case(
                 "translation": exact(&e.motion.translation),
             },
         })).collect::<Vec<_>>(),
+        "viseme": frame.viseme.map(|v| json!({
+            "select1": v.select1,
+            "select2": v.select2,
+            "blend": v.blend,
+        })),
         "folds": frame.folds.map(|f| json!({
             "turnedOver60": f.turned_over_60,
             "turnedOver90": f.turned_over_90,
@@ -293,6 +301,7 @@ fn cases() -> Value {
             tongue: None,
             folds: None,
             eyes: Vec::new(),
+            viseme: None,
         },
         Case {
             name: "label and face roughness",
@@ -307,6 +316,7 @@ fn cases() -> Value {
             tongue: None,
             folds: None,
             eyes: Vec::new(),
+            viseme: None,
         },
         Case {
             name: "large deltas, a multi-byte label, flat face",
@@ -329,6 +339,7 @@ fn cases() -> Value {
             tongue: None,
             folds: None,
             eyes: Vec::new(),
+            viseme: None,
         },
         Case {
             name: "nothing moved, lip folds of a gentle bend",
@@ -347,6 +358,7 @@ fn cases() -> Value {
                 max_dihedral_increase_deg: 4.1,
             }),
             eyes: Vec::new(),
+            viseme: None,
         },
         Case {
             name: "every vertex moved",
@@ -363,6 +375,7 @@ fn cases() -> Value {
             tongue: None,
             folds: None,
             eyes: Vec::new(),
+            viseme: None,
         },
         Case {
             name: "head motion, label and face roughness",
@@ -377,6 +390,7 @@ fn cases() -> Value {
             tongue: None,
             folds: None,
             eyes: Vec::new(),
+            viseme: None,
         },
         Case {
             name: "head motion only",
@@ -391,6 +405,7 @@ fn cases() -> Value {
             tongue: None,
             folds: None,
             eyes: Vec::new(),
+            viseme: None,
         },
         Case {
             name: "tongue shaped, head and jaw motion, lip folds, label and face roughness",
@@ -413,6 +428,11 @@ fn cases() -> Value {
                 EyeMotion { eye: 1, motion: turn },
                 EyeMotion { eye: 0, motion: open },
             ],
+            viseme: Some(FrameViseme {
+                select1: 1,
+                select2: 14,
+                blend: 40,
+            }),
         },
         Case {
             name: "tongue sent with nothing moved",
@@ -427,6 +447,7 @@ fn cases() -> Value {
             tongue: Some((0, vec![[0.0; 3]; 12])),
             folds: None,
             eyes: Vec::new(),
+            viseme: None,
         },
     ];
     let mut encoder = FrameEncoder::default();

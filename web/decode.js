@@ -33,6 +33,7 @@ const SECTION_NAMES = new Map([
   [7, "part_deltas"],
   [8, "heat"],
   [9, "eye_motion"],
+  [10, "viseme"],
 ]);
 /** FWF2 sections a frame may hold several of (one per part, one per eye). */
 const REPEATED_SECTIONS = new Set(["part_deltas", "eye_motion"]);
@@ -464,7 +465,8 @@ function readPerVertex(r, max, count, field) {
  * increase of a dihedral angle between two lip triangles over rest (degrees). `eyes` lists
  * the turned eyeballs, each `{eye, motion}`: `eye` its index in the snapshot's `eyes`,
  * `motion` its turn about its centre (as `head`), applied before the head's motion; eyes
- * not listed look ahead (FWF1 frames list none).
+ * not listed look ahead (FWF1 frames list none). `viseme` is the mouth shape that drove the
+ * frame, `{select1, select2, blend}` (MPEG-4 FAP 1), or null (none named; FWF1 frames).
  */
 export async function decodeFrame(buffer) {
   const r = new Reader(new Uint8Array(buffer));
@@ -506,7 +508,9 @@ async function decodeFwf1(r) {
   }
   r.finish();
   const lip = { ...header.lip, perVertex };
-  return { ...header, lip, label, head, jaw, movedIndices, movedCounts, parts, folds, eyes: [], face, faceMax };
+  return {
+    ...header, lip, label, head, jaw, movedIndices, movedCounts, parts, folds, eyes: [], viseme: null, face, faceMax,
+  };
 }
 
 /**
@@ -526,9 +530,27 @@ async function decodeFwf2(r) {
   const { movedIndices, movedCounts } = await readEncodedDeltas(bodies.get("deltas"), counts, "moved");
   const parts = await readPartDeltas(repeated.get("part_deltas"));
   const eyes = readEyeMotions(repeated.get("eye_motion"));
+  const viseme = section("viseme", readViseme, null);
   const heat = section("heat", (body) => readHeat(body, header.vertexCount), { face: null, faceMax: null });
   const lip = { ...header.lip, perVertex };
-  return { ...header, lip, label, head, jaw, movedIndices, movedCounts, parts, folds, eyes, ...heat };
+  return { ...header, lip, label, head, jaw, movedIndices, movedCounts, parts, folds, eyes, viseme, ...heat };
+}
+
+/**
+ * A `viseme` body: the frame's MPEG-4 FAP 1, `{select1, select2, blend}` (visemes 0-14 in
+ * the Oculus order, blend 0-63 the share of `select1`).
+ */
+function readViseme(r) {
+  const at = r.at;
+  const viseme = { select1: r.u8("viseme"), select2: r.u8("viseme"), blend: r.u8("viseme") };
+  if (viseme.select1 > 14 || viseme.select2 > 14 || viseme.blend > 63) {
+    throw new DecodeError(
+      "viseme",
+      at,
+      `selects ${viseme.select1} and ${viseme.select2}, blend ${viseme.blend}: expected visemes 0-14 and a blend of 0-63`,
+    );
+  }
+  return viseme;
 }
 
 /**

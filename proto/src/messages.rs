@@ -147,12 +147,30 @@ pub enum ServerMessage {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         field: Option<String>,
     },
+    /// A frame the server derived from an audio-only producer's voice (`derive=visemes`),
+    /// sent to that producer when it asked (`derived=1`): what a parameter producer would
+    /// have sent, for comparing with one's own.
+    Derived {
+        seq: u64,
+        /// On the stream's clock, s.
+        t: f64,
+        viseme: DerivedViseme,
+        /// The probability the tracker gave the viseme shown, 0 to 1.
+        confidence: f32,
+    },
     /// The stream ended (producer finished or gone, head deleted, server shutting down).
     /// A producer that sent `end` gets it back before its socket closes.
     End {
         reason: EndReason,
         message: String,
     },
+}
+
+/// The viseme of a derived frame, named as a JSONL frame's `viseme` names one.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DerivedViseme {
+    /// The Oculus/Meta name (`sil`, `PP`, `FF`, ... `ou`).
+    pub oculus: String,
 }
 
 /// Control messages a producer may send as JSON text besides frames.

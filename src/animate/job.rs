@@ -326,6 +326,7 @@ impl FrameJob {
                     max_dihedral_increase_deg: folds.max_dihedral_increase_deg as f32,
                 }),
                 eyes: &self.eye_wire,
+                viseme: frame.viseme.and_then(|v| v.to_wire()),
             },
         ))
     }

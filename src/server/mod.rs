@@ -12,7 +12,7 @@
 //! - Streams: [`stream`] (producer slot, pipelines), [`timeline`] (latest-frame-wins with
 //!   ends), [`pipeline`] (the per-frame job per algorithm).
 //! - Sockets: [`producer`], [`ingest`] (messages to frames), [`rate`], [`batch`],
-//!   [`view`], [`socket`].
+//!   [`view`], [`socket`]; [`speech_producer`] (a face derived from a producer's voice).
 
 mod app;
 mod audio_gate;
@@ -40,6 +40,7 @@ mod registration;
 mod registry;
 mod schedule;
 mod socket;
+mod speech_producer;
 mod state;
 mod store;
 mod stream;

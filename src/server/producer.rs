@@ -3,22 +3,27 @@
 //! the stream with it (viewers get `end` with the reason), when the producer sends
 //! `{"type":"end"}` (answered with `end`, then close 1000), disconnects, goes idle (4408),
 //! is cancelled (4499), when its head is deleted (4410), or on shutdown (1001).
+//!
+//! With `derive=visemes` the producer sends audio only and the server derives the face
+//! from it ([`SpeechProducer`]); parameter frames are then refused.
 
 use std::sync::Arc;
 use std::time::Duration;
 
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
-use axum::extract::{Path, State};
+use axum::extract::{Path, Query, State};
 use axum::response::Response;
 use futures_util::{Sink, SinkExt, StreamExt};
+use serde::Deserialize;
 use tokio_util::sync::CancellationToken;
 
 use super::audio_gate::AudioGate;
 use super::error::ApiError;
 use super::head::HeadEntry;
-use super::ingest::{parse_audio, parse_binary, parse_text, Incoming};
+use super::ingest::{parse_audio, parse_binary, parse_text, Incoming, Refusal};
 use super::rate::ProducerGate;
 use super::socket::{close, close_for, error, refuse, text};
+use super::speech_producer::SpeechProducer;
 use super::stream::{ProducerPermit, Stream};
 use super::transcode::Transcoder;
 use super::{now_us, AppState};
@@ -26,12 +31,69 @@ use facewire_proto::audio_chunk::AUDIO_MAGIC;
 use facewire_proto::codes::{CloseCode, EndReason, ErrorCode};
 use facewire_proto::messages::ServerMessage;
 
+/// Frames a second of a derived face when `fps` is not given.
+pub const DERIVED_FPS: f64 = 30.0;
+
+#[derive(Debug, Deserialize)]
+pub struct ProduceQuery {
+    /// `visemes`: the face is derived from the stream's audio; `none` or absent, the
+    /// producer sends parameter frames.
+    pub derive: Option<String>,
+    /// Frames a second of the derived face ([`DERIVED_FPS`] when absent; at most `max_fps`).
+    pub fps: Option<f64>,
+    /// `1` or `true`: the producer is sent each derived frame (`{"type":"derived",...}`).
+    pub derived: Option<String>,
+}
+
+/// How a derived face is made: frames a second, and whether the producer hears of them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Derive {
+    fps: f64,
+    report: bool,
+}
+
+impl ProduceQuery {
+    fn derive(&self, max_fps: f64) -> Result<Option<Derive>, ApiError> {
+        let bad = |what: String| Err(ApiError::BadRequest(what));
+        match self.derive.as_deref() {
+            None | Some("" | "none") => {
+                if self.fps.is_some() || self.derived.is_some() {
+                    return bad("fps= and derived= go with derive=visemes".into());
+                }
+                Ok(None)
+            }
+            Some("visemes") => {
+                let fps = self.fps.unwrap_or(DERIVED_FPS.min(max_fps));
+                if !(fps.is_finite() && fps > 0.0 && fps <= max_fps) {
+                    return bad(format!(
+                        "fps={fps}: expected above 0 and at most max_fps ({max_fps})"
+                    ));
+                }
+                let report = match self.derived.as_deref() {
+                    None | Some("" | "0" | "false") => false,
+                    Some("1" | "true") => true,
+                    Some(other) => {
+                        return bad(format!("derived={}: expected 1 or 0", crate::quote::clip(other)))
+                    }
+                };
+                Ok(Some(Derive { fps, report }))
+            }
+            Some(other) => bad(format!(
+                "derive={}: expected visemes or none",
+                crate::quote::clip(other)
+            )),
+        }
+    }
+}
+
 /// `GET /v1/heads/{id}/streams/{stream}/produce` (the token is checked by the route layer).
 pub async fn produce(
     ws: WebSocketUpgrade,
     State(state): State<AppState>,
     Path((id, name)): Path<(String, String)>,
+    Query(query): Query<ProduceQuery>,
 ) -> Result<Response, ApiError> {
+    let derive = query.derive(state.config.limits.max_fps)?;
     let head = state.registry.head(&id)?;
     head.ready()?;
     let stream = head.stream(&name)?;
@@ -41,7 +103,8 @@ pub async fn produce(
         .max_message_size(limit)
         .max_frame_size(limit)
         .on_upgrade(move |socket| async move {
-            producer_session(socket, state, head, stream).await;
+            let speech = derive.map(|d| SpeechProducer::new(state.speech_model.clone(), d.fps, d.report));
+            producer_session(socket, state, head, stream, speech).await;
             drop(session);
         }))
 }
@@ -58,7 +121,13 @@ enum Ending {
     Shutdown,
 }
 
-async fn producer_session(mut socket: WebSocket, state: AppState, head: Arc<HeadEntry>, stream: Arc<Stream>) {
+async fn producer_session(
+    mut socket: WebSocket,
+    state: AppState,
+    head: Arc<HeadEntry>,
+    stream: Arc<Stream>,
+    speech: Option<SpeechProducer>,
+) {
     let permit = match state.claim_producer(&head.id, &stream).await {
         Ok(permit) => permit,
         Err(refused) => {
@@ -73,7 +142,7 @@ async fn producer_session(mut socket: WebSocket, state: AppState, head: Arc<Head
     };
     state.telemetry.producers.inc();
     tracing::info!(head = %head.id, stream = %stream.name, "producer connected");
-    let ending = receive_frames(&mut socket, &state, &head.deleted, &permit).await;
+    let ending = receive_frames(&mut socket, &state, &head.deleted, &permit, speech).await;
     let idle_s = state.config.limits.producer_idle_s;
     let (reason, close_code, close_reason) = match ending {
         Ending::Gone(answer) => {
@@ -117,12 +186,13 @@ async fn producer_session(mut socket: WebSocket, state: AppState, head: Arc<Head
 
 /// Acks or refuses every message until the session ends. `socket` is the producer's
 /// WebSocket (any stream of messages and sink of replies, so that tests can script it);
-/// `head_deleted` is the head's deletion token.
+/// `head_deleted` is the head's deletion token; `speech`, for a derived face, what derives it.
 async fn receive_frames<S>(
     socket: &mut S,
     state: &AppState,
     head_deleted: &CancellationToken,
     permit: &ProducerPermit,
+    mut speech: Option<SpeechProducer>,
 ) -> Ending
 where
     S: futures_util::Stream<Item = Result<Message, axum::Error>> + Sink<Message> + Unpin,
@@ -164,7 +234,19 @@ where
                         permit.publish_audio(relayed);
                         state.telemetry.audio_in.inc();
                         transcoder.publish(&chunk, permit, &state.telemetry);
-                        continue;
+                        let Some(speech) = &mut speech else {
+                            continue;
+                        };
+                        let derived = speech.publish(&chunk, permit, &state.telemetry);
+                        for report in speech.reports() {
+                            if socket.send(text(&report)).await.is_err() {
+                                return Ending::Gone(None);
+                            }
+                        }
+                        match derived {
+                            Ok(()) => continue,
+                            Err(refusal) => Err(refusal),
+                        }
                     }
                     Err(refusal) => Err(refusal),
                 }
@@ -173,12 +255,28 @@ where
         };
         let reply = match incoming.and_then(|incoming| match incoming {
             Incoming::End => Ok(None),
+            Incoming::Frame { frame, .. } if speech.is_some() => Err(Refusal::new(
+                ErrorCode::BadFrame,
+                Some("derive"),
+                "this stream's face is derived from its audio (derive=visemes): it takes audio only",
+            )
+            .with_seq(frame.seq)),
             Incoming::Frame { frame, ignored } => match gate.admit(&frame) {
                 Ok(()) => Ok(Some((*frame, ignored))),
                 Err(refusal) => Err(refusal.with_seq(frame.seq)),
             },
         }) {
-            Ok(None) => return Ending::Ended,
+            Ok(None) => {
+                if let Some(speech) = &mut speech {
+                    speech.finish(permit, &state.telemetry);
+                    for report in speech.reports() {
+                        if socket.send(text(&report)).await.is_err() {
+                            return Ending::Gone(None);
+                        }
+                    }
+                }
+                return Ending::Ended;
+            }
             Ok(Some((frame, ignored))) => {
                 let seq = frame.seq;
                 last_t = Some(frame.time_s);
@@ -299,7 +397,7 @@ mod tests {
             }
             std::future::pending::<()>().await;
         });
-        let ending = receive_frames(&mut socket, &state, &CancellationToken::new(), &permit).await;
+        let ending = receive_frames(&mut socket, &state, &CancellationToken::new(), &permit, None).await;
         let elapsed = started.elapsed().as_secs_f64();
         assert!(matches!(ending, Ending::Idle));
         assert!(
@@ -332,7 +430,7 @@ mod tests {
             }
             script.send(Message::Text(r#"{"type":"end"}"#.into())).unwrap();
         });
-        let ending = receive_frames(&mut socket, &state, &CancellationToken::new(), &permit).await;
+        let ending = receive_frames(&mut socket, &state, &CancellationToken::new(), &permit, None).await;
         assert!(matches!(ending, Ending::Ended));
         assert_eq!(socket.replies.len(), 67);
     }

@@ -23,6 +23,7 @@ use super::trim::Trimmer;
 use crate::deform::AlgoSpec;
 use crate::head::MeshBudget;
 use crate::mask::Mask;
+use crate::speech::{ModelError, VisemeModel};
 use crate::stream::ArkitBasis;
 
 /// Everything the handlers share; cloning is cheap.
@@ -49,6 +50,8 @@ pub struct Shared {
     pub trimmer: Arc<Trimmer>,
     pub mask: Arc<Mask>,
     pub arkit: Arc<ArkitBasis>,
+    /// The viseme model of audio-only producers (`derive=visemes`).
+    pub speech_model: Arc<VisemeModel>,
     pub started: Instant,
     /// The cluster this node is part of (`bus` is a NATS URL); `None` alone.
     pub cluster: Option<Arc<Cluster>>,
@@ -70,6 +73,8 @@ pub enum StateError {
     Store(#[from] StoreError),
     #[error(transparent)]
     Cluster(#[from] ClusterError),
+    #[error("the viseme model: {0}")]
+    SpeechModel(#[from] ModelError),
     #[error("bus {0:?}: a cluster node is started with `AppState::start`")]
     NeedsStart(String),
 }
@@ -87,7 +92,7 @@ impl AppState {
             None => HeadStore::Memory,
         };
         let mask = Arc::new(Mask::candide3());
-        Ok(AppState::build(config, store, None, mask, Arc::default()))
+        AppState::build(config, store, None, mask, Arc::default())
     }
 
     /// State for `config`, alone or as a cluster node: connects to the bus, opens its
@@ -106,7 +111,7 @@ impl AppState {
         let cluster =
             Arc::new(Cluster::connect(&url, &config.bus_auth, &node, mask.clone(), telemetry.clone()).await?);
         let store = HeadStore::Cluster(Box::new(cluster.heads.clone()));
-        let state = AppState::build(config, store, Some(cluster.clone()), mask, telemetry);
+        let state = AppState::build(config, store, Some(cluster.clone()), mask, telemetry)?;
         cluster
             .start(
                 state.registry.clone(),
@@ -147,7 +152,8 @@ impl AppState {
         cluster: Option<Arc<Cluster>>,
         mask: Arc<Mask>,
         telemetry: Arc<Telemetry>,
-    ) -> AppState {
+    ) -> Result<AppState, StateError> {
+        let speech_model = Arc::new(VisemeModel::embedded()?);
         let (default_spec, allowed_specs) = config.allowed_algorithms().expect("validated by the caller");
         let limits = &config.limits;
         let shutdown = CancellationToken::new();
@@ -165,7 +171,7 @@ impl AppState {
             },
             shutdown.clone(),
         );
-        AppState {
+        Ok(AppState {
             inner: Arc::new(Shared {
                 registry,
                 telemetry,
@@ -178,10 +184,11 @@ impl AppState {
                 trimmer: Arc::default(),
                 mask,
                 arkit: Arc::new(ArkitBasis::shipped()),
+                speech_model,
                 started: Instant::now(),
                 cluster,
                 config,
             }),
-        }
+        })
     }
 }

@@ -1,55 +1,82 @@
-//! The stream a voice makes: [`VisemeFrames`] samples the tracker's 10 ms decisions at the
-//! stream's frame rate, each frame holding the viseme decided nearest its time as FAP 1
-//! (both selects, blend 63), which moves the mouth, jaw and tongue through
-//! [`crate::stream::visemes::VISEMES`] as a text-to-speech viseme track would.
+//! The frames a voice makes: [`VisemeFrames`] samples the tracker's 10 ms decisions at the
+//! stream's frame rate on the stream's clock, each frame holding the viseme decided
+//! nearest its time as FAP 1 (both selects, blend 63), which moves the mouth, jaw and
+//! tongue through [`crate::stream::visemes::VISEMES`] as a text-to-speech viseme track
+//! would.
 
 use std::sync::Arc;
 
-use super::log_mel::{frame_centre_s, HOP, SAMPLE_RATE_HZ};
+use super::live::{SpeechError, SpeechEvent, SpeechStream};
+use super::log_mel::{HOP, SAMPLE_RATE_HZ};
 use super::model::VisemeModel;
-use super::resample::{RateError, ToModelRate};
-use super::tracker::{Decision, VisemeTracker};
+use super::tracker::Decision;
 use crate::stream::visemes::single;
 use crate::stream::Frame;
 use crate::voice::Voice;
 
-/// Frames at `fps` from 10 ms decisions.
+/// Frames at `fps` from decisions, on the stream's clock (seconds).
 pub struct VisemeFrames {
     fps: f64,
-    /// The next frame's number; frame `k` is at `k / fps` s.
+    /// Frame 0's time; frame `k` is at `origin_s + k / fps`.
+    origin_s: f64,
+    /// The next frame's number.
     next: u64,
 }
 
 impl VisemeFrames {
-    pub fn new(fps: f64) -> Self {
-        VisemeFrames { fps, next: 0 }
-    }
-
-    fn time_s(&self, k: u64) -> f64 {
-        k as f64 / self.fps
-    }
-
-    /// Takes the next decision and calls `on_frame` for each frame whose nearest decision
-    /// it is (the frames up to half a step after its centre).
-    pub fn push(&mut self, decision: &Decision, mut on_frame: impl FnMut(Frame)) {
-        let half_step_s = HOP as f64 / f64::from(SAMPLE_RATE_HZ) / 2.0;
-        while self.time_s(self.next) < decision.time_s + half_step_s {
-            on_frame(self.frame(decision.viseme));
+    pub fn new(fps: f64, origin_s: f64) -> Self {
+        VisemeFrames {
+            fps,
+            origin_s,
+            next: 0,
         }
     }
 
-    /// The stream ends at `end_s`: the frames before it still owed, from the last decision.
-    pub fn finish(&mut self, last: Option<&Decision>, end_s: f64, mut on_frame: impl FnMut(Frame)) {
-        let viseme = last.map_or(0, |d| d.viseme);
-        while self.time_s(self.next) < end_s {
+    fn time_s(&self, k: u64) -> f64 {
+        self.origin_s + k as f64 / self.fps
+    }
+
+    /// The next frame's time, s.
+    pub fn next_s(&self) -> f64 {
+        self.time_s(self.next)
+    }
+
+    /// Takes the next decision, centred at `time_s` on the stream's clock, and calls
+    /// `on_frame` for each frame whose nearest decision it is (the frames up to half a
+    /// step after its centre).
+    pub fn push(&mut self, time_s: f64, viseme: u8, mut on_frame: impl FnMut(Frame)) {
+        let half_step_s = HOP as f64 / f64::from(SAMPLE_RATE_HZ) / 2.0;
+        while self.next_s() < time_s + half_step_s {
             on_frame(self.frame(viseme));
+        }
+    }
+
+    /// The voice stops at `end_s`: the frames before it still owed, showing `viseme`.
+    pub fn finish(&mut self, viseme: u8, end_s: f64, mut on_frame: impl FnMut(Frame)) {
+        while self.next_s() < end_s {
+            on_frame(self.frame(viseme));
+        }
+    }
+
+    /// The next frame only, showing `viseme`.
+    pub fn one(&mut self, viseme: u8) -> Frame {
+        self.frame(viseme)
+    }
+
+    /// No frames until `t_s` (a pause in the voice): the next frame is the first at or
+    /// after it.
+    pub fn skip_to(&mut self, t_s: f64) {
+        // Less than a microsecond early is the same instant (rounding).
+        let k = ((t_s - self.origin_s) * self.fps - 1e-6 * self.fps).ceil();
+        if k.is_finite() && k > self.next as f64 {
+            self.next = k as u64;
         }
     }
 
     fn frame(&mut self, viseme: u8) -> Frame {
         let frame = Frame {
             seq: self.next,
-            time_s: self.time_s(self.next),
+            time_s: self.next_s(),
             viseme: Some(single(viseme)),
             ..Frame::default()
         };
@@ -58,55 +85,37 @@ impl VisemeFrames {
     }
 }
 
-/// A whole voice's frames at `fps`, and its 10 ms decisions.
+/// A whole voice's frames at `fps` from its first sample at 0 s, and its 10 ms decisions.
 pub fn speech_frames(
     voice: &Voice,
     model: Arc<VisemeModel>,
     fps: f64,
-) -> Result<(Vec<Frame>, Vec<Decision>), RateError> {
-    let mut resampler = ToModelRate::new(voice.sample_rate)?;
-    let samples: Vec<f32> = voice.samples.iter().map(|&s| f32::from(s) / 32768.0).collect();
-    let mut at_model_rate = Vec::with_capacity(samples.len());
-    resampler.push(&samples, &mut at_model_rate);
-    let mut tracker = VisemeTracker::new(model);
-    let mut decisions = Vec::new();
-    tracker.push(&at_model_rate, |d| decisions.push(*d));
-    tracker.finish(|d| decisions.push(*d));
-    let mut sampler = VisemeFrames::new(fps);
-    let mut frames = Vec::new();
-    for decision in &decisions {
-        sampler.push(decision, |f| frames.push(f));
-    }
-    sampler.finish(decisions.last(), voice.duration_s(), |f| frames.push(f));
-    debug_assert!(decisions
-        .iter()
-        .enumerate()
-        .all(|(i, d)| d.time_s == frame_centre_s(i)));
+) -> Result<(Vec<Frame>, Vec<Decision>), SpeechError> {
+    let mut speech = SpeechStream::new(model, fps);
+    let (mut frames, mut decisions) = (Vec::new(), Vec::new());
+    let mut on = |event: SpeechEvent| match event {
+        SpeechEvent::Frame(frame) => frames.push(frame),
+        SpeechEvent::Decided(decision) => decisions.push(decision),
+    };
+    speech.push(0.0, voice.sample_rate, &voice.samples, &mut on)?;
+    speech.finish(&mut on);
     Ok((frames, decisions))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn decision(frame: usize, viseme: u8) -> Decision {
-        Decision {
-            frame,
-            time_s: frame_centre_s(frame),
-            viseme,
-            probability: [0.0; 15],
-        }
-    }
+    use crate::speech::log_mel::frame_centre_s;
 
     #[test]
     fn each_frame_takes_the_decision_nearest_its_time() {
         // 25 fps: frames at 0, 40, 80 ms; decisions centred at 12.5, 22.5, ... ms.
-        let mut sampler = VisemeFrames::new(25.0);
+        let mut sampler = VisemeFrames::new(25.0, 0.0);
         let mut frames = Vec::new();
         for i in 0..10 {
-            sampler.push(&decision(i, i as u8), |f| frames.push(f));
+            sampler.push(frame_centre_s(i), i as u8, |f| frames.push(f));
         }
-        sampler.finish(Some(&decision(9, 9)), 0.2, |f| frames.push(f));
+        sampler.finish(9, 0.2, |f| frames.push(f));
         let visemes: Vec<i32> = frames.iter().map(|f| f.viseme.unwrap().select1).collect();
         // 0 ms -> decision 0 (12.5 ms); 40 -> 3 (42.5); 80 -> 7 (82.5); 120, 160 -> the last.
         assert_eq!(visemes, [0, 3, 7, 9, 9]);

@@ -12,7 +12,7 @@ use std::collections::HashMap;
 
 use safetensors::{Dtype, SafeTensors};
 
-use super::log_mel::MELS;
+use super::log_mel::{HOP, MELS, SAMPLE_RATE_HZ, WINDOW};
 
 /// Visemes the model tells apart: MPEG-4's (Oculus's) 15, `sil` first.
 pub const VISEME_COUNT: usize = 15;
@@ -277,6 +277,13 @@ impl VisemeModel {
     /// Frames after the decided one the model needs.
     pub fn lookahead_frames(&self) -> usize {
         self.context.last().map_or(0, |&o| o.max(0) as usize)
+    }
+
+    /// Seconds from a sample arriving to the decision of the frame centred on it: the
+    /// look-ahead frames and the half window after the centre.
+    pub fn lookahead_s(&self) -> f64 {
+        let samples = self.lookahead_frames() * HOP + WINDOW / 2;
+        samples as f64 / f64::from(SAMPLE_RATE_HZ)
     }
 
     /// Frames before the decided one the model needs.

@@ -9,7 +9,7 @@
 
 use std::sync::Arc;
 
-use super::log_mel::{frame_centre_s, LogMel, HOP, MELS, SAMPLE_RATE_HZ, WINDOW};
+use super::log_mel::{frame_centre_s, LogMel, MELS};
 use super::model::{Dense, VisemeModel, FEATURES, VISEME_COUNT};
 
 /// One decided 10 ms frame.
@@ -60,13 +60,6 @@ impl VisemeTracker {
             filter: None,
             model,
         }
-    }
-
-    /// Seconds from a sample arriving to the decision of the frame centred on it: the
-    /// model's look-ahead frames and the half window after the centre.
-    pub fn lookahead_s(&self) -> f64 {
-        let samples = self.model.lookahead_frames() * HOP + WINDOW / 2;
-        samples as f64 / f64::from(SAMPLE_RATE_HZ)
     }
 
     /// Takes samples at 16 kHz (full scale -1..1) and calls `on_decision` for each frame
@@ -246,7 +239,7 @@ mod tests {
     fn the_look_ahead_is_four_frames_and_half_a_window() {
         let tracker = VisemeTracker::new(Arc::new(VisemeModel::embedded().unwrap()));
         assert_eq!(tracker.model.lookahead_frames(), 4);
-        assert!((tracker.lookahead_s() - 0.0525).abs() < 1e-12);
+        assert!((tracker.model.lookahead_s() - 0.0525).abs() < 1e-12);
     }
 
     #[test]

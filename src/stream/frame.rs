@@ -34,6 +34,22 @@ pub struct VisemeFap {
     pub definition: i32,
 }
 
+impl VisemeFap {
+    /// The viseme a viewer frame names (`FWF2`'s `viseme` section): the shape used, not
+    /// one being defined, with its selects and blend in MPEG-4's ranges; `None` otherwise.
+    pub fn to_wire(self) -> Option<facewire_proto::viewer_frame::FrameViseme> {
+        let byte = |x: i32, max: i32| u8::try_from(x).ok().filter(|_| (0..=max).contains(&x));
+        if self.definition != 0 {
+            return None;
+        }
+        Some(facewire_proto::viewer_frame::FrameViseme {
+            select1: byte(self.select1, 14)?,
+            select2: byte(self.select2, 14)?,
+            blend: byte(self.blend, 63)?,
+        })
+    }
+}
+
 /// MPEG-4 FAP 2, the high-level expression: two of the six standard expressions with
 /// intensities, kept as read. It moves the mask through the shapes of
 /// [`super::expressions::EXPRESSIONS`].

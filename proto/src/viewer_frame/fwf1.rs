@@ -168,5 +168,6 @@ pub(super) fn read(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
         parts,
         folds,
         eyes: Vec::new(),
+        viseme: None,
     })
 }

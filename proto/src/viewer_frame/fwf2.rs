@@ -22,13 +22,16 @@
 //!    7  part_deltas    part u8, step f32, vertex_count u32, moved u32, encoding u8, u32 length + block
 //!    8  heat           max f32, count u32, count x u8
 //!    9  eye_motion     eye u8, quaternion x y z w, translation x y z (7 x f32)
+//!   10  viseme         select1 u8, select2 u8, blend u8 (MPEG-4 FAP 1)
 //! ```
 
 use super::fields::{
     read_folds, read_heat, read_lip, read_motion, read_timing, write_folds, write_heat, write_lip,
     write_motion, write_timing,
 };
-use super::{EyeMotion, FrameContent, FrameHeader, FrameLayout, PartDeltas, RigidMotion, ViewerFrame};
+use super::{
+    EyeMotion, FrameContent, FrameHeader, FrameLayout, FrameViseme, PartDeltas, RigidMotion, ViewerFrame,
+};
 use crate::delta_block::{self, DeltaBlockEncoder, MovedField, MovedVertex};
 use crate::sections::{read_sections, KindsSeen, Section, SectionsOut};
 use crate::{DecodeError, Reader, Writer};
@@ -43,10 +46,11 @@ const LIP_FOLDS: u8 = 6;
 const PART_DELTAS: u8 = 7;
 const HEAT: u8 = 8;
 const EYE_MOTION: u8 = 9;
+const VISEME: u8 = 10;
 
 /// Every section kind this server may put in a frame, by number and name: what the
 /// snapshot's `sections` lists.
-pub const SECTIONS: [(u8, &str); 9] = [
+pub const SECTIONS: [(u8, &str); 10] = [
     (DELTAS, "deltas"),
     (LIP_ROUGHNESS, "lip_roughness"),
     (LABEL, "label"),
@@ -56,6 +60,7 @@ pub const SECTIONS: [(u8, &str); 9] = [
     (PART_DELTAS, "part_deltas"),
     (HEAT, "heat"),
     (EYE_MOTION, "eye_motion"),
+    (VISEME, "viseme"),
 ];
 
 /// A delta block's encoding byte.
@@ -125,6 +130,13 @@ pub(super) fn write(
         write_motion(out, &eye.motion);
         SectionsOut::close(out, slot);
     }
+    if let Some(viseme) = content.viseme {
+        let slot = sections.open(out, VISEME);
+        out.put_u8(viseme.select1);
+        out.put_u8(viseme.select2);
+        out.put_u8(viseme.blend);
+        SectionsOut::close(out, slot);
+    }
     sections.finish(out);
 }
 
@@ -173,7 +185,7 @@ pub(super) fn read(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
     let mut r = Reader::new(bytes);
     let header = read_header(&mut r)?;
     let mut seen = KindsSeen::new();
-    let (mut block, mut lip, mut label, mut folds) = (None, None, None, None);
+    let (mut block, mut lip, mut label, mut folds, mut viseme) = (None, None, None, None, None);
     let (mut head, mut jaw) = (RigidMotion::IDENTITY, RigidMotion::IDENTITY);
     let mut parts: Vec<PartDeltas> = Vec::new();
     let mut eyes: Vec<EyeMotion> = Vec::new();
@@ -240,6 +252,10 @@ pub(super) fn read(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
                 let motion = read_motion(body, "eye motion")?;
                 eyes.push(EyeMotion { eye, motion });
             }
+            VISEME => {
+                seen.mark(kind, at, "viseme")?;
+                viseme = Some(read_viseme(body)?);
+            }
             HEAT => {
                 seen.mark(kind, at, "heat")?;
                 heat_section = Some(section);
@@ -286,5 +302,26 @@ pub(super) fn read(bytes: &[u8]) -> Result<ViewerFrame, DecodeError> {
         parts,
         folds,
         eyes,
+        viseme,
     })
+}
+
+fn read_viseme(body: &mut Reader<'_>) -> Result<FrameViseme, DecodeError> {
+    let at = body.position();
+    let viseme = FrameViseme {
+        select1: body.u8("viseme")?,
+        select2: body.u8("viseme")?,
+        blend: body.u8("viseme")?,
+    };
+    if viseme.select1 > 14 || viseme.select2 > 14 || viseme.blend > 63 {
+        return Err(DecodeError::Invalid {
+            field: "viseme",
+            at,
+            problem: format!(
+                "selects {} and {}, blend {}: expected visemes 0-14 and a blend of 0-63",
+                viseme.select1, viseme.select2, viseme.blend
+            ),
+        });
+    }
+    Ok(viseme)
 }

@@ -149,6 +149,18 @@ pub struct ViewerFrame {
     /// The turned eyeballs' motions, in increasing eye (`FWF2` only); eyes not listed look
     /// ahead.
     pub eyes: Vec<EyeMotion>,
+    /// The mouth shape that drove the frame, when its parameters named one (`FWF2` only).
+    pub viseme: Option<FrameViseme>,
+}
+
+/// The viseme of a frame: MPEG-4 FAP 1 as the producer gave it, or as the server derived
+/// it from the stream's voice (`derive=visemes`): `blend / 63` of `select1`, the rest of
+/// `select2`, each an MPEG-4 viseme number (0-14, the Oculus order `sil`, `PP`, ... `ou`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FrameViseme {
+    pub select1: u8,
+    pub select2: u8,
+    pub blend: u8,
 }
 
 /// An eyeball's motion in one frame: the turn about its centre (head units, before the
@@ -236,6 +248,8 @@ pub struct FrameContent<'a> {
     /// The eyeballs turned in this frame (`FWF2` only: `FWF1` is frozen and has no place
     /// for them).
     pub eyes: &'a [EyeMotion],
+    /// The frame's viseme (`FWF2` only).
+    pub viseme: Option<FrameViseme>,
 }
 
 /// Encodes frames into reused buffers.

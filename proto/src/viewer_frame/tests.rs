@@ -28,6 +28,7 @@ fn content<'a>(deltas: &'a [[f32; 3]], lip: &'a LipRoughness, deflate: bool) -> 
         tongue: None,
         folds: None,
         eyes: &[],
+        viseme: None,
     }
 }
 
@@ -93,6 +94,7 @@ fn every_field_travels_in_both_layouts_with_quantization_bounded_by_half_a_step(
                     tongue: Some((3, &tongue)),
                     folds: Some(FOLDS),
                     eyes: &[],
+                    viseme: None,
                 },
             );
             assert_eq!(&bytes[..4], &layout.magic());
@@ -448,4 +450,33 @@ fn eye_motions_travel_in_fwf2_by_eye_and_fwf1_has_no_place_for_them() {
     short[36] += 1;
     short.extend_from_slice(&[9, 5, 0, 0, 0, 1, 0, 0, 0, 0]);
     assert_eq!(field(&short), Some("eye motion"));
+}
+
+#[test]
+fn a_frame_s_viseme_goes_in_fwf2_and_a_bad_one_is_named() {
+    let lip = LipRoughness::default();
+    let viseme = FrameViseme {
+        select1: 1,
+        select2: 10,
+        blend: 40,
+    };
+    let with = FrameContent {
+        viseme: Some(viseme),
+        ..content(&[[1.0, 0.0, 0.0]], &lip, true)
+    };
+    let without = encode(FrameLayout::Fwf2, &content(&[[1.0, 0.0, 0.0]], &lip, true));
+    let bytes = encode(FrameLayout::Fwf2, &with);
+    // Kind, length, three bytes.
+    assert_eq!(bytes.len() - without.len(), 8);
+    assert_eq!(decode(&bytes).unwrap().viseme, Some(viseme));
+    assert_eq!(decode(&without).unwrap().viseme, None);
+    assert_eq!(decode(&encode(FrameLayout::Fwf1, &with)).unwrap().viseme, None);
+    let mut out_of_range = bytes.clone();
+    let at = without.len() + 5;
+    out_of_range[at] = 15;
+    assert_eq!(decode(&out_of_range).unwrap_err().field(), Some("viseme"));
+    let mut short = bytes.clone();
+    short.truncate(bytes.len() - 1);
+    short[without.len() + 1] = 2;
+    assert_eq!(decode(&short).unwrap_err().field(), Some("viseme"));
 }
