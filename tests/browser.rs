@@ -106,6 +106,10 @@ impl Browser {
             tokio::time::sleep(Duration::from_millis(100)).await;
         }
         let profile = tempfile::tempdir().unwrap();
+        let microphone = format!(
+            "--use-file-for-fake-audio-capture={}",
+            common::repo_path("data/streams/syllables.wav").display()
+        );
         let args = [
             "--headless",
             "--no-sandbox",
@@ -119,6 +123,10 @@ impl Browser {
             "--disable-sync",
             "--window-size=1280,1000",
             &format!("--user-data-dir={}", profile.path().display()),
+            // The microphone is the syllable voice, looped, granted without asking.
+            "--use-fake-ui-for-media-stream",
+            "--use-fake-device-for-media-stream",
+            &microphone,
         ];
         let capabilities = json!({ "capabilities": { "alwaysMatch": {
             "browserName": "chrome",
@@ -632,6 +640,58 @@ async fn check_the_inner_mouth_close_up(browser: &Browser, url: &str, long: Dura
     }
     check_the_tongue(browser, url, long).await;
     check_the_eyes(browser, url, long).await;
+    check_the_microphone_talks(browser, url, long).await;
+}
+
+/// The Talk button: the microphone (Chromium's fake one, playing the syllable voice) is
+/// the producer of the head's `talk` stream, the server derives the face from the voice,
+/// and the view shows its visemes, closures and open vowels among them; pressed again, the
+/// stream ends.
+async fn check_the_microphone_talks(browser: &Browser, url: &str, long: Duration) {
+    browser.open(&format!("{url}?head=ict&stream=main")).await;
+    browser
+        .wait_for("the main stream live", &state_is("status-0", "live"), long)
+        .await;
+    browser.click("#talk").await;
+    browser
+        .wait_for(
+            "the microphone talking",
+            "return window.facewireTalk.state === 'talking'",
+            Duration::from_secs(20),
+        )
+        .await;
+    browser
+        .js("const shown = document.getElementById('syllable-0');
+             window.seenVisemes = new Set();
+             new MutationObserver(() => window.seenVisemes.add(shown.textContent))
+               .observe(shown, { childList: true, characterData: true, subtree: true });")
+        .await;
+    assert!(browser
+        .js("return location.search")
+        .await
+        .as_str()
+        .unwrap()
+        .contains("stream=talk"));
+    browser
+        .wait_for(
+            "closed lips and an open vowel from the microphone",
+            "return window.seenVisemes.has('PP') && window.seenVisemes.has('aa')",
+            Duration::from_secs(40),
+        )
+        .await;
+    let message = browser
+        .js("return document.getElementById('page-message').hidden")
+        .await;
+    assert_eq!(message, true, "the page complains");
+    browser.click("#talk").await;
+    browser
+        .wait_for(
+            "the talk stream to end",
+            &state_is("status-0", "ended"),
+            Duration::from_secs(20),
+        )
+        .await;
+    assert_eq!(browser.js(&text_of("talk")).await, "Talk");
 }
 
 /// The ICT head's eyeballs, listed and drawn; a frame that turns them changes the picture

@@ -1048,9 +1048,9 @@ async fn a_voice_alone_animates_the_head_and_the_producer_sees_what_was_derived(
     assert!(matches!(next_json(&mut viewer).await, ServerMessage::Snapshot(_)));
     let mut producer =
         connect(&server.ws("/v1/heads/mh/streams/s/produce?derive=visemes&fps=25&derived=1")).await;
-    // "ba", "bi", "bu": 1.8 s of voice from the syllables' 5.4 s, sent at once (the lead
+    // "ma", "mi", "mu": 1.8 s of voice from the syllables' 7.2 s, sent at once (the lead
     // allows 2 s), then a parameter frame, which a derived stream refuses.
-    let from_s = 9.0 * SYLLABLE_S;
+    let from_s = 12.0 * SYLLABLE_S;
     for chunk in voice_chunks(from_s, 90) {
         producer
             .send(Message::Binary(chunk.encode().into()))
@@ -1095,7 +1095,7 @@ async fn a_voice_alone_animates_the_head_and_the_producer_sees_what_was_derived(
         }
     }
     // 25 frames a second from the first chunk's t over the 1.8 s, and perhaps a last one
-    // closing the mouth; each b closes the lips within its syllable's first 0.25 s.
+    // closing the mouth; each m closes the lips within its syllable's first 0.25 s.
     assert!((45..=46).contains(&derived.len()), "{}", derived.len());
     for (k, (seq, t, _)) in derived.iter().enumerate() {
         assert_eq!(*seq, k as u64);

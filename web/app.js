@@ -8,7 +8,8 @@
 // appear) and /v1/algorithms, runs one view or two side by side (one shared camera), and
 // the drawing loop: once per animation frame each view decodes only its newest frame, and
 // two views draw the same sequence number so they stay in step. Under them, the chosen
-// head's fit report (fit.js), fetched again when the head's status changes.
+// head's fit report (fit.js), fetched again when the head's status changes. The Talk
+// button makes the microphone the producer of the head's `talk` stream (talk.js).
 
 import { attachPointerControls, handleCameraKey, OrbitCamera } from "./camera.js";
 import { LiveChart } from "./chart.js";
@@ -17,9 +18,12 @@ import { fitOutcome, fitPaths } from "./fit.js";
 import { Nodes } from "./nodes.js";
 import { DEFAULT_HEAT_MAX, Panel } from "./panel.js";
 import { audioCodec, quantile, Sound } from "./sound.js";
+import { Talk } from "./talk.js";
 
 /** A view whose last frame is older than this does not hold the other one back. */
 const STALE_MS = 300;
+/** The stream the Talk button produces (the microphone, `derive=visemes`). */
+const TALK_STREAM = "talk";
 /** How often the head and stream lists are read again. */
 const LIST_REFRESH_MS = 5000;
 
@@ -33,6 +37,7 @@ const controls = {
   resetView: byId("reset-view"),
   mouthView: byId("mouth-view"),
   sound: byId("sound"),
+  talk: byId("talk"),
   volume: byId("volume"),
   views: byId("views"),
   message: byId("page-message"),
@@ -66,6 +71,9 @@ const page = {
 };
 const camera = new OrbitCamera();
 const sound = new Sound({ onChange: showSoundState });
+const talk = new Talk({ onState: showTalkState });
+// For tests: the microphone's producer.
+window.facewireTalk = talk;
 /** The codec view 1 asks for (null: none), chosen at start. */
 let soundCodec = null;
 // For tests and the curious: each drawn frame's distance from its sound (sound.syncLog).
@@ -320,6 +328,36 @@ async function toggleSound() {
   }
 }
 
+/**
+ * The Talk button: the microphone becomes the producer of the chosen head's `talk` stream,
+ * its face derived from the voice by the server, and the views watch that stream; pressed
+ * again, the stream ends.
+ */
+function toggleTalk() {
+  if (talk.talking) {
+    talk.stop();
+    return;
+  }
+  page.stream = TALK_STREAM;
+  fillStreamPicker();
+  reconnectAll();
+  const query = new URLSearchParams({ derive: "visemes" });
+  if (page.token) {
+    query.set("token", page.token);
+  }
+  const path = `/v1/heads/${encodeURIComponent(page.head)}/streams/${TALK_STREAM}/produce?${query}`;
+  talk.start(nodes.wsUrl(path));
+}
+
+function showTalkState(state, message) {
+  const on = state === "talking" || state === "starting";
+  controls.talk.setAttribute("aria-pressed", String(on));
+  controls.talk.textContent = on ? "Stop talking" : "Talk";
+  if (state === "error") {
+    showPageMessage(`Talk: ${message}.`);
+  }
+}
+
 function showSoundState() {
   const on = sound.playing && !sound.muted;
   controls.sound.setAttribute("aria-pressed", String(on));
@@ -472,6 +510,7 @@ async function start() {
   controls.resetView.addEventListener("click", () => camera.reset());
   controls.mouthView.addEventListener("click", () => setCloseUp(!camera.closeUp));
   controls.sound.addEventListener("click", toggleSound);
+  controls.talk.addEventListener("click", toggleTalk);
   controls.volume.addEventListener("input", () => sound.setVolume(Number(controls.volume.value)));
   const asked = params.get("audio");
   soundCodec = asked === "none" ? null : asked === "pcm" || asked === "opus" ? asked : await audioCodec();

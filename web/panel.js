@@ -15,6 +15,14 @@ import { CLOSE } from "./codes.js";
 import { quantile } from "./sound.js";
 import { VIEW_FORMAT, ViewerSocket } from "./stream.js";
 
+/** The Oculus names of the 15 MPEG-4 visemes, in their order (FWF2 `viseme`). */
+const VISEME_NAMES = ["sil", "PP", "FF", "TH", "DD", "kk", "CH", "SS", "nn", "RR", "aa", "E", "ih", "oh", "ou"];
+
+/** What a frame's viseme shows, for a frame without a label (a face derived from a voice). */
+function visemeName(viseme) {
+  return viseme ? VISEME_NAMES[viseme.blend >= 32 ? viseme.select1 : viseme.select2] : null;
+}
+
 /** Raw frames kept while waiting to be drawn; older ones are dropped. */
 const KEEP_FRAMES = 8;
 /** While the sound plays frames wait for their `t` to be heard: up to 3 s of 30 fps. */
@@ -406,8 +414,9 @@ export class Panel {
       this.showMessage(eyeProblem);
     }
     this.renderer.setHeat(frame.face, this.heatScale());
-    this.parts.syllable.textContent = frame.label ?? "–";
-    this.parts.label.textContent = frame.label ?? "";
+    const said = frame.label ?? visemeName(frame.viseme);
+    this.parts.syllable.textContent = said ?? "–";
+    this.parts.label.textContent = said ?? "";
     this.folds = frame.folds;
     this.stats.drawn += 1;
     this.stats.eyeUs += Date.now() * 1000 - frame.serverReceiveUs;

@@ -333,6 +333,30 @@ def batch_with_voice(client: fw.Client, url: str, head: str, stream: str,
     return answer, problems
 
 
+def derived_face(url: str, head: str, stream: str) -> List[str]:
+    """A producer of audio alone (``derive="visemes"``, told each derived frame): half a
+    second of sound gives the frames of half a second at 25 fps, in order on the audio's
+    clock, and a parameter frame is refused by name. Returns the problems found."""
+    problems: List[str] = []
+    with fw.Producer(url, head, stream, timeout=30.0, derive="visemes", fps=25, derived=True) as producer:
+        producer.send_audio(3.0, [(i * 37) % 4000 - 2000 for i in range(RATE // 2)], RATE)
+        try:
+            producer.send({"seq": 0, "t": 3.0, "au": {"jaw_drop": 0.2}})
+            problems.append("derived: a parameter frame was accepted")
+        except fw.Refused as e:
+            if (e.code, e.field) != ("bad_frame", "derive"):
+                problems.append("derived: the parameter frame was refused as %s/%s" % (e.code, e.field))
+        producer.end()
+        derived = producer.derived
+    if not 12 <= len(derived) <= 14:
+        problems.append("derived: %d frames for 0.5 s at 25 fps" % len(derived))
+    for k, frame in enumerate(derived):
+        if frame.seq != k or abs(frame.t - (3.0 + k / 25)) > 1e-9 or not 0 <= frame.confidence <= 1:
+            problems.append("derived: frame %d is %r" % (k, frame))
+            break
+    return problems
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--url", required=True, help="server base URL, http://127.0.0.1:PORT")
@@ -409,6 +433,7 @@ def main() -> int:
     batch = client.post_batch(args.head, args.stream + "-batch", frames)
     voiced_batch, voiced_problems = batch_with_voice(client, args.url, args.head,
                                                      args.stream + "-voiced", frames[:6])
+    derived_problems = derived_face(args.url, args.head, args.stream + "-derived")
     asyncio_seen, asyncio_problems = asyncio.run(
         asyncio_round(args.url, args.head, args.stream + "-asyncio", frames[:10]))
 
@@ -439,7 +464,7 @@ def main() -> int:
     result.update(seen)
     problems = (check(viewer, viewer_fwf1, sent, seen, seen_fwf1)
                 + check_audio(viewer, viewer_fwf1, audio, seen, seen_fwf1) + asyncio_problems
-                + voiced_problems)
+                + voiced_problems + derived_problems)
     result["problems"] = problems
     with open(args.out, "w", encoding="utf-8") as f:
         json.dump(result, f)

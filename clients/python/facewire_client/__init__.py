@@ -61,6 +61,7 @@ __all__ = [
     "AudioChunk",
     "AudioRefused",
     "Client",
+    "Derived",
     "ConnectionClosed",
     "FacewireError",
     "FrameError",
@@ -1797,6 +1798,19 @@ class Ack:
     ignored: List[int] = field(default_factory=list)
 
 
+@dataclass
+class Derived:
+    """A frame the server derived from the producer's voice (``derive="visemes"``), told to
+    a producer that asked (``derived=True``): frame ``seq`` at stream time ``t`` (seconds)
+    shows viseme ``viseme`` (its Oculus name, ``sil``, ``PP``, ``FF``, ... ``ou``), to which
+    the model gave probability ``confidence``."""
+
+    seq: int
+    t: float
+    viseme: str
+    confidence: float
+
+
 def _binary_layout(binary: Union[bool, str, None]) -> Optional[str]:
     """What a producer's ``binary`` option asks for: None for JSON text (False), else the
     binary layout, ``"fwp2"`` (True, the default binary layout) or ``"fwp1"`` (the frozen
@@ -1946,6 +1960,18 @@ class Producer:
     - on leaving the ``with`` block normally: the server answers ``end`` after every message
       before it, so no refusal is left unread then.
 
+    **A face from the voice alone.** ``derive="visemes"`` asks the server to derive the face
+    from the audio (PROTOCOL.md, "A face derived from the voice"): send audio only (a
+    parameter frame is refused with field ``derive``), at ``fps`` frames a second (the
+    server's 30 by default). With ``derived=True`` the server tells the producer each frame
+    it derives; they are kept, in order, in :attr:`derived` (:class:`Derived`) as the
+    producer reads the socket, and :meth:`end` reads the last of them::
+
+        with Producer(url, "scan", "talk", derive="visemes", derived=True) as producer:
+            producer.send_wav("hello.wav")
+            producer.end()
+            print([d.viseme for d in producer.derived])
+
     :meth:`send` never raises one: it returns its frame's :class:`Ack`, and keeps the
     refusals it read for those. (A frame that :meth:`send_encoded` sends in a form the
     server cannot read a ``seq`` from, right after audio, would be taken for audio's
@@ -1956,9 +1982,24 @@ class Producer:
     def __init__(self, url: str, head: str, stream: str = "main", *, token: Optional[str] = None,
                  binary: Union[bool, str] = False, timeout: float = 10.0,
                  max_fps: float = DEFAULT_MAX_FPS,
-                 max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES):
+                 max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES,
+                 derive: Optional[str] = None, fps: Optional[float] = None,
+                 derived: bool = False):
         _, ws_base = _base_urls(url)
         self.url = "%s/v1/heads/%s/streams/%s/produce" % (ws_base, _segment(head), _segment(stream))
+        query: Dict[str, str] = {}
+        if derive is not None:
+            query["derive"] = derive
+            if fps is not None:
+                query["fps"] = repr(float(fps))
+            if derived:
+                query["derived"] = "1"
+        elif fps is not None or derived:
+            raise FrameError("fps= and derived= go with derive='visemes'")
+        if query:
+            self.url += "?" + urllib.parse.urlencode(query)
+        #: The frames the server derived from the voice, as read (``derived=True``).
+        self.derived: List[Derived] = []
         #: None (JSON text), ``"fwp2"`` or ``"fwp1"``: how :meth:`send` encodes by default.
         self.binary = _binary_layout(binary)
         self.timeout = timeout
@@ -2204,6 +2245,8 @@ class Producer:
         sent before has been answered."""
         while True:
             message = self._message(self._socket.receive(self.timeout))
+            if self._keep_derived(message):
+                continue
             if not self._keep_audio_refusal(message):
                 self._audio_unanswered = 0
                 return message
@@ -2212,6 +2255,18 @@ class Producer:
         if isinstance(message, bytes):
             raise ProtocolError("a producer socket got a binary message (%d bytes)" % len(message))
         return _server_message(message, self.url)
+
+    def _keep_derived(self, message: Mapping[str, Any]) -> bool:
+        """Keeps ``message`` in :attr:`derived` if it tells of a derived frame."""
+        if message.get("type") != "derived":
+            return False
+        try:
+            self.derived.append(Derived(int(message["seq"]), float(message["t"]),
+                                        str(message["viseme"]["oculus"]),
+                                        float(message["confidence"])))
+        except (KeyError, TypeError, ValueError) as e:
+            raise ProtocolError("a derived frame without %s: %r" % (e, message), field="derived")
+        return True
 
     def _keep_audio_refusal(self, message: Mapping[str, Any]) -> bool:
         """Keeps ``message`` if it refuses an audio chunk: an ``error`` naming no ``seq``
@@ -2235,7 +2290,7 @@ class Producer:
             if arrived is None:
                 return
             message = self._message(arrived)
-            if self._keep_audio_refusal(message):
+            if self._keep_derived(message) or self._keep_audio_refusal(message):
                 continue
             if message.get("type") == "error":
                 raise _refused(message)
