@@ -10,8 +10,9 @@ synthesizer's own phoneme symbols, silence included:
                each segment's end time.
   flite()      Flite, whose -psdur prints each segment's end time.
 
-viseme_of() maps every symbol the three produce to one of VISEMES; augment() applies
-a drawn Augmentation, keeping the segments aligned with the audio.
+viseme_of() maps every symbol of their phone sets (VISEME_TABLES; Festival's voices have
+several, FESTIVAL_VOICES) to one of VISEMES; augment() applies a drawn Augmentation,
+keeping the segments aligned with the audio.
 """
 
 import ctypes
@@ -94,34 +95,189 @@ ARPABET_VISEMES = _table(
         FOLLOWING: "hh hv",
     }
 )
-VISEME_TABLES = {"espeak": ESPEAK_VISEMES, "festival": ARPABET_VISEMES, "flite": ARPABET_VISEMES}
-PAUSE = {"espeak": "_", "festival": "pau", "flite": "pau"}
+# The phone sets of Festival's other voices (training only), each every symbol of the phone
+# set the voice selects (PhoneSet.description), from its defPhoneSet features and the
+# voice's letter-to-sound rules. Velar nasals go to kk, as ng and N do above.
+# Italian (voice_lp_diphone, voice_pc_diphone): 1 marks stress; nf is the labiodental
+# nasal of "anfora", J and L are gn and gli.
+ITALIAN_VISEMES = _table(
+    {
+        "sil": "#",
+        "PP": "p b m",
+        "FF": "f v nf",
+        "DD": "t d",
+        "kk": "k g ng",
+        "CH": "S Z tS dZ",
+        "SS": "s z ts dz",
+        "nn": "n J l L",
+        "RR": "r",
+        "aa": "a a1",
+        "E": "e e1 E E1",
+        "ih": "i i1 j",
+        "oh": "o o1 O O1",
+        "ou": "u u1 w",
+    }
+)
+# Czech (czech.scm; voice_czech_dita, _krb, _machac, _ph): ~ marks the hacek (c~ is c with
+# a hacek, t~ and d~ are the palatal stops), : a long vowel; c is ts, ch the velar
+# fricative x, n* the n before k and g, r~* the voiceless r with a hacek, _ the stroke
+# between two vowels, # a pause; h is the glottal fricative.
+CZECH_VISEMES = _table(
+    {
+        "sil": "# _",
+        "PP": "p b m",
+        "FF": "f v",
+        "DD": "t d t~ d~",
+        "kk": "k g ch n*",
+        "CH": "c~ dz~ s~ z~",
+        "SS": "s z c dz",
+        "nn": "n n~ l",
+        "RR": "r r~ r~*",
+        "aa": "a a:",
+        "E": "e e:",
+        "ih": "i i: j",
+        "oh": "o o:",
+        "ou": "u u:",
+        FOLLOWING: "h",
+    }
+)
+# Russian (msu_ru_nsh_phoneset.scm; voice_msu_ru_nsh_clunits): a doubled consonant is the
+# soft one, a doubled vowel the stressed one; ae, ay and ur are the most reduced vowels,
+# c is ts, ch and sch the soft affricate and fricative, h the velar fricative x, y and yy
+# the vowel of "ty".
+RUSSIAN_VISEMES = _table(
+    {
+        "sil": "pau",
+        "PP": "p pp b bb m mm",
+        "FF": "f ff v vv",
+        "DD": "t tt d dd",
+        "kk": "k kk g gg h hh",
+        "CH": "ch sh sch zh",
+        "SS": "s ss z zz c",
+        "nn": "n nn l ll",
+        "RR": "r rr",
+        "aa": "aa a ae ay",
+        "E": "ee e",
+        "ih": "ii i yy y j",
+        "oh": "oo",
+        "ou": "uu u ur",
+    }
+)
+# Finnish (finnish_phones.scm, simplified WorldBet; voice_suo_fi_lj_diphone,
+# voice_hy_fi_mv_diphone): : marks a long sound; @ is a (open front), 7 is o (front
+# rounded), y the front rounded close vowel, & a schwa, T and D: the English th, N the
+# velar nasal, ## a phrase break.
+FINNISH_VISEMES = _table(
+    {
+        "sil": "## #",
+        "PP": "p b m p: b: m:",
+        "FF": "f v f: v:",
+        "TH": "T T: D:",
+        "DD": "t d t: d:",
+        "kk": "k g N k: g: N:",
+        "CH": "S S: Z:",
+        "SS": "s s: z:",
+        "nn": "n l L n: l: L:",
+        "RR": "r r:",
+        "aa": "a a: @ @: &",
+        "E": "e e:",
+        "ih": "i i: y y: j j:",
+        "oh": "o o: 7 7:",
+        "ou": "u u: w w:",
+        FOLLOWING: "h h:",
+    }
+)
+# Central Catalan (upc_catalan_phones-central.scm; voice_upc_ca_ona_hts): 1 marks stress,
+# ax is the schwa, J and L are ny and ll, rr the trill, _ and # pauses.
+CATALAN_VISEMES = _table(
+    {
+        "sil": "pau _ #",
+        "PP": "p b m",
+        "FF": "f",
+        "DD": "t d",
+        "kk": "k g",
+        "CH": "S Z",
+        "SS": "s z",
+        "nn": "n J l L",
+        "RR": "r rr",
+        "aa": "a a1 ax",
+        "E": "e e1 E E1",
+        "ih": "i i1 j",
+        "oh": "o o1 O O1",
+        "ou": "u u1 w",
+    }
+)
+# The phone set of the three IIT Madras / C-DAC voices (hindi_phones.scm, and the same
+# in marathi_ and telugu_phones.scm; voice_hindi_NSK_diphone, voice_marathi_NSK_diphone,
+# voice_telugu_NSK_diphone): T D N td are the retroflex stops and nasal, th dh tth ddh
+# the dental stops (so DD, not TH), bh kh gh the aspirates (the letter-to-sound rules
+# write most aspirates as the stop then h), j the affricate of "jal", y the glide, L the
+# retroflex lateral, R the flap, v the labiodental approximant, ksh and sri the clusters
+# of ksha and shri, @ a long central vowel. The set's featureless x, which the rules
+# never write, has no viseme.
+INDIC_VISEMES = _table(
+    {
+        "sil": "pau",
+        "PP": "p b bh m",
+        "FF": "f v",
+        "DD": "T D td th dh tth ddh",
+        "kk": "k g kh gh",
+        "CH": "ch j sh zh ksh sri",
+        "SS": "s",
+        "nn": "n N l L",
+        "RR": "r R",
+        "aa": "a aa @",
+        "E": "eh ee ay",
+        "ih": "ih iy y",
+        "oh": "oh oo aw",
+        "ou": "uh uw w",
+        FOLLOWING: "h",
+    }
+)
+# Phone set: its visemes. "festival" is Festival's radio phone set (its English voices),
+# "flite" Flite's cmu phone set.
+VISEME_TABLES = {
+    "espeak": ESPEAK_VISEMES,
+    "festival": ARPABET_VISEMES,
+    "flite": ARPABET_VISEMES,
+    "italian": ITALIAN_VISEMES,
+    "czech": CZECH_VISEMES,
+    "russian": RUSSIAN_VISEMES,
+    "finnish": FINNISH_VISEMES,
+    "catalan": CATALAN_VISEMES,
+    "indic": INDIC_VISEMES,
+}
+PAUSE = {
+    "espeak": "_", "festival": "pau", "flite": "pau",
+    "italian": "#", "czech": "#", "russian": "pau", "finnish": "#", "catalan": "pau", "indic": "pau",
+}
 
 
-def viseme_of(phoneme, synthesizer, following="sil"):
-    """The viseme of `phoneme` as `synthesizer` ("espeak", "festival", "flite") names it.
+def viseme_of(phoneme, phoneset, following="sil"):
+    """The viseme of `phoneme` of `phoneset` (a key of VISEME_TABLES: "espeak", "festival",
+    "flite", or the phone set of another Festival voice, FESTIVAL_VOICES).
 
     h and glottal stops take `following`, the viseme of the sound after them.
-    Raises UnknownPhoneme, naming the symbol and the synthesizer, for a symbol with no viseme.
+    Raises UnknownPhoneme, naming the symbol and the phone set, for a symbol with no viseme.
     """
-    symbol = phoneme.lstrip("',%=") if synthesizer == "espeak" else phoneme
-    viseme = VISEME_TABLES[synthesizer].get(symbol)
+    symbol = phoneme.lstrip("',%=") if phoneset == "espeak" else phoneme
+    viseme = VISEME_TABLES[phoneset].get(symbol)
     if viseme is None:
-        raise UnknownPhoneme(f"{synthesizer} phoneme {phoneme!r} has no viseme")
+        raise UnknownPhoneme(f"{phoneset} phoneme {phoneme!r} has no viseme")
     return following if viseme == FOLLOWING else viseme
 
 
-def is_pause(phoneme, synthesizer):
+def is_pause(phoneme, phoneset):
     """Whether `phoneme` is silence (its viseme is sil whatever follows)."""
-    return viseme_of(phoneme, synthesizer, FOLLOWING) == "sil"
+    return viseme_of(phoneme, phoneset, FOLLOWING) == "sil"
 
 
-def visemes(segments, synthesizer):
+def visemes(segments, phoneset):
     """The viseme of each of `segments`, h and glottal stops taking the next one's (sil at the end)."""
     out = []
     following = "sil"
     for _, _, phoneme in reversed(segments):
-        following = viseme_of(phoneme, synthesizer, following)
+        following = viseme_of(phoneme, phoneset, following)
         out.append(following)
     return out[::-1]
 
@@ -326,10 +482,34 @@ class Espeak:
         return samples, contiguous(ends, len(samples) / RATE, PAUSE["espeak"])
 
 
+@dataclass(frozen=True)
+class FestivalVoice:
+    """A Festival voice: the Scheme function that selects it, its phone set (a key of
+    VISEME_TABLES), and whether its durations can be stretched (a cluster unit voice
+    keeps those of the units it picks)."""
+
+    function: str
+    phoneset: str
+    stretches: bool = True
+
+
 FESTIVAL_VOICES = {
-    "kal": "voice_kal_diphone",
-    "kdl": "voice_ked_diphone",
-    "slt-hts": "voice_cmu_us_slt_arctic_hts",
+    "kal": FestivalVoice("voice_kal_diphone", "festival"),
+    "kdl": FestivalVoice("voice_ked_diphone", "festival"),
+    "slt-hts": FestivalVoice("voice_cmu_us_slt_arctic_hts", "festival"),
+    "it-lp": FestivalVoice("voice_lp_diphone", "italian"),
+    "it-pc": FestivalVoice("voice_pc_diphone", "italian"),
+    "cs-dita": FestivalVoice("voice_czech_dita", "czech"),
+    "cs-krb": FestivalVoice("voice_czech_krb", "czech"),
+    "cs-machac": FestivalVoice("voice_czech_machac", "czech"),
+    "cs-ph": FestivalVoice("voice_czech_ph", "czech"),
+    "ru-nsh": FestivalVoice("voice_msu_ru_nsh_clunits", "russian", stretches=False),
+    "fi-lj": FestivalVoice("voice_suo_fi_lj_diphone", "finnish"),
+    "fi-mv": FestivalVoice("voice_hy_fi_mv_diphone", "finnish"),
+    "ca-ona-hts": FestivalVoice("voice_upc_ca_ona_hts", "catalan"),
+    "hi-nsk": FestivalVoice("voice_hindi_NSK_diphone", "indic"),
+    "mr-nsk": FestivalVoice("voice_marathi_NSK_diphone", "indic"),
+    "te-nsk": FestivalVoice("voice_telugu_NSK_diphone", "indic"),
 }
 
 
@@ -338,44 +518,61 @@ def _scheme_string(text):
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-def festival(requests):
+class FestivalFailed(RuntimeError):
+    """Festival gave no speech for a text, or (when asked) stood silence in for a missing diphone."""
+
+
+def _stretch_line(voice, stretch):
+    """The Scheme line that makes Festival's `voice` stretch durations by `stretch`:
+    HTS's speed (-r 1/stretch) for an HTS voice, Duration_Stretch for the others."""
+    spec = FESTIVAL_VOICES[voice]
+    if not spec.stretches and stretch != 1.0:
+        raise ValueError(f"festival voice {voice} keeps its own durations (stretch {stretch})")
+    if spec.function.endswith("_hts"):
+        params = spec.function.removeprefix("voice_") + "::hts_engine_params"
+        return f"(set! hts_engine_params (append {params} '((\"-r\" {1.0 / stretch:.6f}))))"
+    return f"(Parameter.set 'Duration_Stretch {stretch:.6f})"
+
+
+def festival(requests, complete=False):
     """[(samples at RATE, segments)] for [(text, voice, stretch)], all in one festival process.
 
     `voice` is a key of FESTIVAL_VOICES; `stretch` scales durations (1.0 is the voice's
-    own rate): Duration_Stretch for the diphone voices, HTS's speed (-r 1/stretch) for slt-hts.
+    own rate; see _stretch_line), and must be 1.0 for a voice that does not stretch.
+    Raises FestivalFailed if a text gives no speech (Festival stops at a Scheme error) or,
+    with `complete`, if UniSyn used its default diphone, a pause, for a missing one (the
+    voices reading another language's text meet such pairs): the labels would put
+    phonemes in that silence.
     """
     with tempfile.TemporaryDirectory(prefix="festival-") as tmp:
         lines = []
         current = None
         for i, (text, voice, stretch) in enumerate(requests):
             if voice != current:
-                lines.append(f"({FESTIVAL_VOICES[voice]})")
+                lines.append(f"({FESTIVAL_VOICES[voice].function})")
                 current = voice
-            if voice == "slt-hts":
-                lines.append(
-                    "(set! hts_engine_params (append cmu_us_slt_arctic_hts::hts_engine_params "
-                    f"'((\"-r\" {1.0 / stretch:.6f}))))"
-                )
-            else:
-                lines.append(f"(Parameter.set 'Duration_Stretch {stretch:.6f})")
+            lines.append(_stretch_line(voice, stretch))
             base = _scheme_string(os.path.join(tmp, str(i)))[:-1]
             lines.append(f"(set! utt (utt.synth (Utterance Text {_scheme_string(text)})))")
             lines.append(f"(utt.save.wave utt {base}.wav\" 'riff)")
             lines.append(f"(utt.save.segs utt {base}.segs\")")
         script = os.path.join(tmp, "batch.scm")
-        with open(script, "w") as out:
+        with open(script, "w", encoding="utf-8") as out:
             out.write("\n".join(lines) + "\n")
-        run = subprocess.run(["festival", "-b", script], capture_output=True, text=True)
+        run = subprocess.run(["festival", "-b", script], capture_output=True, text=True, errors="replace")
+        if complete and "using default diphone" in run.stderr:
+            raise FestivalFailed(f"festival is missing a diphone for {[text for text, _, _ in requests]!r}")
         results = []
-        for i, (text, _, _) in enumerate(requests):
+        for i, (text, voice, _) in enumerate(requests):
             path = os.path.join(tmp, str(i))
             if not (os.path.exists(path + ".wav") and os.path.exists(path + ".segs")):
-                raise RuntimeError(f"festival did not synthesize {text!r}: {run.stderr.strip()[-500:]}")
+                raise FestivalFailed(f"festival did not synthesize {text!r}: {run.stderr.strip()[-500:]}")
             raw, rate = read_wav(path + ".wav")
             with open(path + ".segs") as segs:
                 ends = _festival_segs(segs.read())
             samples = to_rate(raw, rate)
-            results.append((samples, contiguous(ends, len(samples) / RATE, PAUSE["festival"])))
+            pause = PAUSE[FESTIVAL_VOICES[voice].phoneset]
+            results.append((samples, contiguous(ends, len(samples) / RATE, pause)))
         return results
 
 
@@ -484,8 +681,8 @@ def impulse_response(rt60_s, drr_db, rng):
 TELEPHONE_SOS = signal.butter(4, (300.0, 3400.0), btype="bandpass", fs=RATE, output="sos")
 
 
-def augment(samples, segments, synthesizer, augmentation, rng, bank=()):
-    """(samples, segments) of `synthesizer`'s speech after `augmentation`; `bank` holds the
+def augment(samples, segments, phoneset, augmentation, rng, bank=()):
+    """(samples, segments) of speech in `phoneset` after `augmentation`; `bank` holds the
     utterances babble is made of.
 
     Order: silence added before and after (segments shifted), reverb, noise at the SNR
@@ -495,7 +692,7 @@ def augment(samples, segments, synthesizer, augmentation, rng, bank=()):
     a = augmentation
     lead, trail = round(a.lead_s * RATE), round(a.trail_s * RATE)
     x = np.concatenate((np.zeros(lead), samples, np.zeros(trail)))
-    segments = padded(segments, lead / RATE, len(x) / RATE, PAUSE[synthesizer])
+    segments = padded(segments, lead / RATE, len(x) / RATE, PAUSE[phoneset])
     if a.rt60_s is not None:
         x = normalised(signal.fftconvolve(x, impulse_response(a.rt60_s, a.drr_db, rng))[: len(x)])
     if a.noise != "none":
@@ -505,7 +702,7 @@ def augment(samples, segments, synthesizer, augmentation, rng, bank=()):
             noise = pink_noise(len(x), rng)
         else:
             noise = babble(len(x), rng, bank)
-        labels = visemes(segments, synthesizer)
+        labels = visemes(segments, phoneset)
         speech = [x[round(s * RATE) : round(e * RATE)] for (s, e, _), v in zip(segments, labels) if v != "sil"]
         power = float(np.mean(np.concatenate(speech) ** 2)) if speech else float(np.mean(x**2))
         x = x + noise * np.sqrt(power / 10.0 ** (a.snr_db / 10.0))

@@ -4,8 +4,11 @@
   make_corpus.py OUT_DIR --set train   [--items N] [--seed S] [--jobs J]
   make_corpus.py OUT_DIR --set heldout [--seed S] [--jobs J]
 
-train: N random sentences (texts.training_sentence) spoken by eSpeak NG over the
-TRAIN_ESPEAK voices at random rate and pitch, augmented (corpus.draw_augmentation).
+train: N items, a share FESTIVAL_SHARE of them spoken by Festival's TRAIN_FESTIVAL voices
+(Italian, Czech, Russian, Finnish, Catalan, Hindi, Marathi, Telugu; none held out) at a
+random duration stretch, the rest random sentences (texts.training_sentence) spoken by
+eSpeak NG over the TRAIN_ESPEAK voices at random rate and pitch; all augmented
+(corpus.draw_augmentation).
 heldout: the 40 held-out sentences and 27 syllables spoken, clean and at the voices' own
 rate, by every HELDOUT_VOICES voice, none of which speaks in training, plus one copy of
 one voice in pink noise at 10 dB SNR.
@@ -67,6 +70,20 @@ HELDOUT_VOICES = tuple(("espeak-" + voice, "espeak", voice) for voice in HELDOUT
 # The noisy copy: (its name, the held-out voice it copies, its augmentation).
 NOISY_COPY = ("festival-kal-pink10", "festival-kal", corpus.Augmentation(noise="pink", snr_db=10.0))
 
+# Festival's training voices (keys of corpus.FESTIVAL_VOICES) and the text each reads: "en"
+# training_sentence() through its own letter-to-sound rules, or a language of
+# texts.NATIVE_WORDS for those whose text processing reads only their own script.
+TRAIN_FESTIVAL = {
+    "it-lp": "en", "it-pc": "en", "cs-dita": "en", "cs-krb": "en", "cs-machac": "en", "cs-ph": "en",
+    "ru-nsh": "ru", "fi-lj": "en", "fi-mv": "en", "ca-ona-hts": "en", "hi-nsk": "hi", "mr-nsk": "mr", "te-nsk": "te",
+}
+assert not set(TRAIN_FESTIVAL) & {voice for _, synthesizer, voice in HELDOUT_VOICES if synthesizer == "festival"}
+FESTIVAL_SHARE = 0.35
+FESTIVAL_STRETCHES = (0.75, 1.4)
+# Texts drawn for one Festival item before giving up (a text fails when the voice lacks
+# one of its diphones: a quarter of English sentences for Italian, most for fi-lj).
+FESTIVAL_TRIES = 30
+
 ESPEAK_DEFAULTS = {"rate": 175, "pitch": 50, "pitch_range": 50}
 TRAIN_RATES = (110, 320)
 BABBLE_BANK = 24
@@ -95,24 +112,50 @@ def item_rng(seed, set_name, index):
 
 def train_speech(seed, index):
     """(choices, samples, segments, rng) of training item `index` before augmentation; the
-    augmentation is drawn from rng, the item's generator, next."""
+    augmentation is drawn from rng, the item's generator, next. choices holds the index
+    columns synthesizer, voice, rate, pitch, pitch_range and text, and the phone set."""
     rng = item_rng(seed, "train", index)
-    voice = TRAIN_ESPEAK[rng.integers(len(TRAIN_ESPEAK))]
-    choices = {
-        "voice": voice,
-        "rate": int(rng.integers(TRAIN_RATES[0], TRAIN_RATES[1] + 1)),
-        "pitch": int(rng.integers(0, 100)),
-        "pitch_range": int(rng.integers(0, 100)),
-        "text": texts.training_sentence(rng),
-    }
-    samples, segments = espeak().synth(
-        choices["text"], voice, choices["rate"], choices["pitch"], choices["pitch_range"], seed=int(rng.integers(2**32))
-    )
+    if rng.random() < FESTIVAL_SHARE:
+        choices, samples, segments = festival_train_speech(rng)
+    else:
+        choices, samples, segments = espeak_train_speech(rng)
     return choices, corpus.normalised(samples), segments, rng
 
 
-def write_item(out_dir, name, samples, segments, synthesizer):
-    """Writes NAME.wav and NAME.lab; returns the duration in seconds."""
+def espeak_train_speech(rng):
+    """(choices, samples, segments) of a training sentence spoken by a TRAIN_ESPEAK voice."""
+    voice = TRAIN_ESPEAK[rng.integers(len(TRAIN_ESPEAK))]
+    rate = int(rng.integers(TRAIN_RATES[0], TRAIN_RATES[1] + 1))
+    pitch, pitch_range = int(rng.integers(0, 100)), int(rng.integers(0, 100))
+    text = texts.training_sentence(rng)
+    samples, segments = espeak().synth(text, voice, rate, pitch, pitch_range, seed=int(rng.integers(2**32)))
+    choices = {"synthesizer": "espeak", "phoneset": "espeak", "voice": "espeak-" + voice, "rate": rate,
+               "pitch": pitch, "pitch_range": pitch_range, "text": text}
+    return choices, samples, segments
+
+
+def festival_train_speech(rng):
+    """(choices, samples, segments) of a text spoken by a TRAIN_FESTIVAL voice; texts the
+    voice fails on (corpus.FestivalFailed) are drawn again, up to FESTIVAL_TRIES."""
+    voices = sorted(TRAIN_FESTIVAL)
+    voice = voices[rng.integers(len(voices))]
+    spec = corpus.FESTIVAL_VOICES[voice]
+    stretch = round(float(rng.uniform(*FESTIVAL_STRETCHES)), 3) if spec.stretches else 1.0
+    language = TRAIN_FESTIVAL[voice]
+    for _ in range(FESTIVAL_TRIES):
+        text = texts.training_sentence(rng) if language == "en" else texts.native_text(rng, language)
+        try:
+            [(samples, segments)] = corpus.festival([(text, voice, stretch)], complete=True)
+        except corpus.FestivalFailed:
+            continue
+        choices = {"synthesizer": "festival", "phoneset": spec.phoneset, "voice": "festival-" + voice,
+                   "rate": f"{stretch:.3f}", "pitch": "-", "pitch_range": "-", "text": text}
+        return choices, samples, segments
+    raise RuntimeError(f"festival voice {voice} failed on {FESTIVAL_TRIES} texts")
+
+
+def write_item(out_dir, name, samples, segments, phoneset):
+    """Writes NAME.wav and NAME.lab (`segments` in `phoneset`); returns the duration in seconds."""
     corpus.write_wav(os.path.join(out_dir, name + ".wav"), samples)
     end = round(len(samples) / corpus.RATE * 1e4)
     ticks = []
@@ -123,7 +166,7 @@ def write_item(out_dir, name, samples, segments, synthesizer):
     if not ticks or ticks[0][0] != 0 or ticks[-1][1] != end:
         raise RuntimeError(f"{name}: segments do not cover the audio")
     with open(os.path.join(out_dir, name + ".lab"), "w") as lab:
-        labels = corpus.visemes(ticks, synthesizer)
+        labels = corpus.visemes(ticks, phoneset)
         for (start, stop, phoneme), viseme in zip(ticks, labels):
             lab.write(f"{start / 1e4:.4f}\t{stop / 1e4:.4f}\t{phoneme}\t{viseme}\n")
     return len(samples) / corpus.RATE
@@ -155,10 +198,10 @@ def make_train_item(task):
     choices, samples, segments, rng = train_speech(seed, index)
     augmentation = corpus.draw_augmentation(rng)
     bank = [speech for k, speech in enumerate(_bank) if k != index]
-    samples, segments = corpus.augment(samples, segments, "espeak", augmentation, rng, bank)
+    samples, segments = corpus.augment(samples, segments, choices["phoneset"], augmentation, rng, bank)
     name = f"train-{index:06d}"
-    duration = write_item(out_dir, name, samples, segments, "espeak")
-    return [row(name, "train", "espeak", "espeak-" + choices["voice"], choices["rate"], choices["pitch"],
+    duration = write_item(out_dir, name, samples, segments, choices["phoneset"])
+    return [row(name, "train", choices["synthesizer"], choices["voice"], choices["rate"], choices["pitch"],
                 choices["pitch_range"], augmentation, choices["text"], duration)]
 
 
