@@ -639,6 +639,7 @@ async fn check_the_inner_mouth_close_up(browser: &Browser, url: &str, long: Dura
         }
     }
     check_the_tongue(browser, url, long).await;
+    check_the_cut_away(browser, url, long).await;
     check_the_eyes(browser, url, long).await;
     check_the_microphone_talks(browser, url, long).await;
 }
@@ -779,6 +780,138 @@ async fn check_the_tongue(browser: &Browser, url: &str, long: Duration) {
         !address.as_str().unwrap().contains("mouth=1"),
         "the URL drops the close-up: {address}"
     );
+}
+
+/// Pixels of a screenshot (base64 PNG) within 3 of each of the flat section colours the
+/// cut-away draws (web/render.js: skin, tongue, teeth and gums, sRGB), with the mean x and
+/// the topmost y (0 at the top) of the tongue's, decoded by the page.
+async fn section_pixels(browser: &Browser, shot: &str) -> Value {
+    browser
+        .js(&format!(
+            "window.sectionCount = null; const img = new Image(); img.onload = () => {{ \
+             const c = document.createElement('canvas'); c.width = img.width; c.height = img.height; \
+             const g = c.getContext('2d'); g.drawImage(img, 0, 0); \
+             const d = g.getImageData(0, 0, c.width, c.height).data; \
+             const want = {{ skin: [0.72, 0.36, 0.34], tongue: [0.592, 0.264, 0.288], \
+               teeth: [0.744, 0.72, 0.656], gums: [0.624, 0.32, 0.336] }}; \
+             const out = {{ total: c.width * c.height, tongueX: 0, tongueTop: c.height }}; \
+             for (const k in want) out[k] = 0; \
+             for (let i = 0; i < d.length; i += 4) {{ for (const k in want) {{ \
+               if (want[k].every((v, j) => Math.abs(d[i + j] - Math.round(v * 255)) <= 3)) {{ \
+                 out[k]++; if (k === 'tongue') {{ const p = i / 4; out.tongueX += p % c.width; \
+                 out.tongueTop = Math.min(out.tongueTop, Math.floor(p / c.width)); }} }} }} }} \
+             out.tongueX = out.tongue ? out.tongueX / out.tongue : null; window.sectionCount = out; }}; \
+             img.src = 'data:image/png;base64,{shot}';"
+        ))
+        .await;
+    browser
+        .wait_for(
+            "the screenshot decoded",
+            "return window.sectionCount",
+            Duration::from_secs(10),
+        )
+        .await
+}
+
+/// The cut-away (`view=cutaway`): the mouth close-up seen from the side with the half of
+/// the head nearest the camera cut away at the midsagittal plane, the skin and the tongue
+/// in section, on a stream of the test's own holding "d" (DD) and then "k" (kk): the
+/// tongue's section moves back for k. The front look shows no section. The see-through
+/// skin and a turned cut draw without complaint, and the URL keeps the look.
+/// `FACEWIRE_SCREENSHOTS=DIR` keeps the two pictures (`DIR/cutaway-{DD,kk}.png.base64`;
+/// docs/img/cutaway-*.png are them).
+async fn check_the_cut_away(browser: &Browser, url: &str, long: Duration) {
+    browser
+        .open(&format!("{url}?head=ict&stream=cut&mouth=1&view=cutaway"))
+        .await;
+    let mut producer = connect_producer(url, "ict", "cut").await;
+    produce_line(
+        &mut producer,
+        r#"{"seq":0,"t":0,"viseme":{"oculus":"DD"}}"#.to_string(),
+    )
+    .await;
+    browser
+        .wait_for("the cut stream live", &state_is("status-0", "live"), long)
+        .await;
+    browser
+        .wait_for(
+            "the parts drawn",
+            "return document.getElementById('inner-0')?.dataset.loaded === '4'",
+            long,
+        )
+        .await;
+    tokio::time::sleep(Duration::from_millis(800)).await;
+    let dd = browser.screenshot("#canvas-0").await;
+    let dd_pixels = section_pixels(browser, &dd).await;
+    produce_line(
+        &mut producer,
+        r#"{"seq":1,"t":0.1,"viseme":{"oculus":"kk"}}"#.to_string(),
+    )
+    .await;
+    assert!(
+        browser
+            .picture_changes("#canvas-0", &dd, Duration::from_secs(5))
+            .await,
+        "the cut-away did not draw k in 5 s"
+    );
+    tokio::time::sleep(Duration::from_millis(800)).await;
+    let kk = browser.screenshot("#canvas-0").await;
+    let kk_pixels = section_pixels(browser, &kk).await;
+    println!("cut-away section pixels: d {dd_pixels}, k {kk_pixels}");
+    if let Some(dir) = std::env::var_os("FACEWIRE_SCREENSHOTS") {
+        for (name, shot) in [("DD", &dd), ("kk", &kk)] {
+            let path = std::path::Path::new(&dir).join(format!("cutaway-{name}.png.base64"));
+            std::fs::write(path, shot).unwrap();
+        }
+    }
+    for pixels in [&dd_pixels, &kk_pixels] {
+        let share = |k: &str| pixels[k].as_f64().unwrap() / pixels["total"].as_f64().unwrap();
+        assert!(share("skin") > 0.02, "the skin's section is shown: {pixels}");
+        assert!(share("tongue") > 0.002, "the tongue's section is shown: {pixels}");
+    }
+    // The side view looks from the head's left: its front is on the left of the picture.
+    let (dd_x, kk_x) = (
+        dd_pixels["tongueX"].as_f64().unwrap(),
+        kk_pixels["tongueX"].as_f64().unwrap(),
+    );
+    assert!(
+        kk_x > dd_x,
+        "the tongue is further back for k: x {kk_x:.1} against {dd_x:.1} for d"
+    );
+    let message = browser.js(&text_of("message-0")).await;
+    assert_eq!(message, "", "the page complains: {message}");
+    let address = browser.js("return location.search").await;
+    assert!(address.as_str().unwrap().contains("view=cutaway"), "{address}");
+
+    // A turned cut, the see-through skin, then the front look: no section there.
+    for (look, cut) in [("cutaway", "30"), ("see-through", "30"), ("front", "0")] {
+        browser
+            .js(&format!(
+                "const l = document.getElementById('look-0'); l.value = '{look}'; \
+                 l.dispatchEvent(new Event('change')); \
+                 const c = document.getElementById('cut-0'); c.value = '{cut}'; \
+                 c.dispatchEvent(new Event('input'));"
+            ))
+            .await;
+        tokio::time::sleep(Duration::from_millis(500)).await;
+        let address = browser.js("return location.search").await;
+        let address = address.as_str().unwrap();
+        assert_eq!(
+            address.contains(&format!("view={look}")),
+            look != "front",
+            "{address}"
+        );
+        assert_eq!(address.contains(&format!("cut={cut}")), cut != "0", "{address}");
+        let message = browser.js(&text_of("message-0")).await;
+        assert_eq!(message, "", "the page complains in {look}: {message}");
+    }
+    let front = browser.screenshot("#canvas-0").await;
+    let front_pixels = section_pixels(browser, &front).await;
+    assert_eq!(
+        front_pixels["skin"], 0,
+        "no section in the front look: {front_pixels}"
+    );
+    producer.close(None).await.unwrap();
 }
 
 /// The heat-map's scale: hidden until the heat-map is on, then picked, shown in the

@@ -1,7 +1,8 @@
-// app.js: the page. Reads ?head=&stream=&algo=&algo2=&heat=&heat2=&heatmax=&heatmax2=&mouth=&token=&nodes=&audio=
+// app.js: the page. Reads ?head=&stream=&algo=&algo2=&heat=&heat2=&heatmax=&heatmax2=&view=&view2=&cut=&cut2=&mouth=&token=&nodes=&audio=
 // (heat=1 colours by roughness, heat=folds by folds; nodes: server base URLs to fail over
 // between, nodes.js; audio=opus|pcm|none: the voice's codec, by default Opus where the
-// browser decodes it), one sound for both views (sound.js; the Sound button starts it, as
+// browser decodes it; view: front, side, cutaway or see-through, cut: the cut-away's turn
+// from the midsagittal plane in degrees), one sound for both views (sound.js; the Sound button starts it, as
 // browsers want a click before a page plays audio; once it plays, the views draw the frame
 // being heard),
 // fills the pickers from /v1/heads (read again every few seconds, so new heads and streams
@@ -173,6 +174,12 @@ function writeUrl() {
     if (panel.settings.heatMax !== DEFAULT_HEAT_MAX) {
       query.set(`heatmax${suffix}`, String(panel.settings.heatMax));
     }
+    if (panel.look.mode !== "front") {
+      query.set(`view${suffix}`, panel.look.mode);
+    }
+    if (panel.look.cutDeg !== 0) {
+      query.set(`cut${suffix}`, String(panel.look.cutDeg));
+    }
   });
   if (camera.closeUp) {
     query.set("mouth", "1");
@@ -314,6 +321,11 @@ function heatMaxParam(name) {
   return params.has(name) && value > 0 && Number.isFinite(value) ? value : DEFAULT_HEAT_MAX;
 }
 
+/** The look a view starts with, from `view` and `cut` (or `view2` and `cut2`). */
+function lookParam(suffix) {
+  return { mode: params.get(`view${suffix}`) ?? "front", cutDeg: Number(params.get(`cut${suffix}`) ?? 0) };
+}
+
 /** The Sound button: starts the sound, then mutes and unmutes it. */
 async function toggleSound() {
   if (!sound.playing) {
@@ -384,6 +396,7 @@ function addPanel(algorithm, heat, heatMax) {
     },
     onSettings: writeUrl,
     nodes,
+    look: lookParam(index === 0 ? "" : "2"),
   });
   const canvas = panel.parts.canvas;
   attachPointerControls(canvas, camera);
@@ -406,7 +419,8 @@ function setCompare(on) {
     const first = page.panels[0].settings.algorithm;
     const other = page.algorithms.find((a) => a.spec !== first)?.spec ?? first;
     addPanel(
-      params.has("algo2") ? resolveAlgorithm(params.get("algo2")) : other,
+      // A second look (view2=) at the same algorithm, unless algo2= picks one.
+      params.has("algo2") ? resolveAlgorithm(params.get("algo2")) : params.has("view2") ? first : other,
       heatParam("heat2"),
       heatMaxParam("heatmax2"),
     );
@@ -554,7 +568,7 @@ async function start() {
     showPageMessage(`The 3D view cannot start: ${error.message}`);
     return;
   }
-  setCompare(params.has("algo2"));
+  setCompare(params.has("algo2") || params.has("view2"));
   requestAnimationFrame(animate);
   setInterval(refreshHeads, LIST_REFRESH_MS);
 }

@@ -9,6 +9,10 @@ const START_PITCH = 0.08;
 const CLOSE_UP_YAW = 0.15; // nearly head-on: the lips and the teeth behind them read best
 const CLOSE_UP_PITCH = 0.05;
 const CLOSE_UP_HALF_HEIGHT_MM = 32; // a 64 mm tall view: the lips, the chin's top, the nose's base
+// Seen from the side, the close-up looks this far behind the lips and above them: the
+// middle of the oral cavity, so the lips, the teeth and the tongue's back are in view.
+const SIDE_CLOSE_UP_BEHIND_MM = 30;
+const SIDE_CLOSE_UP_ABOVE_MM = 4;
 const MAX_PITCH = 1.45;
 const KEY_STEP = 0.08; // radians per arrow key press
 const ZOOM_STEP = 1.15;
@@ -16,6 +20,7 @@ const ZOOM_STEP = 1.15;
 export class OrbitCamera {
   constructor() {
     this.target = [0, 0, 0];
+    this.sideTarget = this.target; // where a view from the side looks (matrices with a turn)
     this.radius = 1; // half the height framed
     this.depth = 0; // from the target to the front of the face
     this.extent = 1; // from the target to the farthest corner of the mesh's box
@@ -53,13 +58,20 @@ export class OrbitCamera {
     ];
     this.framings.face = {
       target,
+      sideTarget: target,
       radius: Math.min(120 * mm, Math.max(max[0] - min[0], max[1] - min[1]) / 2),
       depth: positions[nose + 2] - target[2],
       extent: extent(target),
     };
     // The mouth (head units, from the snapshot): looked at from just in front of the lips.
     this.framings.mouth = mouth
-      ? { target: [...mouth], radius: CLOSE_UP_HALF_HEIGHT_MM * mm, depth: 8 * mm, extent: extent(mouth) }
+      ? {
+          target: [...mouth],
+          sideTarget: [mouth[0], mouth[1] + SIDE_CLOSE_UP_ABOVE_MM * mm, mouth[2] - SIDE_CLOSE_UP_BEHIND_MM * mm],
+          radius: CLOSE_UP_HALF_HEIGHT_MM * mm,
+          depth: 8 * mm,
+          extent: extent(mouth),
+        }
       : null;
     this.useFraming();
   }
@@ -78,14 +90,20 @@ export class OrbitCamera {
   useFraming() {
     const framing = (this.closeUp && this.framings.mouth) || this.framings.face;
     if (framing) {
-      ({ target: this.target, radius: this.radius, depth: this.depth, extent: this.extent } = framing);
+      ({ target: this.target, sideTarget: this.sideTarget, radius: this.radius, depth: this.depth, extent: this.extent } =
+        framing);
     }
     this.reset();
   }
 
+  /** The yaw the camera starts at (and reset() goes back to). */
+  startYaw() {
+    return this.closeUp && this.framings.mouth ? CLOSE_UP_YAW : START_YAW;
+  }
+
   reset() {
     const closeUp = this.closeUp && this.framings.mouth;
-    this.yaw = closeUp ? CLOSE_UP_YAW : START_YAW;
+    this.yaw = this.startYaw();
     this.pitch = closeUp ? CLOSE_UP_PITCH : START_PITCH;
     this.zoom = 1;
     this.changed();
@@ -121,18 +139,24 @@ export class OrbitCamera {
     }
   }
 
-  /** `{ view, projection, eye }` for a viewport of the given aspect (width / height). */
-  matrices(aspect) {
+  /**
+   * `{ view, projection, eye }` for a viewport of the given aspect (width / height). `turn`
+   * (radians about the vertical, 0 from the front) is where the view looks from when the
+   * camera is at its start: a side view is the same orbit seen from its side.
+   */
+  matrices(aspect, turn = 0) {
     const fit = this.radius / Math.tan(FIELD_OF_VIEW / 2) / Math.min(1, aspect);
     const distance = (fit * 1.1 + this.depth) / this.zoom;
+    const yaw = turn === 0 ? this.yaw : this.yaw - this.startYaw() + turn;
+    const target = turn === 0 ? this.target : this.sideTarget;
     const eye = [
-      this.target[0] + distance * Math.cos(this.pitch) * Math.sin(this.yaw),
-      this.target[1] + distance * Math.sin(this.pitch),
-      this.target[2] + distance * Math.cos(this.pitch) * Math.cos(this.yaw),
+      target[0] + distance * Math.cos(this.pitch) * Math.sin(yaw),
+      target[1] + distance * Math.sin(this.pitch),
+      target[2] + distance * Math.cos(this.pitch) * Math.cos(yaw),
     ];
     const near = Math.max(distance - this.extent, distance * 0.01);
     return {
-      view: lookAt(eye, this.target, [0, 1, 0]),
+      view: lookAt(eye, target, [0, 1, 0]),
       projection: perspective(FIELD_OF_VIEW, aspect, near, distance + this.extent),
       eye,
     };

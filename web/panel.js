@@ -10,7 +10,7 @@
 // frames until then, and shows how far each drawn frame was from its sound.
 
 import { applyFrame, decodeAudio, decodeFrame, motionMatrix, readFrameHeader } from "./decode.js";
-import { HeadRenderer } from "./render.js";
+import { HeadRenderer, LOOKS } from "./render.js";
 import { CLOSE } from "./codes.js";
 import { quantile } from "./sound.js";
 import { VIEW_FORMAT, ViewerSocket } from "./stream.js";
@@ -66,6 +66,19 @@ function foldsText(folds) {
   return `${turnedOver60.toLocaleString("en")} ${triangles} over 60° (${turnedOver90.toLocaleString("en")} over 90°), ${sharpest}`;
 }
 
+/** The centre of the box around flat xyz positions. */
+function boxCentre(positions) {
+  const min = [Infinity, Infinity, Infinity];
+  const max = [-Infinity, -Infinity, -Infinity];
+  for (let i = 0; i < positions.length; i += 3) {
+    for (let k = 0; k < 3; k++) {
+      min[k] = Math.min(min[k], positions[i + k]);
+      max[k] = Math.max(max[k], positions[i + k]);
+    }
+  }
+  return min.map((m, k) => (m + max[k]) / 2);
+}
+
 export class Panel {
   /**
    * `index`: 0 or 1; `algorithms`: the /v1/algorithms list; `loadMesh(url)`: a promise of
@@ -75,7 +88,7 @@ export class Panel {
    * draws by, and `audio`: the codec this view asks for and feeds the sound with, or null
    * (the other view, or no sound).
    */
-  constructor({ index, container, algorithms, chart, loadMesh, onMesh, onSettings, nodes, sound, audio }) {
+  constructor({ index, container, algorithms, chart, loadMesh, onMesh, onSettings, nodes, sound, audio, look }) {
     this.index = index;
     this.sound = sound;
     this.audio = audio;
@@ -93,7 +106,7 @@ export class Panel {
     for (const label of fragment.querySelectorAll("label[data-for]")) {
       label.htmlFor = `${label.dataset.for}-${index}`;
     }
-    const { view: root, title, algo, heat, heatkind, heatmax, canvas } = this.parts;
+    const { view: root, title, algo, heat, heatkind, heatmax, canvas, look: lookPicker, cut } = this.parts;
     root.classList.add(`view-${index}`);
     root.setAttribute("aria-labelledby", title.id);
     title.textContent = `View ${index + 1}`;
@@ -123,11 +136,20 @@ export class Panel {
       this.needsDraw = true;
       onSettings();
     });
+    lookPicker.addEventListener("change", () => {
+      this.setLook({ ...this.look, mode: lookPicker.value });
+      onSettings();
+    });
+    cut.addEventListener("input", () => {
+      this.setLook({ ...this.look, cutDeg: Number(cut.value) });
+      onSettings();
+    });
     container.append(fragment);
     this.root = root;
     chart.setSeries(index, getComputedStyle(root).getPropertyValue("--accent").trim());
 
     this.renderer = new HeadRenderer(canvas);
+    this.setLook(look ?? { mode: "front", cutDeg: 0 });
     this.socket = new ViewerSocket({
       onSnapshot: (snapshot) => this.snapshotArrived(snapshot),
       onFrame: (buffer, arrivalUs) => this.frameArrived(buffer, arrivalUs),
@@ -166,6 +188,24 @@ export class Panel {
     heatmax.value = scale;
     this.showHeatControls();
     this.reconnect();
+  }
+
+  /**
+   * How this view looks at the head: `mode` one of render.js LOOKS (front, side, cutaway,
+   * see-through), `cutDeg` the cut's turn from the midsagittal plane (-90 to 90 degrees).
+   * Only the drawing changes; the socket stays.
+   */
+  setLook({ mode, cutDeg }) {
+    const { look, cut, cutfield, cutvalue } = this.parts;
+    const degrees = Math.max(-90, Math.min(90, Math.round(Number(cutDeg) / 5) * 5 || 0));
+    this.look = { mode: LOOKS.includes(mode) ? mode : "front", cutDeg: degrees };
+    look.value = this.look.mode;
+    cut.value = String(degrees);
+    cutvalue.textContent = `${degrees}°`;
+    cut.setAttribute("aria-valuetext", `${degrees} degrees from the midsagittal plane`);
+    cutfield.hidden = this.look.mode !== "cutaway";
+    this.renderer.setLook(this.look);
+    this.needsDraw = true;
   }
 
   /** The known streams changed (the page re-reads the list): only the messages use them. */
@@ -263,6 +303,7 @@ export class Panel {
         this.mesh = mesh;
         this.positions = new Float32Array(mesh.positions);
         this.renderer.setMesh(mesh);
+        this.renderer.setCutCentre(snapshot.mouth ?? boxCentre(mesh.positions));
         this.onMesh(snapshot.rest_mesh, mesh, snapshot.mouth);
         this.needsDraw = true;
         this.loadParts(snapshot);

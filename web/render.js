@@ -4,7 +4,11 @@
 // tongue shaped by the frame's tongue deltas first), its eyeballs (white, iris and pupil
 // about the eye's axis) each turned by the frame's gaze and then placed by the head's
 // motion, a key, fill and rim light that move with the camera (the face is always lit),
-// and an optional roughness heat-map in place of the skin colour.
+// and an optional roughness heat-map in place of the skin colour. A view looks at the
+// front, at the side, at a cut-away (a plane through the mouth, midsagittal or at any
+// angle about the vertical, removes the half nearest the camera, and what it cuts shows
+// in section: flat colours where the inside of a mesh is seen), or through a see-through
+// skin at the teeth, gums and tongue.
 
 import { applyDeltas, motionMatrix } from "./decode.js";
 
@@ -41,6 +45,12 @@ uniform vec3 u_albedo; // sRGB
 uniform vec3 u_eye_centre;
 uniform vec3 u_eye_forward;
 uniform vec2 u_eye_radii;
+// The cut: a plane in view space (normal, offset); fragments on its positive side are
+// not drawn, and the inside of a mesh seen through the cut is flat u_section. All zero:
+// no cut.
+uniform vec4 u_clip;
+uniform vec3 u_section; // sRGB
+uniform float u_alpha; // 1 but for a see-through skin
 in vec3 v_position;
 in vec3 v_rest;
 in vec3 v_normal;
@@ -68,6 +78,12 @@ vec3 light(vec3 n, vec3 to_eye, vec3 direction, vec3 colour, float shininess) {
 }
 
 void main() {
+  bool cut = dot(u_clip.xyz, u_clip.xyz) > 0.0;
+  if (cut && dot(u_clip.xyz, v_position) + u_clip.w > 0.0) discard;
+  if (cut && !gl_FrontFacing) {
+    out_colour = vec4(u_section, 1.0);
+    return;
+  }
   float length_n = length(v_normal);
   vec3 n = length_n > 0.0 ? v_normal / length_n : vec3(0.0, 0.0, 1.0);
   if (!gl_FrontFacing) n = -n;
@@ -89,7 +105,7 @@ void main() {
     + albedo * light(n, to_eye, vec3(-0.5, 0.6, 0.8), vec3(1.0, 0.96, 0.9) * 0.95, 40.0)
     + albedo * light(n, to_eye, vec3(0.7, 0.1, 0.5), vec3(0.75, 0.85, 1.0) * 0.35, 20.0)
     + light(n, to_eye, vec3(0.2, 0.5, -1.0), vec3(1.0) * 0.25, 8.0);
-  out_colour = vec4(pow(lit, vec3(1.0 / 2.2)), 1.0);
+  out_colour = vec4(pow(lit, vec3(1.0 / 2.2)), u_alpha);
 }`;
 
 const IDENTITY = new Float32Array([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]);
@@ -101,6 +117,15 @@ const GUMS = [0.78, 0.4, 0.42];
 const TONGUE = [0.74, 0.33, 0.36];
 const SCLERA = [0.93, 0.92, 0.9];
 const NOT_AN_EYE = new Float32Array([0, 0]);
+const NO_CUT = new Float32Array([0, 0, 0, 0]);
+/** What a cut shows where it goes through a mesh, sRGB: the albedo, darker and redder for skin. */
+const SKIN_SECTION = [0.72, 0.36, 0.34];
+const sectionOf = (albedo) => albedo.map((c) => c * 0.8);
+/** A see-through skin's opacity. */
+const SEE_THROUGH_ALPHA = 0.3;
+
+/** The looks a view can have (`view=` in the page's URL). */
+export const LOOKS = ["front", "side", "cutaway", "see-through"];
 
 /** A part's material: a tongue by its role, teeth and gums by their names, else teeth. */
 function partAlbedo(name, role) {
@@ -189,6 +214,9 @@ export class HeadRenderer {
       eyeCentre: gl.getUniformLocation(program, "u_eye_centre"),
       eyeForward: gl.getUniformLocation(program, "u_eye_forward"),
       eyeRadii: gl.getUniformLocation(program, "u_eye_radii"),
+      clip: gl.getUniformLocation(program, "u_clip"),
+      section: gl.getUniformLocation(program, "u_section"),
+      alpha: gl.getUniformLocation(program, "u_alpha"),
     };
     this.vao = gl.createVertexArray();
     this.buffers = {
@@ -206,7 +234,55 @@ export class HeadRenderer {
     this.eyes = [];
     /** The part the last frame's tongue deltas shaped, or null (every part at rest). */
     this.shapedPart = null;
+    /** How the head is looked at (setLook) and the point the cut goes through (setCutCentre). */
+    this.look = { mode: "front", cutDeg: 0 };
+    this.cutCentre = [0, 0, 0];
     gl.enable(gl.DEPTH_TEST);
+    gl.blendFunc(gl.SRC_ALPHA, gl.ONE_MINUS_SRC_ALPHA);
+  }
+
+  /**
+   * `mode`: one of LOOKS; `cutDeg`: the cut plane's turn about the vertical axis from the
+   * midsagittal plane (0; 90 is the coronal plane, cutting the face away), degrees. The
+   * side and cut-away views look along the cut's normal, at the cut.
+   */
+  setLook({ mode, cutDeg }) {
+    this.look = { mode: LOOKS.includes(mode) ? mode : "front", cutDeg: Number.isFinite(cutDeg) ? cutDeg : 0 };
+  }
+
+  /** The point the cut plane goes through (head units, before the head's motion). */
+  setCutCentre(point) {
+    this.cutCentre = [...point];
+  }
+
+  /** The cut plane's normal in head coordinates: +x turned by cutDeg about +y towards +z. */
+  cutNormal() {
+    const a = (this.look.cutDeg * Math.PI) / 180;
+    return [Math.cos(a), 0, Math.sin(a)];
+  }
+
+  /** The camera's turn from the front for this look, radians (0 from the front). */
+  cameraTurn() {
+    if (this.look.mode !== "side" && this.look.mode !== "cutaway") {
+      return 0;
+    }
+    const [x, , z] = this.look.mode === "side" ? [1, 0, 0] : this.cutNormal();
+    return Math.atan2(x, z);
+  }
+
+  /** The cut plane in view space for u_clip (none unless the look is the cut-away). */
+  clipPlane(view) {
+    if (this.look.mode !== "cutaway") {
+      return NO_CUT;
+    }
+    const modelView = multiply(view, this.model);
+    const n = this.cutNormal();
+    const c = this.cutCentre;
+    const normal = [0, 1, 2].map((row) => modelView[row] * n[0] + modelView[4 + row] * n[1] + modelView[8 + row] * n[2]);
+    const point = [0, 1, 2].map(
+      (row) => modelView[row] * c[0] + modelView[4 + row] * c[1] + modelView[8 + row] * c[2] + modelView[12 + row],
+    );
+    return new Float32Array([...normal, -(normal[0] * point[0] + normal[1] * point[1] + normal[2] * point[2])]);
   }
 
   attribute(name, size, vao = this.vao) {
@@ -443,23 +519,26 @@ export class HeadRenderer {
     if (this.indexCount === 0) {
       return;
     }
-    const { view, projection } = camera.matrices(this.canvas.width / this.canvas.height);
+    const { view, projection } = camera.matrices(this.canvas.width / this.canvas.height, this.cameraTurn());
+    const seeThrough = this.look.mode === "see-through";
     gl.useProgram(this.program);
-    gl.uniformMatrix4fv(this.uniforms.model, false, this.model);
     gl.uniformMatrix4fv(this.uniforms.view, false, view);
     gl.uniformMatrix4fv(this.uniforms.projection, false, projection);
-    gl.uniform1f(this.uniforms.heatScale, this.heatScale);
-    gl.uniform3fv(this.uniforms.albedo, SKIN);
-    gl.bindVertexArray(this.vao);
-    gl.drawElements(gl.TRIANGLES, this.indexCount, gl.UNSIGNED_INT, 0);
+    gl.uniform4fv(this.uniforms.clip, this.clipPlane(view));
+    gl.uniform1f(this.uniforms.alpha, 1);
+    if (!seeThrough) {
+      this.drawSkin();
+    }
     gl.uniform1f(this.uniforms.heatScale, 0);
     for (const part of this.parts) {
       gl.uniformMatrix4fv(this.uniforms.model, false, part.role === "skull" ? this.model : this.jawModel);
       gl.uniform3fv(this.uniforms.albedo, part.albedo);
+      gl.uniform3fv(this.uniforms.section, sectionOf(part.albedo));
       gl.bindVertexArray(part.vao);
       gl.drawElements(gl.TRIANGLES, part.count, gl.UNSIGNED_INT, 0);
     }
     gl.uniform3fv(this.uniforms.albedo, SCLERA);
+    gl.uniform3fv(this.uniforms.section, sectionOf(SCLERA));
     for (const eye of this.eyes) {
       gl.uniformMatrix4fv(this.uniforms.model, false, eye.modelMatrix);
       gl.uniform3fv(this.uniforms.eyeCentre, eye.centre);
@@ -469,6 +548,27 @@ export class HeadRenderer {
       gl.drawElements(gl.TRIANGLES, eye.count, gl.UNSIGNED_INT, 0);
     }
     gl.uniform2fv(this.uniforms.eyeRadii, NOT_AN_EYE);
+    if (seeThrough) {
+      // Last, blended over what is inside it, and hiding none of it from the depth test.
+      gl.enable(gl.BLEND);
+      gl.depthMask(false);
+      gl.uniform1f(this.uniforms.alpha, SEE_THROUGH_ALPHA);
+      this.drawSkin();
+      gl.uniform1f(this.uniforms.alpha, 1);
+      gl.depthMask(true);
+      gl.disable(gl.BLEND);
+    }
     gl.bindVertexArray(null);
+  }
+
+  /** The deformed skin, with the heat-map when one is on. */
+  drawSkin() {
+    const gl = this.gl;
+    gl.uniformMatrix4fv(this.uniforms.model, false, this.model);
+    gl.uniform1f(this.uniforms.heatScale, this.heatScale);
+    gl.uniform3fv(this.uniforms.albedo, SKIN);
+    gl.uniform3fv(this.uniforms.section, SKIN_SECTION);
+    gl.bindVertexArray(this.vao);
+    gl.drawElements(gl.TRIANGLES, this.indexCount, gl.UNSIGNED_INT, 0);
   }
 }
