@@ -429,12 +429,11 @@ async fn check_the_page(browser: &Browser) {
     );
 }
 
+/// A producer's socket.
+type Producer = tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+
 /// A producer's socket on stream `stream` of head `head`, served at `url`.
-async fn connect_producer(
-    url: &str,
-    head: &str,
-    stream: &str,
-) -> tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>> {
+async fn connect_producer(url: &str, head: &str, stream: &str) -> Producer {
     let ws = url.replacen("http://", "ws://", 1);
     // Without Nagle, as a real producer (docs/PERFORMANCE.md "Audio"): the audio chunks the
     // server does not answer would otherwise wait for delayed ACKs.
@@ -732,21 +731,28 @@ async fn check_the_eyes(browser: &Browser, url: &str, long: Duration) {
     producer.close(None).await.unwrap();
 }
 
-/// The tongue on a stream of the test's own: the same open jaw with the tongue tip raised
-/// changes the close-up's picture (only the tongue's deltas differ), and the page takes
-/// them without complaint. The close-up button then turns the close-up off.
-async fn check_the_tongue(browser: &Browser, url: &str, long: Duration) {
+/// The ICT head's mouth close-up (`?head=ict&stream=STREAM&mouth=1` and `more`) on a
+/// stream the test produces, its `first` frame sent, once the view is live and the four
+/// parts are drawn; the producer's socket.
+async fn watch_the_ict_mouth(
+    browser: &Browser,
+    url: &str,
+    stream: &str,
+    more: &str,
+    first: &str,
+    long: Duration,
+) -> Producer {
     browser
-        .open(&format!("{url}?head=ict&stream=tongue&mouth=1"))
+        .open(&format!("{url}?head=ict&stream={stream}&mouth=1{more}"))
         .await;
-    let mut producer = connect_producer(url, "ict", "tongue").await;
-    produce_line(
-        &mut producer,
-        r#"{"seq":0,"t":0,"au":{"jaw_drop":0.5}}"#.to_string(),
-    )
-    .await;
+    let mut producer = connect_producer(url, "ict", stream).await;
+    produce_line(&mut producer, first.to_string()).await;
     browser
-        .wait_for("the tongue stream live", &state_is("status-0", "live"), long)
+        .wait_for(
+            &format!("the {stream} stream live"),
+            &state_is("status-0", "live"),
+            long,
+        )
         .await;
     browser
         .wait_for(
@@ -755,6 +761,15 @@ async fn check_the_tongue(browser: &Browser, url: &str, long: Duration) {
             long,
         )
         .await;
+    producer
+}
+
+/// The tongue on a stream of the test's own: the same open jaw with the tongue tip raised
+/// changes the close-up's picture (only the tongue's deltas differ), and the page takes
+/// them without complaint. The close-up button then turns the close-up off.
+async fn check_the_tongue(browser: &Browser, url: &str, long: Duration) {
+    let first = r#"{"seq":0,"t":0,"au":{"jaw_drop":0.5}}"#;
+    let mut producer = watch_the_ict_mouth(browser, url, "tongue", "", first, long).await;
     tokio::time::sleep(Duration::from_millis(500)).await;
     let open = browser.screenshot("#canvas-0").await;
     produce_line(
@@ -821,25 +836,8 @@ async fn section_pixels(browser: &Browser, shot: &str) -> Value {
 /// `FACEWIRE_SCREENSHOTS=DIR` keeps the two pictures (`DIR/cutaway-{DD,kk}.png.base64`;
 /// docs/img/cutaway-*.png are them).
 async fn check_the_cut_away(browser: &Browser, url: &str, long: Duration) {
-    browser
-        .open(&format!("{url}?head=ict&stream=cut&mouth=1&view=cutaway"))
-        .await;
-    let mut producer = connect_producer(url, "ict", "cut").await;
-    produce_line(
-        &mut producer,
-        r#"{"seq":0,"t":0,"viseme":{"oculus":"DD"}}"#.to_string(),
-    )
-    .await;
-    browser
-        .wait_for("the cut stream live", &state_is("status-0", "live"), long)
-        .await;
-    browser
-        .wait_for(
-            "the parts drawn",
-            "return document.getElementById('inner-0')?.dataset.loaded === '4'",
-            long,
-        )
-        .await;
+    let first = r#"{"seq":0,"t":0,"viseme":{"oculus":"DD"}}"#;
+    let mut producer = watch_the_ict_mouth(browser, url, "cut", "&view=cutaway", first, long).await;
     tokio::time::sleep(Duration::from_millis(800)).await;
     let dd = browser.screenshot("#canvas-0").await;
     let dd_pixels = section_pixels(browser, &dd).await;
