@@ -150,6 +150,43 @@ async fn a_short_load_run_reaches_every_viewer_in_order_without_stalls() {
     let per_second = audio["bytes_per_viewer_second"].as_f64().unwrap();
     assert!((1_000.0..4_000.0).contains(&per_second), "{report}");
     assert_eq!(report["stalls"], 0, "{report}");
+
+    // The voice alone (--derive): the server derives every stream's face, each frame's
+    // latency counted from the chunk holding its instant, so at least the look-ahead
+    // less the 20 ms a chunk holds (docs/SPEECH.md, "Latency").
+    let derive_args = [
+        "--url",
+        &server.http(""),
+        "--streams",
+        "2",
+        "--viewers",
+        "4",
+        "--seconds",
+        "2",
+        "--fps",
+        "25",
+        "--audio",
+        "pcm",
+        "--derive",
+        "--json",
+        json.to_str().unwrap(),
+    ]
+    .map(str::to_string);
+    let out = tokio::task::spawn_blocking(move || {
+        load(&derive_args.iter().map(String::as_str).collect::<Vec<_>>())
+    })
+    .await
+    .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    // 2 s at 25 fps on 2 streams.
+    assert_eq!(report["frames_sent"], 100, "{report}");
+    assert_eq!(report["viewers_without_frames"], 0, "{report}");
+    assert_eq!(report["regressions"], 0, "{report}");
+    let received = report["frames_received"].as_u64().unwrap();
+    assert!(received >= 190, "4 viewers of 50 frames each: {report}");
+    let median = report["latency_ms"]["p50"].as_f64().unwrap();
+    assert!((30.0..150.0).contains(&median), "{report}");
     server.stop().await;
 }
 
@@ -231,6 +268,10 @@ fn counts_durations_and_remote_targets_are_refused_by_name() {
             "--seconds 4000",
         ),
         (vec!["--url", "http://127.0.0.1:1", "--fps", "0"], "--fps 0"),
+        (
+            vec!["--url", "http://127.0.0.1:1", "--derive"],
+            "--derive: the face is derived from the voice, so give --audio too",
+        ),
         (vec!["--url", "ws://127.0.0.1:1"], "expected http://HOST:PORT"),
     ] {
         let out = load(&args);

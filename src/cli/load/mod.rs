@@ -81,6 +81,11 @@ pub struct Args {
     /// codec (the server encodes Opus once per stream).
     #[arg(long, value_enum)]
     audio: Option<AudioCodec>,
+    /// The producers send their voice alone (`produce?derive=visemes`, needs --audio): the
+    /// server derives each stream's face from it at --fps. A frame's latency then counts
+    /// from the send of the audio chunk holding the frame's instant.
+    #[arg(long)]
+    derive: bool,
     /// A registered head to use; without it the MakeHuman head is registered for the run
     /// and deleted after.
     #[arg(long)]
@@ -307,6 +312,9 @@ fn check(args: &Args) -> Result<(), String> {
             crate::stream::MAX_FPS
         ));
     }
+    if args.derive && args.audio.is_none() {
+        return Err("--derive: the face is derived from the voice, so give --audio too".to_string());
+    }
     if args.view_urls.len() > MAX_NODES {
         return Err(format!(
             "--view-url given {} times: at most {MAX_NODES}",
@@ -437,13 +445,18 @@ async fn load(
         })
         .collect();
     let count = (args.seconds * args.fps).round() as u64;
+    let produce_query = match args.derive {
+        true => format!("?derive=visemes&fps={}", args.fps),
+        false => String::new(),
+    };
     let producers: Vec<_> = (0..args.streams)
         .map(|s| {
             tokio::spawn(produce(ProducerPlan {
                 url: with_token(&format!(
-                    "{ws_base}/v1/heads/{head}/streams/{}/produce",
+                    "{ws_base}/v1/heads/{head}/streams/{}/produce{produce_query}",
                     stream_name(s)
                 )),
+                derive: args.derive,
                 frames: frames.clone(),
                 fps: args.fps,
                 count,

@@ -1,6 +1,8 @@
 //! One load producer: the syllable stream, looped, on one stream's producer WebSocket at a
 //! steady frame rate, and with a voice its 20 ms PCM chunks (looped too) on the same clock,
-//! each send time recorded for the viewers, then `end`.
+//! each send time recorded for the viewers, then `end`. A deriving producer sends the
+//! voice alone and the server makes the frames: each frame's send time is that of the
+//! chunk holding its instant.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -28,8 +30,10 @@ pub struct ProducerPlan {
     /// The stream's frames as JSON objects, replayed in a loop with new `seq` and `t`.
     pub frames: Arc<Vec<serde_json::Value>>,
     pub fps: f64,
-    /// Frames to send.
+    /// Frames to send (or, deriving, to span with the voice).
     pub count: u64,
+    /// Only the voice is sent (`derive=visemes`); the frames are the server's.
+    pub derive: bool,
     /// When to send frame 0.
     pub start: Instant,
     pub times: Arc<SendTimes>,
@@ -73,11 +77,14 @@ pub async fn produce(plan: ProducerPlan) -> Result<Sent, String> {
         false => (plan.count as f64 / plan.fps / CHUNK_S).floor() as u64,
     };
     let mut sent = Sent::default();
+    // Deriving, no frame is sent: `seq` only counts the server's frames already covered.
+    let frames_to_send = if plan.derive { 0 } else { plan.count };
     let (mut seq, mut k) = (0u64, 0u64);
-    while seq < plan.count || k < chunk_count {
+    let mut derived = 0u64;
+    while seq < frames_to_send || k < chunk_count {
         let frame_t = seq as f64 / plan.fps;
         let chunk_t = k as f64 * CHUNK_S;
-        let is_frame = seq < plan.count && (k >= chunk_count || frame_t <= chunk_t);
+        let is_frame = seq < frames_to_send && (k >= chunk_count || frame_t <= chunk_t);
         let t = if is_frame { frame_t } else { chunk_t };
         tokio::time::sleep_until(plan.start + Duration::from_secs_f64(t)).await;
         if refusals.is_finished() {
@@ -105,6 +112,15 @@ pub async fn produce(plan: ProducerPlan) -> Result<Sent, String> {
                 ignored: Vec::new(),
             };
             voice.times.sent(k);
+            if plan.derive {
+                // The server's frames whose instants this chunk holds.
+                while (derived as f64 / plan.fps) < chunk_t + CHUNK_S && derived < plan.count {
+                    plan.times.sent(derived);
+                    plan.sent.fetch_add(1, Ordering::Relaxed);
+                    sent.frames += 1;
+                    derived += 1;
+                }
+            }
             tx.send(Message::Binary(chunk.encode().into()))
                 .await
                 .map_err(|e| format!("sending audio chunk {k}: {e}"))?;
