@@ -4,7 +4,8 @@
 //! and jaw motion, tongue deltas, lip folds and deflate; negative and large deltas;
 //! malformed ones) and a `mesh.bin`, written with the values the Rust decoder reads from
 //! them to a JSON file that `node web/decode.test.mjs` checks; the page's node list
-//! (`node web/nodes.test.mjs`) and its fit report (`node web/fit.test.mjs`).
+//! (`node web/nodes.test.mjs`), its fit report (`node web/fit.test.mjs`) and a view's look
+//! (`node web/look.test.mjs`).
 
 mod common;
 
@@ -727,6 +728,13 @@ fn run_node_test(script: &str, args: &[&str]) {
 fn fit_js_shows_the_fit_report() {
     // The head's fit report as the page shows it: paths, numbers, every answer of the endpoint.
     run_node_test("web/fit.test.mjs", &[]);
+}
+
+#[test]
+fn a_view_s_look_turns_its_camera_and_carries_its_cut_with_the_head() {
+    // The side and cut-away looks (render.js, camera.js): camera turns, cut planes in view
+    // space, the close-up's side target, hand-computed.
+    run_node_test("web/look.test.mjs", &[]);
 }
 
 #[test]
