@@ -735,7 +735,7 @@ async fn a_producer_s_audio_reaches_the_viewers_that_ask_for_it() {
     }
     // The viewer that asked for Opus hears the same voice encoded once by the server: the
     // 100 ms as two 40 ms packets starting where the PCM chunks did (the last 20 ms wait
-    // for more). The one that asked for none gets frames and no audio.
+    // for more, or for the voice's end). The one that asked for none gets frames and no audio.
     let packets_due = 2;
     let (mut packets, mut deaf_heard) = (Vec::new(), 0);
     for (viewer, heard) in [(&mut opus, Some(&mut packets)), (&mut deaf, None)] {
@@ -773,6 +773,25 @@ async fn a_producer_s_audio_reaches_the_viewers_that_ask_for_it() {
             other => panic!("an Opus viewer got {other:?}"),
         }
     }
+    // The voice ends with the stream: its last 20 ms are heard as a third packet, closed
+    // with silence, before the stream's end.
+    producer
+        .send(Message::Text(r#"{"type":"end"}"#.into()))
+        .await
+        .unwrap();
+    let mut tail = Vec::new();
+    loop {
+        match next_message(&mut opus).await {
+            Some(Message::Binary(bytes)) if bytes.starts_with(b"FWA1") => {
+                tail.push(AudioChunk::decode(&bytes).unwrap().t_s)
+            }
+            Some(Message::Text(text)) if text.contains(r#""type":"end""#) => break,
+            Some(_) => {}
+            None => panic!("the Opus viewer's socket closed before the stream's end"),
+        }
+    }
+    assert_eq!(tail.len(), 1, "packets after the end: {tail:?}");
+    assert!((tail[0] - 0.08).abs() < 1e-9, "the last packet at {}", tail[0]);
     // An Opus producer is heard by a PCM viewer: each packet decoded once, at its own t.
     let mut pcm_viewer = connect(&server.ws("/v1/heads/mh/streams/o/view?format=fwf2&audio=pcm")).await;
     assert!(matches!(

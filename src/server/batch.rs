@@ -234,6 +234,9 @@ async fn play(
         }
         producer.publish(item, &state.telemetry);
     }
+    if ending == EndReason::BatchFinished {
+        producer.finish(&state.telemetry);
+    }
     producer.permit.end(ending);
     state.telemetry.producers.dec();
 }

@@ -3,7 +3,7 @@
 //! packet time WebRTC offers too), at 20 kbit/s in libopus's VoIP mode, complexity 5.
 //! Chunks of any length are cut into 40 ms frames on the stream's timeline; a gap in it
 //! (silence the producer did not send) closes the pending frame with zeros, so every
-//! packet's `t` is where its first sample plays.
+//! packet's `t` is where its first sample plays, and so does the voice's end.
 
 use facewire_proto::audio_chunk::MAX_OPUS_PACKET;
 
@@ -86,6 +86,16 @@ impl OpusStreamEncoder {
         Ok(())
     }
 
+    /// Ends the voice: the frame being filled, if any, is closed with silence and
+    /// emitted, so that its last samples are heard.
+    pub fn finish(&mut self, mut emit: impl FnMut(f64, &[u8])) -> Result<(), OpusEncodeError> {
+        if self.pending.is_empty() {
+            return Ok(());
+        }
+        self.pending.resize(self.frame, 0);
+        self.encode_pending(&mut emit)
+    }
+
     fn encode_pending(&mut self, emit: &mut impl FnMut(f64, &[u8])) -> Result<(), OpusEncodeError> {
         let length = self.encoder.encode(&self.pending, &mut self.packet)?;
         emit(self.pending_t, &self.packet[..length]);
@@ -144,6 +154,43 @@ mod tests {
                 assert!(energy > 0.5 * 32e6 && energy < 1.5 * 32e6, "{energy}");
             }
         }
+    }
+
+    #[test]
+    fn the_voice_s_last_partial_frame_is_heard_when_it_ends() {
+        // 50 ms of tone: one 40 ms packet while it plays, then its last 10 ms (160
+        // samples) as a packet padded with silence when the voice ends.
+        let mut encoder = OpusStreamEncoder::new(16_000).unwrap();
+        let mut packets: Vec<(f64, Vec<u8>)> = Vec::new();
+        encoder
+            .push(0.0, &tone(0, 800), |t, p| packets.push((t, p.to_vec())))
+            .unwrap();
+        assert_eq!(packets.len(), 1);
+        encoder.finish(|t, p| packets.push((t, p.to_vec()))).unwrap();
+        assert_eq!(packets.len(), 2);
+        assert!((packets[1].0 - 0.04).abs() < 1e-12, "{}", packets[1].0);
+        assert_eq!(opus_packet_samples(&packets[1].1, 0), Ok(1920));
+        // Nothing is pending now: ending again sends nothing.
+        encoder.finish(|t, p| packets.push((t, p.to_vec()))).unwrap();
+        assert_eq!(packets.len(), 2);
+        // The last packet decodes to the tone's 10 ms, then silence (Opus's 2.5 ms of
+        // look-ahead shifts it; the first 5 ms are loud, the last 20 ms quiet).
+        let mut decoder = opus::Decoder::new(16_000, opus::Channels::Mono).unwrap();
+        let mut out = vec![0i16; 640];
+        for (_, packet) in &packets {
+            assert_eq!(decoder.decode(packet, &mut out, false).unwrap(), 640);
+        }
+        let mean_square = |s: &[i16]| s.iter().map(|&x| f64::from(x).powi(2)).sum::<f64>() / s.len() as f64;
+        assert!(
+            mean_square(&out[..80]) > 0.25 * 32e6,
+            "{}",
+            mean_square(&out[..80])
+        );
+        assert!(
+            mean_square(&out[320..]) < 0.01 * 32e6,
+            "{}",
+            mean_square(&out[320..])
+        );
     }
 
     #[test]

@@ -142,7 +142,21 @@ async fn producer_session(
     };
     state.telemetry.producers.inc();
     tracing::info!(head = %head.id, stream = %stream.name, "producer connected");
-    let ending = receive_frames(&mut socket, &state, &head.deleted, &permit, speech).await;
+    // The stream's voice in the other codec, once for every viewer that asks for it.
+    let mut transcoder = Transcoder::default();
+    let ending = receive_frames(
+        &mut socket,
+        &state,
+        &head.deleted,
+        &permit,
+        &mut transcoder,
+        speech,
+    )
+    .await;
+    if matches!(ending, Ending::Gone(_) | Ending::Ended | Ending::Idle) {
+        // The voice has ended: its last samples are heard in the other codec too.
+        transcoder.finish(&permit, &state.telemetry);
+    }
     let idle_s = state.config.limits.producer_idle_s;
     let (reason, close_code, close_reason) = match ending {
         Ending::Gone(answer) => {
@@ -186,12 +200,14 @@ async fn producer_session(
 
 /// Acks or refuses every message until the session ends. `socket` is the producer's
 /// WebSocket (any stream of messages and sink of replies, so that tests can script it);
-/// `head_deleted` is the head's deletion token; `speech`, for a derived face, what derives it.
+/// `head_deleted` is the head's deletion token; `transcoder` puts the voice in the other
+/// codec; `speech`, for a derived face, what derives it.
 async fn receive_frames<S>(
     socket: &mut S,
     state: &AppState,
     head_deleted: &CancellationToken,
     permit: &ProducerPermit,
+    transcoder: &mut Transcoder,
     mut speech: Option<SpeechProducer>,
 ) -> Ending
 where
@@ -201,8 +217,6 @@ where
     let mask = &state.mask;
     let mut gate = ProducerGate::new(state.config.limits.max_fps);
     let mut audio = AudioGate::new();
-    // The stream's voice in the other codec, once for every viewer that asks for it.
-    let mut transcoder = Transcoder::default();
     // The newest accepted frame's `t`, which audio must stay near.
     let mut last_t = None;
     let mut messages = 0u64;
@@ -397,7 +411,15 @@ mod tests {
             }
             std::future::pending::<()>().await;
         });
-        let ending = receive_frames(&mut socket, &state, &CancellationToken::new(), &permit, None).await;
+        let ending = receive_frames(
+            &mut socket,
+            &state,
+            &CancellationToken::new(),
+            &permit,
+            &mut Transcoder::default(),
+            None,
+        )
+        .await;
         let elapsed = started.elapsed().as_secs_f64();
         assert!(matches!(ending, Ending::Idle));
         assert!(
@@ -430,7 +452,15 @@ mod tests {
             }
             script.send(Message::Text(r#"{"type":"end"}"#.into())).unwrap();
         });
-        let ending = receive_frames(&mut socket, &state, &CancellationToken::new(), &permit, None).await;
+        let ending = receive_frames(
+            &mut socket,
+            &state,
+            &CancellationToken::new(),
+            &permit,
+            &mut Transcoder::default(),
+            None,
+        )
+        .await;
         assert!(matches!(ending, Ending::Ended));
         assert_eq!(socket.replies.len(), 67);
     }

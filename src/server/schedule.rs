@@ -85,6 +85,11 @@ impl ScheduledProducer {
             }
         }
     }
+
+    /// Ends the voice: its last samples are heard in the other codec too.
+    pub fn finish(&mut self, telemetry: &Telemetry) {
+        self.transcoder.finish(&self.permit, telemetry);
+    }
 }
 
 #[cfg(test)]

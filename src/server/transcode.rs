@@ -2,8 +2,9 @@
 //! encoded to Opus and Opus packets decoded to PCM, once per stream (in the producer's
 //! task), and published beside the chunks as sent. A codec that fails is logged, counted
 //! (`facewire_frames_rejected_total{code="transcode"}`) and made anew at the next chunk;
-//! the chunks as sent go on. Nothing is transcoded while nobody would hear it: no viewer of
-//! the other codec on this node and no cluster relay (other nodes' viewers may ask).
+//! the chunks as sent go on. When the voice ends, its last partial Opus frame is sent.
+//! Nothing is transcoded while nobody would hear it: no viewer of the other codec on this
+//! node and no cluster relay (other nodes' viewers may ask).
 
 use super::opus_decode::OpusStreamDecoder;
 use super::opus_encode::OpusStreamEncoder;
@@ -16,6 +17,8 @@ use facewire_proto::audio_chunk::{AudioBody, AudioChunk, OPUS_RATE};
 pub struct Transcoder {
     encoder: Option<OpusStreamEncoder>,
     decoder: Option<OpusStreamDecoder>,
+    /// The newest chunk's receipt, server clock (us since the epoch).
+    last_receive_us: u64,
 }
 
 impl Transcoder {
@@ -30,6 +33,7 @@ impl Transcoder {
             *self = Transcoder::default();
             return;
         }
+        self.last_receive_us = chunk.server_receive_us;
         let publish = |t_s: f64, body: AudioBody| {
             let out = AudioChunk {
                 t_s,
@@ -89,6 +93,29 @@ impl Transcoder {
         };
         if let Some(error) = failed {
             tracing::warn!(%error, "a chunk was not transcoded for this stream");
+            telemetry.reject("transcode");
+        }
+    }
+
+    /// Ends the voice: the PCM still waiting for a whole Opus frame is closed with silence
+    /// and published, stamped with the receipt of the chunk that brought it.
+    pub fn finish(&mut self, permit: &ProducerPermit, telemetry: &Telemetry) {
+        let Some(mut encoder) = self.encoder.take() else {
+            return;
+        };
+        let server_receive_us = self.last_receive_us;
+        let ended = encoder.finish(|t_s, packet| {
+            permit.publish_audio(RelayedAudio::of(&AudioChunk {
+                t_s,
+                server_receive_us,
+                body: AudioBody::Opus {
+                    packet: packet.to_vec(),
+                },
+                ignored: Vec::new(),
+            }))
+        });
+        if let Err(error) = ended {
+            tracing::warn!(%error, "the voice's last samples were not transcoded for this stream");
             telemetry.reject("transcode");
         }
     }
