@@ -1025,6 +1025,100 @@ async fn a_batch_carries_its_voice_as_a_wav_part() {
     server.stop().await;
 }
 
+/// The loudest 20 ms window of `samples` at `rate`, as its index.
+fn loudest_window(samples: &[i16], rate: usize) -> usize {
+    let window = rate / 50;
+    let energy = |w: &[i16]| w.iter().map(|&s| f64::from(s).powi(2)).sum::<f64>();
+    (0..samples.len() / window)
+        .max_by(|&a, &b| {
+            energy(&samples[a * window..][..window]).total_cmp(&energy(&samples[b * window..][..window]))
+        })
+        .unwrap()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_batch_carries_its_voice_as_an_ogg_opus_part() {
+    use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
+    let mut config = memory_config();
+    config.limits.max_batch_duration_s = 10.0;
+    let server = Server::start(config).await;
+    server.register("mh", "makehuman_head", "").await;
+    // tests/voices/: the syllable voice's first 2 s (16 kHz) as opusenc wrote it.
+    let opus_file = std::fs::read(common::repo_path("tests/voices/syllables_2s.opus")).unwrap();
+    let source = facewire::voice::read_wav(
+        std::fs::File::open(common::repo_path("data/streams/syllables.wav")).unwrap(),
+        "syllables.wav",
+    )
+    .unwrap();
+    let source = &source.samples[..32_000];
+
+    let mut listener = connect(&server.ws("/v1/heads/mh/streams/g/view?format=fwf2&audio=pcm")).await;
+    assert!(matches!(
+        next_json(&mut listener).await,
+        ServerMessage::Snapshot(_)
+    ));
+    let (status, accepted) = post_batch(
+        &server,
+        "g",
+        &[
+            ("audio", Some("talk.opus"), &opus_file),
+            ("audio_t_s", None, b"1.0"),
+        ],
+    )
+    .await;
+    assert_eq!(status, 202, "{accepted}");
+    assert_eq!(
+        (accepted["frames"].as_u64(), accepted["audio_s"].as_f64()),
+        (Some(0), Some(2.0))
+    );
+    // Heard as 48 kHz PCM in 20 ms chunks from t = 1 s: exactly the 2 s the file holds
+    // (its pre-skip and end padding gone), loudest in the same 20 ms as the WAV it was
+    // made from.
+    let mut heard = Vec::new();
+    let mut at = 1.0;
+    loop {
+        match next_message(&mut listener).await {
+            Some(Message::Binary(bytes)) if bytes.starts_with(b"FWA1") => {
+                let chunk = AudioChunk::decode(&bytes).unwrap();
+                assert!(
+                    (chunk.t_s - at).abs() < 1e-9,
+                    "a chunk at {}, expected {at}",
+                    chunk.t_s
+                );
+                match chunk.body {
+                    AudioBody::Pcm { sample_rate, samples } => {
+                        assert_eq!(sample_rate, 48_000);
+                        at += samples.len() as f64 / 48_000.0;
+                        heard.extend(samples);
+                    }
+                    other => panic!("{other:?}"),
+                }
+            }
+            Some(Message::Text(text)) if text.contains(r#""type":"end""#) => break,
+            Some(_) => {}
+            None => panic!("the listener's socket closed"),
+        }
+    }
+    assert_eq!(heard.len(), 96_000);
+    assert_eq!(loudest_window(&heard, 48_000), loudest_window(source, 16_000));
+
+    // Refused before decoding, naming the part: longer than the batch limit (lowered
+    // here below the file's 2 s), a cut file.
+    let mut strict = memory_config();
+    strict.limits.max_batch_duration_s = 1.5;
+    let strict = Server::start(strict).await;
+    strict.register("mh", "makehuman_head", "").await;
+    let (status, refused) = post_batch(&strict, "g", &[("audio", None, &opus_file)]).await;
+    assert_eq!(status, 413, "{refused}");
+    let (status, refused) = post_batch(&server, "h", &[("audio", None, &opus_file[..4_000])]).await;
+    assert_eq!(status, 400, "{refused}");
+    let refusal = refused.to_string();
+    assert!(
+        refusal.contains("not a readable Ogg file") && refusal.contains("part \\\"audio\\\""),
+        "{refusal}"
+    );
+}
+
 /// `count` 20 ms chunks of the syllable voice (16 kHz) from `from_s`, each at its own `t`.
 fn voice_chunks(from_s: f64, count: usize) -> Vec<facewire_proto::audio_chunk::AudioChunk> {
     use facewire_proto::audio_chunk::{AudioBody, AudioChunk};

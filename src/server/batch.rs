@@ -1,5 +1,5 @@
 //! HTTP batches: a whole JSONL or `.fap` stream in one body, and with a multipart body its
-//! voice as a WAV file beside it (or the voice alone), validated up front (errors name the
+//! voice as a WAV or Ogg Opus file beside it (or the voice alone), validated up front (errors name the
 //! part, line and field), then played at its timestamps as the stream's producer. A batch
 //! is bounded in bytes, frames and duration, and `DELETE .../producer` cancels it (or a
 //! socket producer) at once; viewers get `end` with the reason either way.
@@ -15,13 +15,14 @@ use axum::Json;
 use serde::Serialize;
 
 use super::error::ApiError;
+use super::ogg_voice::decode_ogg_opus;
 use super::schedule::{self, Scheduled, ScheduledProducer};
 use super::stream::ProducerPermit;
 use super::AppState;
 use crate::mask::Mask;
 use crate::quote::quote;
 use crate::stream::{FapReader, Frame, JsonlReader, StreamError};
-use crate::voice::read_wav;
+use crate::voice::{read_ogg_opus, read_wav, Voice};
 use facewire_proto::codes::EndReason;
 
 #[derive(Debug, Serialize)]
@@ -38,7 +39,7 @@ pub struct BatchAccepted {
 struct Upload {
     /// The parameter stream, and whether it is an MPEG-4 `.fap` file.
     stream: Option<(Bytes, bool)>,
-    /// A WAV file.
+    /// A WAV or Ogg Opus file.
     audio: Option<Bytes>,
     /// The stream time of the voice's first sample, s; by default the first frame's.
     audio_t_s: Option<f64>,
@@ -57,10 +58,16 @@ pub async fn batch(
     let upload = read_upload(request, limit).await?;
     let limits = state.config.limits.clone();
     let mask = state.mask.clone();
-    let (items, frames, audio_s) =
-        tokio::task::spawn_blocking(move || read_batch(upload, &mask, limits.max_batch_frames))
-            .await
-            .map_err(ApiError::internal)??;
+    let (items, frames, audio_s) = tokio::task::spawn_blocking(move || {
+        read_batch(
+            upload,
+            &mask,
+            limits.max_batch_frames,
+            limits.max_batch_duration_s,
+        )
+    })
+    .await
+    .map_err(ApiError::internal)??;
     let duration_s = match (items.first(), items.last()) {
         (Some(first), Some(last)) => last.t_s() - first.t_s(),
         _ => 0.0,
@@ -176,11 +183,12 @@ async fn read_upload(request: Request, limit: usize) -> Result<Upload, ApiError>
 }
 
 /// The batch's schedule, its frame count and its voice's length (s), every frame and the
-/// whole WAV checked.
+/// whole voice checked.
 fn read_batch(
     upload: Upload,
     mask: &Mask,
     max_frames: usize,
+    max_duration_s: f64,
 ) -> Result<(Vec<Scheduled>, usize, f64), ApiError> {
     let mut frames = Vec::new();
     if let Some((body, is_fap)) = upload.stream {
@@ -198,9 +206,8 @@ fn read_batch(
         }
     }
     let (mut audio, mut audio_s) = (Vec::new(), 0.0);
-    if let Some(wav) = upload.audio {
-        let voice =
-            read_wav(Cursor::new(wav), "part \"audio\"").map_err(|e| ApiError::BadFrame(e.to_string()))?;
+    if let Some(file) = upload.audio {
+        let voice = read_voice(&file, max_duration_s)?;
         let start = upload
             .audio_t_s
             .unwrap_or_else(|| frames.first().map_or(0.0, |f| f.time_s));
@@ -209,6 +216,23 @@ fn read_batch(
     }
     let count = frames.len();
     Ok((schedule::merge(frames, audio), count, audio_s))
+}
+
+/// The voice in a batch's `audio` part: a WAV file, or an Ogg Opus file (by its first
+/// bytes) no longer than `max_duration_s`, checked before it is decoded.
+fn read_voice(file: &[u8], max_duration_s: f64) -> Result<Voice, ApiError> {
+    const PART: &str = "part \"audio\"";
+    if !file.starts_with(b"OggS") {
+        return read_wav(Cursor::new(file), PART).map_err(|e| ApiError::BadFrame(e.to_string()));
+    }
+    let ogg = read_ogg_opus(file, PART).map_err(|e| ApiError::BadFrame(e.to_string()))?;
+    if ogg.duration_s() > max_duration_s {
+        return Err(ApiError::TooLong {
+            duration_s: ogg.duration_s(),
+            limit_s: max_duration_s,
+        });
+    }
+    decode_ogg_opus(&ogg).map_err(|e| ApiError::BadFrame(format!("{PART}: {e}")))
 }
 
 /// Plays `items` at their timestamps (relative to the first), then ends the stream.

@@ -29,6 +29,7 @@ mod heads;
 mod ids;
 mod ingest;
 mod listen;
+mod ogg_voice;
 mod ops;
 mod opus_decode;
 mod opus_encode;
