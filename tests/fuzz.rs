@@ -740,6 +740,66 @@ fn audio_chunk() {
 }
 
 #[test]
+fn ogg_opus() {
+    fuzz("ogg_opus", 8 << 10, true, |bytes| {
+        // As mutated, where nearly every change breaks a page's checksum; then with every
+        // page's checksum made right again, so that the mutations reach the packets.
+        let raw = facewire::voice::read_ogg_opus(bytes, "fuzz.opus");
+        let resealed = facewire::voice::read_ogg_opus(&with_ogg_checksums(bytes), "fuzz.opus");
+        for file in [&raw, &resealed].into_iter().flatten() {
+            // What the service does next: bound the length before decoding.
+            assert!(!file.packets.is_empty() && file.duration_s().is_finite());
+        }
+        raw.is_ok()
+    });
+}
+
+#[test]
+fn ogg_checksums_are_resealed_as_an_encoder_wrote_them() {
+    let file = std::fs::read(repo_path("tests/voices/syllables_2s.opus")).unwrap();
+    assert_eq!(with_ogg_checksums(&file), file);
+    let mut changed = file.clone();
+    changed[100] ^= 0x20;
+    assert!(facewire::voice::read_ogg_opus(&changed, "x").is_err());
+    assert_ne!(with_ogg_checksums(&changed), changed);
+}
+
+/// `bytes` with the CRC of every Ogg page it starts with set right (CRC-32, polynomial
+/// 0x04c11db7, unreflected, as RFC 3533 defines it), as far as its pages are whole.
+fn with_ogg_checksums(bytes: &[u8]) -> Vec<u8> {
+    let crc = |data: &[u8]| {
+        data.iter().fold(0u32, |mut crc, &byte| {
+            crc ^= u32::from(byte) << 24;
+            for _ in 0..8 {
+                crc = if crc & 0x8000_0000 != 0 {
+                    (crc << 1) ^ 0x04c1_1db7
+                } else {
+                    crc << 1
+                };
+            }
+            crc
+        })
+    };
+    let mut out = bytes.to_vec();
+    let mut at = 0;
+    while out.len() >= at + 27 && out[at..].starts_with(b"OggS") {
+        let segments = usize::from(out[at + 26]);
+        let Some(table) = out.get(at + 27..at + 27 + segments) else {
+            break;
+        };
+        let end = at + 27 + segments + table.iter().map(|&s| usize::from(s)).sum::<usize>();
+        if end > out.len() {
+            break;
+        }
+        out[at + 22..at + 26].fill(0);
+        let sum = crc(&out[at..end]);
+        out[at + 22..at + 26].copy_from_slice(&sum.to_le_bytes());
+        at = end;
+    }
+    out
+}
+
+#[test]
 fn viewer_frame() {
     fuzz(
         "viewer_frame",
