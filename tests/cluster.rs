@@ -520,10 +520,10 @@ async fn a_producer_s_voice_is_heard_on_another_node() {
         assert_eq!((got.t_s, &got.body), (want.t_s, &want.body));
         assert!(got.server_receive_us > 1_700_000_000_000_000);
     }
-    // ... and the same voice in Opus, encoded once on node 1: twelve 40 ms packets from
-    // t = 0 on (the last 20 ms wait for more samples).
+    // ... and the same voice in Opus, encoded once on node 1: thirteen 40 ms packets from
+    // t = 0 on, the last holding the final 20 ms closed with silence when the stream ended.
     let packets = audio_until_end(&mut opus).await;
-    assert_eq!(packets.len(), 12);
+    assert_eq!(packets.len(), 13);
     for (i, packet) in packets.iter().enumerate() {
         assert!(
             (packet.t_s - 0.04 * i as f64).abs() < 1e-9,
@@ -532,10 +532,10 @@ async fn a_producer_s_voice_is_heard_on_another_node() {
         );
         assert!(matches!(packet.body, AudioBody::Opus { .. }));
     }
-    // Two frames, 25 chunks, 12 packets and the end.
+    // Two frames, 25 chunks, 13 packets and the end.
     assert_eq!(
         metric(&n2, "facewire_bus_messages_in_total").await,
-        2.0 + 25.0 + 12.0 + 1.0
+        2.0 + 25.0 + 13.0 + 1.0
     );
 }
 
@@ -801,7 +801,9 @@ async fn a_face_derived_from_a_voice_on_one_node_is_seen_on_another() {
         ServerMessage::Snapshot(_)
     ));
 
-    // "ma", "mi" of the syllable voice as 20 ms Opus packets (16 kHz in, 48 kHz out).
+    // "ma", "mi" of the syllable voice as 20 ms Opus packets (16 kHz in, 48 kHz out), at
+    // the voice's own pace: node 2 relays a stream from when the bus tells it the stream
+    // began, and sent all at once the faces were all derived before it did.
     let voice = facewire::voice::syllable_voice().unwrap();
     let from = (12.0 * SYLLABLE_S * 16_000.0).round() as usize;
     let mut encoder = opus::Encoder::new(16_000, opus::Channels::Mono, opus::Application::Voip).unwrap();
@@ -809,7 +811,9 @@ async fn a_face_derived_from_a_voice_on_one_node_is_seen_on_another() {
         "/v1/heads/{HEAD}/streams/{STREAM}/produce?derive=visemes&derived=1"
     )))
     .await;
+    let mut ticks = tokio::time::interval(Duration::from_millis(20));
     for k in 0..60 {
+        ticks.tick().await;
         let pcm = &voice.samples[from + 320 * k..from + 320 * (k + 1)];
         let chunk = AudioChunk {
             t_s: 0.02 * k as f64,
