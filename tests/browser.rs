@@ -328,6 +328,11 @@ async fn check_failover_across_nodes(browser: &Browser) {
 }
 
 async fn check_the_page(browser: &Browser) {
+    if std::env::var_os("FACEWIRE_SYNC_ONLY").is_some() {
+        let (_demo, url) = start_demo();
+        check_the_face_is_seen_when_its_voice_is_heard(browser, &url, Duration::from_secs(120)).await;
+        return;
+    }
     check_failover_across_nodes(browser).await;
     let (_demo, url) = start_demo();
     let long = Duration::from_secs(120);
@@ -974,12 +979,30 @@ async fn check_the_heat_map_scale(browser: &Browser, url: &str, long: Duration) 
 }
 
 /// Seconds of clicks the A/V sync check measures (`FACEWIRE_SYNC_S`, default 60; the
-/// drift goal is over 600).
+/// drift goal is over 600). `FACEWIRE_SYNC_ONLY=1` runs that check alone, so the ten
+/// minutes are measured by `FACEWIRE_SYNC_ONLY=1 FACEWIRE_SYNC_S=600 cargo test --test
+/// browser -- --include-ignored --nocapture`.
 fn sync_seconds() -> u64 {
     std::env::var("FACEWIRE_SYNC_S")
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(60)
+}
+
+/// How far the offsets (ms) at times `t` (s) moved over the whole span: the least-squares
+/// line's slope times the span, ms. Unlike comparing the first and last clicks' medians it
+/// uses every click, so a few clicks' spread does not pass for drift.
+fn drift_over_span(t: &[f64], offsets: &[f64]) -> f64 {
+    let n = t.len() as f64;
+    let (mean_t, mean_o) = (t.iter().sum::<f64>() / n, offsets.iter().sum::<f64>() / n);
+    let covariance: f64 = t
+        .iter()
+        .zip(offsets)
+        .map(|(t, o)| (t - mean_t) * (o - mean_o))
+        .sum();
+    let variance: f64 = t.iter().map(|t| (t - mean_t).powi(2)).sum();
+    let span = t.last().unwrap_or(&0.0) - t.first().unwrap_or(&0.0);
+    covariance / variance * span
 }
 
 /// A/V sync: the test's producer sends a voice of silence with a click at `k + 0.5` s and
@@ -1110,15 +1133,17 @@ async fn check_the_face_is_seen_when_its_voice_is_heard(browser: &Browser, url: 
         .collect();
     // Clicks from 2 s after the sound started (the playout delay settles), to the end.
     let from = started.as_f64().unwrap_or(0.0) + 2.0;
-    let measured: Vec<f64> = clicks
+    // (click t, offset ms) for each click seen.
+    let seen: Vec<(f64, f64)> = clicks
         .iter()
         .filter(|&&click| click >= from)
         .filter_map(|&click| {
             log.iter()
                 .find(|(t, label, _)| *t >= click - 1e-6 && *t < click + OPEN_S && label != "rest")
-                .map(|(t, _, offset)| offset + (t - click) * 1e3)
+                .map(|(t, _, offset)| (click, offset + (t - click) * 1e3))
         })
         .collect();
+    let (clicked, measured): (Vec<f64>, Vec<f64>) = seen.into_iter().unzip();
     let expected = clicks.iter().filter(|&&c| c >= from).count();
     assert!(
         measured.len() * 10 >= expected * 9 && measured.len() >= seconds as usize * 9 / 10,
@@ -1137,11 +1162,13 @@ async fn check_the_face_is_seen_when_its_voice_is_heard(browser: &Browser, url: 
         part.sort_by(f64::total_cmp);
         part[part.len() / 2]
     };
-    let drift = median_of(&measured[measured.len() - tenth..]) - median_of(&measured[..tenth]);
+    let drift_tenths = median_of(&measured[measured.len() - tenth..]) - median_of(&measured[..tenth]);
+    let drift = drift_over_span(&clicked, &measured);
     let sound = browser.js(&text_of("sound-0")).await;
     println!(
         "A/V sync over {} clicks ({seconds} s): face minus voice median {:+.1} ms, p5 {:+.1}, p95 {:+.1}, \
-         |p95| {p95_abs:.1} ms, drift {drift:+.1} ms (last tenth's median minus the first's); the page: {sound}",
+         |p95| {p95_abs:.1} ms, drift {drift:+.1} ms over the span (the last tenth's median minus the first's \
+         {drift_tenths:+.1}); the page: {sound}",
         measured.len(),
         quantile(0.5),
         quantile(0.05),
@@ -1152,11 +1179,11 @@ async fn check_the_face_is_seen_when_its_voice_is_heard(browser: &Browser, url: 
         "median offset {:+.1} ms",
         quantile(0.5)
     );
-    // The median holds the goal. Under SwiftShader a draw takes 50-70 ms, so the frame
-    // drawn lands anywhere in that interval: |p95| (goal 30 ms) and the drift (goal 5 ms)
-    // measured 36-42 and 3-17 ms; these bounds catch a page that loses sync, not the goal.
-    assert!(p95_abs < 70.0, "|offset| p95 {p95_abs:.1} ms");
-    assert!(drift.abs() < 35.0, "drift {drift:+.1} ms");
+    // The median holds the goal. Headless, on two cores shared with the server and the
+    // producer, |p95| (goal 30 ms) measured 23-28 ms and the drift over 60 s 3-10 ms (goal
+    // 5 ms over 600 s): these bounds catch a page that loses sync, not the goal.
+    assert!(p95_abs < 50.0, "|offset| p95 {p95_abs:.1} ms");
+    assert!(drift.abs() < 30.0, "drift {drift:+.1} ms");
     browser
         .command("/window/rect", Some(json!({ "width": 1280, "height": 1000 })))
         .await;

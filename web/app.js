@@ -455,20 +455,40 @@ let cameraMoved = true;
 let statsAt = performance.now();
 /** Milliseconds from choosing frames to drawing them, the last DRAW_LAGS times. */
 const drawLags = [];
+/**
+ * Milliseconds between one chance to choose frames and the next (an animation frame with
+ * no draw under way), the last DRAW_LAGS times.
+ */
+const drawIntervals = [];
 const DRAW_LAGS = 31;
+let lastChance = null;
+// For tests and the curious: the lags and chances the draw target is made from.
+window.facewireDraw = { lags: drawLags, intervals: drawIntervals };
+
+/** Keeps `value` among the last DRAW_LAGS of `list`. */
+function remember(list, value) {
+  list.push(value);
+  if (list.length > DRAW_LAGS) {
+    list.shift();
+  }
+}
 
 /**
- * What the views draw next: while the sound plays, the frame nearest the stream time
- * that will be heard when it is drawn (the heard time after the usual lag from choosing
- * to drawing, plus half a frame interval: the newest frame no later than that); without
- * sound, the newest frame both views have.
+ * What the views draw next: while the sound plays, the newest frame due by the stream
+ * time that will be heard when it is drawn (after the usual lag from choosing to drawing)
+ * plus half the usual time from one chance to choose to the next. A frame then first
+ * shows within half that time of when its sound is heard, early or late alike (half a
+ * frame interval instead would put onsets early on a page that draws every display frame,
+ * late on one whose draws take longer than a frame). Without sound, the newest frame both
+ * views have.
  */
 function drawTarget(now) {
   const heard = sound.heardTime(now + (quantile(drawLags, 0.5) ?? 0));
   if (heard === null) {
     return { seq: commonSeq(now) };
   }
-  return { t: heard + page.panels[0].frameIntervalS() / 2 };
+  const between = quantile(drawIntervals, 0.5) ?? page.panels[0].frameIntervalS() * 1e3;
+  return { t: heard + between / 2e3 };
 }
 
 function animate(now) {
@@ -477,6 +497,10 @@ function animate(now) {
     const panels = [...page.panels];
     const target = drawTarget(now);
     const work = panels.map((panel) => panel.prepare(target));
+    if (lastChance !== null) {
+      remember(drawIntervals, now - lastChance);
+    }
+    lastChance = now;
     if (work.some(Boolean)) {
       decoding = true;
       Promise.all(work)
@@ -487,10 +511,7 @@ function animate(now) {
               panels[i].draw(camera, false);
             }
           });
-          drawLags.push(performance.now() - now);
-          if (drawLags.length > DRAW_LAGS) {
-            drawLags.shift();
-          }
+          remember(drawLags, performance.now() - now);
         })
         .finally(() => {
           decoding = false;

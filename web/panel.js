@@ -377,7 +377,13 @@ export class Panel {
       }
     }
     this.lastT = header.producerTimeS;
-    this.pending.push({ seq: header.seq, t: header.producerTimeS, buffer });
+    const entry = { seq: header.seq, t: header.producerTimeS, buffer, decoded: null };
+    if (this.sound.playing) {
+      // Frames wait about the playout delay for their sound: decode them now, so that
+      // when one is due it is drawn at once, not after an inflate whose time varies.
+      entry.decoded = this.decode(buffer);
+    }
+    this.pending.push(entry);
     if (this.pending.length > (this.sound.playing ? KEEP_FRAMES_FOR_SOUND : KEEP_FRAMES)) {
       this.pending.shift();
       stats.skipped += 1;
@@ -409,8 +415,9 @@ export class Panel {
 
   /**
    * Decodes the newest waiting frame no newer than `target` (older ones are dropped and
-   * counted as skipped): `{seq}`, a sequence number both views have, or `{t}`, the stream
-   * time being heard. A promise of the frame, or null when there is nothing to draw.
+   * counted as skipped), or takes it as decoded on arrival while the sound plays: `{seq}`,
+   * a sequence number both views have, or `{t}`, the stream time being heard. A promise
+   * of the frame, or null when there is nothing to draw.
    */
   prepare(target) {
     if (!this.mesh || this.pending.length === 0) {
@@ -424,9 +431,14 @@ export class Panel {
       }
       i = 0;
     }
-    const { buffer } = this.pending[i];
+    const { buffer, decoded } = this.pending[i];
     this.stats.skipped += i;
     this.pending.splice(0, i + 1);
+    return decoded ?? this.decode(buffer);
+  }
+
+  /** A promise of `buffer` decoded, or of null when it is unreadable or the view moved on. */
+  decode(buffer) {
     const generation = this.generation;
     return decodeFrame(buffer).then(
       (frame) => (generation === this.generation ? frame : null),
