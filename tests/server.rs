@@ -1161,10 +1161,14 @@ async fn a_voice_alone_animates_the_head_and_the_producer_sees_what_was_derived(
     assert!(matches!(next_json(&mut viewer).await, ServerMessage::Snapshot(_)));
     let mut producer =
         connect(&server.ws("/v1/heads/mh/streams/s/produce?derive=visemes&fps=25&derived=1")).await;
-    // "ma", "mi", "mu": 1.8 s of voice from the syllables' 7.2 s, sent at once (the lead
-    // allows 2 s), then a parameter frame, which a derived stream refuses.
+    // "ma", "mi", "mu": 1.8 s of voice from the syllables' 7.2 s, at its own pace (sent at
+    // once, the faces are derived faster than a viewer is written to and, newest winning,
+    // a viewer on a loaded machine may see only the last, closed mouth), then a parameter
+    // frame, which a derived stream refuses.
     let from_s = 12.0 * SYLLABLE_S;
+    let mut ticks = tokio::time::interval(Duration::from_millis(20));
     for chunk in voice_chunks(from_s, 90) {
+        ticks.tick().await;
         producer
             .send(Message::Binary(chunk.encode().into()))
             .await
