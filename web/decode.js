@@ -3,7 +3,7 @@
 // sectioned "FWF2" the page asks for, and the frozen "FWF1" that a server before FWF2 sends,
 // and the audio chunk ("FWA1").
 // Both decode to the same object, so the page does not care which arrived. It touches no
-// DOM, so node runs it in tests/web_decode.rs against frames from the server's own encoder
+// DOM, so node runs it in tests/service/web_decode.rs against frames from the server's own encoder
 // and in fixtures.test.mjs against frames captured from real servers. Every length is
 // checked: a bad message throws a DecodeError naming the field and byte. A deflated delta
 // block is inflated by the browser's own DecompressionStream, which is why decodeFrame

@@ -1,4 +1,4 @@
-// decode.test.mjs: checks decode.js against the server's own encoder. tests/web_decode.rs
+// decode.test.mjs: checks decode.js against the server's own encoder. tests/service/web_decode.rs
 // encodes frames and a mesh in Rust, writes them with the values Rust decodes from them
 // to a JSON file, and runs `node web/decode.test.mjs CASES.json`; the exit status is the
 // verdict. Not served: the page never loads this file.

@@ -20,7 +20,7 @@ get its own ack, and the refusal must come out of the next audio call as ``Audio
 Then the asyncio interface (:mod:`facewire_client.aio`) plays ten frames with their voice
 to a viewer of its own (:func:`asyncio_round`).
 
-tests/python_client.rs installs the package (``pip install ./clients/python``) and runs
+tests/service/python_client.rs installs the package (``pip install ./clients/python``) and runs
 this script with the installed one against an in-process server and compares the decoded
 positions with what the library computes. What needs no library to check, this script
 checks itself, and exits 1 naming what failed: the snapshots announce the layouts and the

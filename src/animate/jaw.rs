@@ -16,7 +16,7 @@
 //!    forward/back, and shifts [`SHIFT_GAIN`]` r_x` sideways, [`SHIFT_AS_YAW`] of it as a
 //!    yaw about the pivot (a jaw moved sideways pivots on one joint).
 //!
-//! The constants are calibrated on the ICT jaw targets (`tests/jaw.rs` holds the lower
+//! The constants are calibrated on the ICT jaw targets (`tests/core/jaw.rs` holds the lower
 //! teeth within 1 mm RMS of them); docs/ALGORITHMS.md, "The jaw", gives the figures.
 
 use glam::{Mat3, Vec3};

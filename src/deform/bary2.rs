@@ -5,9 +5,10 @@
 
 use rayon::prelude::*;
 
-use super::binding::{Binding, Csr, TriangleBasis, TriangleTerm};
+use super::binding::{Binding, Csr, TriangleTerm};
 use super::normalize::normalize;
 use super::spec::{AlgoSpec, Weights};
+use super::triangle_basis::TriangleBasis;
 use super::{triangle_weights, Registration};
 
 pub fn bind(reg: &Registration, spec: AlgoSpec, weights: &Weights) -> Binding {

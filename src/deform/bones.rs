@@ -5,8 +5,8 @@
 
 use glam::{Vec3, Vec3A};
 
-use super::binding::TriangleBasis;
 use super::normalize::Weighted;
+use super::triangle_basis::TriangleBasis;
 
 /// The region of a point relative to one bone.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -24,13 +24,15 @@ mod renato1;
 mod renato2;
 mod renato3;
 pub mod spec;
+mod triangle_basis;
 mod weights;
 
-pub use binding::{Binding, Csr, DeformScratch, LinearTerm, SourceMap, TriangleBasis, TriangleTerm};
+pub use binding::{Binding, Csr, DeformScratch, LinearTerm, SourceMap, TriangleTerm};
 pub use mouth_calibration::{close_rest_mouth, MouthCalibrationError};
 pub use projection::Projection;
 pub use registration::{Registration, RegistrationError, HEAD_SIZE_MM, MASK_TO_HEAD_SIZE};
 pub use spec::{AlgoSpec, Kernel, Metric, RbfParams, SpecError, Weights};
+pub use triangle_basis::TriangleBasis;
 pub use weights::triangle_weights;
 
 /// Binds `spec` to a registered head.

@@ -98,7 +98,7 @@
 //!   lower lip in space, so the interpolant must jump between two nearly coincident centres;
 //!   dropping the jaw drags (for wide global kernels: throws) the upper lip along. On the
 //!   shipped heads the mean upper-lip motion is 0.35-3.7 times the lower lip's, whatever
-//!   the kernel (tests/rbf.rs). Surface distances put the lips 25-60 mm apart.
+//!   the kernel (tests/core/rbf.rs). Surface distances put the lips 25-60 mm apart.
 //! - **Surface distances make `Phi` indefinite**: geodesic distance is not a Euclidean
 //!   metric, so even the positive-definite kernels lose definiteness (on the scan, the
 //!   gaussian at `r_mm = 30` has 27 negative eigenvalues out of 98, Wendland at 40 has 9).

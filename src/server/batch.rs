@@ -293,7 +293,8 @@ mod tests {
     use std::sync::Arc;
 
     use super::*;
-    use crate::server::stream::{ParamTimeline, Stream};
+    use crate::server::frames::ParamTimeline;
+    use crate::server::stream::Stream;
     use crate::server::timeline::Step;
     use crate::server::Config;
 

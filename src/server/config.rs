@@ -327,7 +327,7 @@ impl Config {
             .any(|scheme| bus.strip_prefix(scheme).is_some_and(|rest| !rest.is_empty()));
         match url_ok {
             true => Ok(Bus::Nats(bus.to_string())),
-            false => Err(ConfigError::Bus(super::cluster::redacted(&self.bus))),
+            false => Err(ConfigError::Bus(super::bus_url::redacted(&self.bus))),
         }
     }
 

@@ -9,7 +9,7 @@ use facewire_proto::codes::ErrorCode;
 use facewire_proto::messages::{ProducerMessage, ServerMessage};
 use facewire_proto::param_frame::ParamFrame;
 
-use super::stream::RelayedAudio;
+use super::frames::RelayedAudio;
 
 /// A refused producer message: machine code, field (when known), message for people,
 /// and the refused frame's sequence number once it was parsed far enough to have one.

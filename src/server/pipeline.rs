@@ -12,7 +12,7 @@ use axum::extract::ws::{Message, Utf8Bytes};
 use bytes::Bytes;
 use tokio::sync::watch;
 
-use super::stream::ParamTimeline;
+use super::frames::{ParamTimeline, ReceivedFrame};
 use super::telemetry::Telemetry;
 use super::timeline::{Step, Timeline};
 use super::trim::Trimmer;
@@ -228,7 +228,7 @@ fn message_len(message: &Message) -> usize {
 fn process(
     job: &mut FrameJob,
     format: FrameFormat,
-    received: &super::stream::ReceivedFrame,
+    received: &ReceivedFrame,
     telemetry: &Telemetry,
 ) -> Option<Encoded> {
     let started = Instant::now();

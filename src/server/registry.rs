@@ -143,7 +143,7 @@ impl Registry {
         }
         if persist {
             if let HeadStore::Cluster(_) = self.inner.store {
-                record.meta.registration_tag = Some(super::cluster::unique_name("reg"));
+                record.meta.registration_tag = Some(super::ids::unique_name("reg"));
             }
         }
         let entry = {

@@ -3,8 +3,9 @@
 //! item published as a producer socket would publish it, with its receipt stamped when it
 //! goes out.
 
+use super::frames::RelayedAudio;
 use super::now_us;
-use super::stream::{ProducerPermit, RelayedAudio};
+use super::stream::ProducerPermit;
 use super::telemetry::Telemetry;
 use super::transcode::Transcoder;
 use crate::stream::Frame;

@@ -85,7 +85,7 @@ impl AppState {
     pub fn new(config: Config) -> Result<AppState, StateError> {
         config.validate()?;
         if let Bus::Nats(url) = config.bus()? {
-            return Err(StateError::NeedsStart(super::cluster::redacted(&url)));
+            return Err(StateError::NeedsStart(super::bus_url::redacted(&url)));
         }
         let store = match config.data_dir.as_deref() {
             Some(dir) => HeadStore::Dir(Store::open(dir)?),
@@ -105,21 +105,21 @@ impl AppState {
         let node = config
             .node_name
             .clone()
-            .unwrap_or_else(|| super::cluster::unique_name("node"));
+            .unwrap_or_else(|| super::ids::unique_name("node"));
         let telemetry = Arc::new(Telemetry::default());
         let mask = Arc::new(Mask::candide3());
         let cluster =
             Arc::new(Cluster::connect(&url, &config.bus_auth, &node, mask.clone(), telemetry.clone()).await?);
         let store = HeadStore::Cluster(Box::new(cluster.heads.clone()));
         let state = AppState::build(config, store, Some(cluster.clone()), mask, telemetry)?;
-        cluster
-            .start(
-                state.registry.clone(),
-                state.mask.clone(),
-                state.telemetry.clone(),
-                state.shutdown.clone(),
-            )
-            .await?;
+        super::follow::start(
+            &cluster,
+            state.registry.clone(),
+            state.mask.clone(),
+            state.telemetry.clone(),
+            state.shutdown.clone(),
+        )
+        .await?;
         tracing::info!(%url, node = %node, "cluster node started");
         Ok(state)
     }

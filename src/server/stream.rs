@@ -9,45 +9,16 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use axum::body::Bytes;
 use tokio::sync::{broadcast, watch, Notify};
 use tokio::time::Instant;
 use tokio_util::sync::CancellationToken;
 
+use super::frames::{ParamTimeline, ReceivedFrame, RelayedAudio};
 use super::pipeline::{Encoded, Pipeline, PipelineKey};
 use super::timeline::Timeline;
 use crate::stream::Frame;
-use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
+use facewire_proto::audio_chunk::AudioBody;
 use facewire_proto::codes::EndReason;
-
-/// A producer's frame as the server received it.
-#[derive(Debug)]
-pub struct ReceivedFrame {
-    pub frame: Frame,
-    /// µs since the Unix epoch.
-    pub received_us: u64,
-}
-
-pub type ParamTimeline = Timeline<ReceivedFrame>;
-
-/// A producer's audio chunk as viewers receive it, encoded once for all of them.
-#[derive(Debug, Clone)]
-pub struct RelayedAudio {
-    /// `pcm` or `opus`, as a viewer's `audio=` names it.
-    pub codec: &'static str,
-    /// The `FWA1` message, stamped with the server's receipt: cloning it shares the bytes.
-    pub bytes: Bytes,
-}
-
-impl RelayedAudio {
-    /// `chunk` as every viewer of its codec gets it, encoded once.
-    pub fn of(chunk: &AudioChunk) -> RelayedAudio {
-        RelayedAudio {
-            codec: chunk.body.codec(),
-            bytes: chunk.encode().into(),
-        }
-    }
-}
 
 /// Audio chunks a viewer may fall behind by before it is resynchronised to the newest
 /// (64 chunks of 20 ms: 1.3 s).
@@ -77,7 +48,7 @@ pub struct Stream {
     last_activity: Mutex<Instant>,
     /// When the last frame from another node's producer came, while the stream has not
     /// ended since: such a stream's end must come over the bus, or from its lease
-    /// expiring (`cluster::orphans`).
+    /// expiring (`super::follow`).
     relayed_at: Mutex<Option<Instant>>,
     /// What this node has admitted from the bus for the stream.
     fence: Mutex<RelayFence>,

@@ -6,9 +6,10 @@
 //! Nothing is transcoded while nobody would hear it: no viewer of the other codec on this
 //! node and no cluster relay (other nodes' viewers may ask).
 
+use super::frames::RelayedAudio;
 use super::opus_decode::OpusStreamDecoder;
 use super::opus_encode::OpusStreamEncoder;
-use super::stream::{ProducerPermit, RelayedAudio};
+use super::stream::ProducerPermit;
 use super::telemetry::Telemetry;
 use facewire_proto::audio_chunk::{AudioBody, AudioChunk, OPUS_RATE};
 

@@ -18,10 +18,10 @@ use tokio::task::JoinHandle;
 use tokio_util::sync::CancellationToken;
 
 use super::error::ApiError;
+use super::frames::RelayedAudio;
 use super::head::HeadEntry;
 use super::pipeline::{Encoded, FrameFormat, Pipeline, PipelineKey};
 use super::socket::{close, close_for, refuse, text};
-use super::stream::RelayedAudio;
 use super::timeline::{Step, Timeline};
 use super::AppState;
 use crate::animate::{FrameJob, Heat};

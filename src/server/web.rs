@@ -11,7 +11,7 @@ const CSS: &str = "text/css; charset=utf-8";
 const JS: &str = "text/javascript; charset=utf-8";
 
 /// `(path, content type, body)` of every embedded file. The `web/*.test.mjs` scripts and
-/// `web/package.json` are for the tests (`tests/web_decode.rs`), not served.
+/// `web/package.json` are for the tests (`tests/service/web_decode.rs`), not served.
 const ASSETS: [(&str, &str, &str); 15] = [
     ("/", HTML, include_str!("../../web/index.html")),
     ("/style.css", CSS, include_str!("../../web/style.css")),

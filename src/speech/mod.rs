@@ -15,7 +15,7 @@ pub mod model;
 pub mod resample;
 pub mod tracker;
 
-pub use frames::{speech_frames, VisemeFrames};
-pub use live::{SpeechError, SpeechEvent, SpeechStream};
+pub use frames::VisemeFrames;
+pub use live::{speech_frames, SpeechError, SpeechEvent, SpeechStream};
 pub use model::{ModelError, VisemeModel};
 pub use tracker::{Decision, VisemeTracker};

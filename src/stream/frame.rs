@@ -1,15 +1,11 @@
-//! The one in-memory frame every stream format reads into and writes from, and its
-//! conversion to the 65 CANDIDE-3 animation-unit weights that pose the mask.
+//! The one in-memory frame every stream format reads into and writes from: data only
+//! (what poses the mask with it is [`super::poser`]).
 //!
 //! A frame is a full state, not a change: whatever it does not mention is at rest. It can
 //! carry parameters in three vocabularies at once (CANDIDE animation units, MPEG-4 FAP
-//! counts, ARKit blendshape weights); the first two add up in [`Frame::animation_weights`],
-//! the ARKit weights (through a retarget basis) and raw controls in [`Frame::mask_offsets`].
-
-use glam::Vec3;
-
-use super::arkit::ArkitBasis;
-use crate::mask::{FapuValues, Mask, UnitKind};
+//! counts, ARKit blendshape weights); the first two add up in
+//! [`super::poser::animation_weights`], the ARKit weights (through a retarget basis) and
+//! raw controls in [`super::poser::mask_offsets`].
 
 /// Radians per FAP count of an angle FAP (the MPEG-4 unit AU).
 pub const RADIANS_PER_ANGLE_COUNT: f32 = 1e-5;
@@ -72,9 +68,10 @@ pub struct ExpressionFap {
 /// One frame of facial-animation parameters, whatever format it came from.
 ///
 /// Readers return the sparse lists sorted by index with no index twice. A frame moves the
-/// mask in two parts: animation-unit weights ([`Frame::animation_weights`]: `animation`
-/// and `faps`) and per-vertex offsets ([`Frame::mask_offsets`]: `controls` and the `arkit`
-/// weights through an [`ArkitBasis`]), which `FittedMask::pose_with_offsets_into` combines.
+/// mask in two parts: animation-unit weights ([`super::poser::animation_weights`]:
+/// `animation` and `faps`) and per-vertex offsets ([`super::poser::mask_offsets`]:
+/// `controls` and the `arkit` weights through an [`super::ArkitBasis`]), which
+/// `FittedMask::pose_with_offsets_into` combines.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Frame {
     /// Producer sequence number; strictly increasing along a stream.
@@ -134,57 +131,6 @@ impl Frame {
         }
     }
 
-    /// Fills `out` with the animation-unit weights of this frame (`out` is zeroed first;
-    /// pass one slot per animation unit of `mask`, 65 for CANDIDE-3). The weights are the
-    /// sum of the `animation` entries and of the FAPs CANDIDE implements, each FAP count
-    /// converted with `fapu` (`FapuValues::weight`), FAP 1's viseme as its mouth shape
-    /// ([`super::visemes::add_viseme`]) and FAP 2's expressions as theirs
-    /// ([`super::expressions::add_expression`]). FAPs the mask has no unit for (the head
-    /// rotation 48-50, which [`Frame::head_rotation`] returns, the tongue 43-47,
-    /// which shape a head's tongue part in `crate::animate::TongueShaper`, and the ears
-    /// 65-68), ARKit weights ([`Frame::mask_offsets`] has them) and indices
-    /// beyond `out` are left out.
-    /// Allocates nothing.
-    pub fn animation_weights(&self, mask: &Mask, fapu: &FapuValues, out: &mut [f32]) {
-        out.fill(0.0);
-        for &(unit, weight) in &self.animation {
-            if let Some(slot) = out.get_mut(usize::from(unit)) {
-                *slot += weight;
-            }
-        }
-        for &(fap, count) in &self.faps {
-            let Some(unit) = mask.fap_unit(fap) else {
-                continue;
-            };
-            if let (UnitKind::Fap { fapu: kind, .. }, Some(slot)) =
-                (&mask.animation_units[unit].kind, out.get_mut(unit))
-            {
-                *slot += fapu.weight(*kind, count);
-            }
-        }
-        if let Some(viseme) = &self.viseme {
-            super::visemes::add_viseme(viseme, out);
-        }
-        if let Some(expression) = &self.expression {
-            super::expressions::add_expression(expression, out);
-        }
-    }
-
-    /// Fills `out` with this frame's per-vertex offsets of the mask, mask units (`out` is
-    /// zeroed first; pass one slot per mask vertex, 113 for CANDIDE-3): the raw `controls`
-    /// plus the `arkit` weights retargeted through `basis` (`sum_k w_k B_k`). Entries
-    /// beyond `out` are left out. Allocates nothing.
-    ///
-    /// With [`Frame::animation_weights`] this is the whole per-frame path:
-    /// `fitted.pose_with_offsets_into(&weights, &offsets, &mut posed)`.
-    pub fn mask_offsets(&self, basis: &ArkitBasis, out: &mut [Vec3]) {
-        out.fill(Vec3::ZERO);
-        for (slot, control) in out.iter_mut().zip(self.controls.iter().flatten()) {
-            *slot += Vec3::from_array(*control);
-        }
-        basis.apply(&self.arkit, out);
-    }
-
     /// Head rotation (rx, ry, rz) in radians: `head_rotation_rad` plus FAPs 48 (pitch,
     /// rx), 49 (yaw, ry) and 50 (roll, rz) at 1e-5 rad per count. Zero when the frame has
     /// neither.
@@ -202,58 +148,6 @@ impl Frame {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn weights_add_animation_units_and_converted_faps() {
-        let mask = Mask::candide3();
-        let fapu = FapuValues::measure(&mask.vertices);
-        let frame = Frame {
-            animation: vec![(1, 0.25), (11, 0.01)],
-            // open_jaw 512 counts = half an MNS; head pitch is not a unit; tongue neither.
-            faps: vec![(3, 512.0), (44, 100.0), (48, 1000.0)],
-            arkit: vec![(17, 1.0)],
-            ..Frame::default()
-        };
-        let mut out = [7.0; 65];
-        frame.animation_weights(&mask, &fapu, &mut out);
-        assert_eq!(out[1], 0.25);
-        assert!((out[11] - (0.01 + 0.5 * 0.196)).abs() < 1e-6, "{}", out[11]);
-        let moved: Vec<usize> = (0..65).filter(|&i| out[i] != 0.0).collect();
-        assert_eq!(moved, [1, 11]);
-    }
-
-    #[test]
-    fn angle_faps_use_the_eyeball_radius() {
-        let mask = Mask::candide3();
-        let fapu = FapuValues::measure(&mask.vertices);
-        let frame = Frame {
-            faps: vec![(23, 100_000.0)], // yaw_l_eyeball, 1 rad
-            ..Frame::default()
-        };
-        let mut out = [0.0; 65];
-        frame.animation_weights(&mask, &fapu, &mut out);
-        assert!((out[31] - 0.085).abs() < 1e-6, "{}", out[31]);
-    }
-
-    #[test]
-    fn offsets_add_controls_and_retargeted_arkit_weights() {
-        let basis = ArkitBasis::parse("b", "jawOpen 1 0 -0.5 0\nmouthClose 2 0 0.25 0\n").unwrap();
-        let mut controls = vec![[0.0; 3]; 3];
-        controls[1] = [0.1, 0.0, 0.0];
-        let frame = Frame {
-            controls: Some(controls),
-            arkit: vec![(17, 0.5), (18, 1.0)],
-            ..Frame::default()
-        };
-        let mut out = [Vec3::ONE; 3];
-        frame.mask_offsets(&basis, &mut out);
-        assert_eq!(
-            out,
-            [Vec3::ZERO, Vec3::new(0.1, -0.25, 0.0), Vec3::new(0.0, 0.25, 0.0)]
-        );
-        Frame::default().mask_offsets(&basis, &mut out);
-        assert_eq!(out, [Vec3::ZERO; 3]);
-    }
 
     #[test]
     fn head_rotation_combines_radians_and_faps() {

@@ -46,7 +46,7 @@ pub use frame::{ExpressionFap, Frame, VisemeFap, HEAD_ROTATION_FAPS, RADIANS_PER
 pub use idle_eyes::IdleEyes;
 pub use jsonl::{JsonlReader, JsonlWriter};
 pub use lines::MAX_LINE_BYTES;
-pub use poser::FramePoser;
+pub use poser::{animation_weights, mask_offsets, FramePoser};
 pub use summary::{summarize, StreamSummary};
 
 use crate::mask::Mask;

@@ -111,7 +111,7 @@ AUDIO_CHUNK_S = 0.02
 
 # ---------------------------------------------------------------------------------------
 # Names: CANDIDE-3 animation units, MPEG-4 FAPs, ARKit blendshapes (docs/STREAMS.md).
-# The Rust test tests/python_client.rs checks these tables against the library.
+# The Rust test tests/service/python_client.rs checks these tables against the library.
 
 #: MPEG-4 FAP names, FAP n at index n - 1 (``src/mask/fap.rs``).
 FAP_NAMES: Tuple[str, ...] = (

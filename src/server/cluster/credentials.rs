@@ -2,10 +2,12 @@
 //! password, a token, an nkey seed or a `.creds` (JWT) file, from `[bus_auth]`, the
 //! environment or the bus URL's user part (`nats://user:password@host`, `nats://token@host`);
 //! TLS with the server's CA and, for mutual TLS, a client certificate. Secrets are never
-//! printed: the URL appears in logs and errors as [`redacted`] shows it.
+//! printed: the URL appears in logs and errors as [`crate::server::bus_url::redacted`] shows
+//! it.
 
 use std::path::{Path, PathBuf};
 
+use crate::server::bus_url::{split_url, UrlCredentials};
 use crate::server::config::BusAuth;
 
 #[derive(Debug, thiserror::Error)]
@@ -27,47 +29,6 @@ pub enum CredentialError {
     },
     #[error("bus_auth.{field}: {message}")]
     Invalid { field: &'static str, message: String },
-}
-
-/// A URL's user part, with the URL left without it.
-#[derive(Debug, PartialEq, Eq)]
-enum UrlCredentials {
-    UserPassword(String, String),
-    Token(String),
-}
-
-/// `url` with its user part taken out, and what that part held.
-fn split_url(url: &str) -> (String, Option<UrlCredentials>) {
-    let Some((scheme, rest)) = url.split_once("://") else {
-        return (url.to_string(), None);
-    };
-    let (authority, path) = rest.split_at(rest.find('/').unwrap_or(rest.len()));
-    let Some((user_part, host)) = authority.rsplit_once('@') else {
-        return (url.to_string(), None);
-    };
-    let decode = |s: &str| {
-        percent_encoding::percent_decode_str(s)
-            .decode_utf8_lossy()
-            .into_owned()
-    };
-    let credentials = match user_part.split_once(':') {
-        Some((user, password)) => UrlCredentials::UserPassword(decode(user), decode(password)),
-        None => UrlCredentials::Token(decode(user_part)),
-    };
-    (format!("{scheme}://{host}{path}"), Some(credentials))
-}
-
-/// `url` as it may be shown: a password or token in it replaced by `***`.
-pub fn redacted(url: &str) -> String {
-    let (bare, credentials) = split_url(url);
-    let Some((scheme, rest)) = bare.split_once("://") else {
-        return bare;
-    };
-    match credentials {
-        Some(UrlCredentials::UserPassword(user, _)) => format!("{scheme}://{user}:***@{rest}"),
-        Some(UrlCredentials::Token(_)) => format!("{scheme}://***@{rest}"),
-        None => bare,
-    }
 }
 
 /// The connect options `auth` and `url` ask for, and the URL to connect to (its user
@@ -180,34 +141,6 @@ fn exists(field: &'static str, path: &Path) -> Result<(), CredentialError> {
 mod tests {
     use super::*;
     use crate::server::config::Secret;
-
-    #[test]
-    fn the_user_part_of_a_url_is_taken_out_and_never_shown() {
-        assert_eq!(
-            split_url("nats://facewire:p%40ss@127.0.0.1:4222"),
-            (
-                "nats://127.0.0.1:4222".into(),
-                Some(UrlCredentials::UserPassword("facewire".into(), "p@ss".into()))
-            )
-        );
-        assert_eq!(
-            split_url("tls://s3cret@nats.example:4222/"),
-            (
-                "tls://nats.example:4222/".into(),
-                Some(UrlCredentials::Token("s3cret".into()))
-            )
-        );
-        assert_eq!(
-            split_url("nats://127.0.0.1:4222"),
-            ("nats://127.0.0.1:4222".into(), None)
-        );
-        assert_eq!(
-            redacted("nats://facewire:p%40ss@127.0.0.1:4222"),
-            "nats://facewire:***@127.0.0.1:4222"
-        );
-        assert_eq!(redacted("nats://s3cret@h:1"), "nats://***@h:1");
-        assert_eq!(redacted("nats://h:1"), "nats://h:1");
-    }
 
     #[tokio::test]
     async fn one_way_to_authenticate_each_checked_before_connecting() {

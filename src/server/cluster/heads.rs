@@ -13,24 +13,63 @@ use bytes::Bytes;
 use futures_util::StreamExt;
 use serde::{Deserialize, Serialize};
 use tokio::io::AsyncReadExt;
+use tokio::sync::mpsc;
 use tokio_util::sync::CancellationToken;
 
-use crate::server::registry::Registry;
 use crate::server::store::{HeadMeta, HeadRecord, PartRecord};
 
 const HEADS_BUCKET: &str = "facewire_heads";
 const MESHES_BUCKET: &str = "facewire_meshes";
 /// How long a follower waits before watching again after the watch failed.
 const REWATCH: Duration = Duration::from_secs(1);
+/// Changes read from the bucket and not yet applied: the watch waits beyond this.
+const CHANGES_WAITING: usize = 64;
 
 /// The value under a head's id.
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct SharedHead {
+pub struct SharedHead {
     tag: String,
     fit_toml: String,
     /// Lists the parts; their meshes are objects.
     meta: HeadMeta,
+}
+
+/// A change to the shared registry, as [`ClusterHeads::changes`] reports it.
+#[derive(Debug)]
+pub enum HeadChange {
+    /// `id` was registered (again) somewhere; [`ClusterHeads::load`] reads its meshes.
+    Put {
+        id: String,
+        head: SharedHead,
+    },
+    Deleted {
+        id: String,
+    },
+}
+
+impl HeadChange {
+    /// The change a bucket entry makes; `None` for a value that is not a head.
+    fn of(entry: kv::Entry) -> Option<HeadChange> {
+        let id = entry.key;
+        if entry.operation != kv::Operation::Put {
+            return Some(HeadChange::Deleted { id });
+        }
+        match serde_json::from_slice(&entry.value) {
+            Ok(head) => Some(HeadChange::Put { id, head }),
+            Err(e) => {
+                tracing::warn!(head = %id, error = %e, "cluster registry entry skipped");
+                None
+            }
+        }
+    }
+}
+
+impl SharedHead {
+    /// Tells registrations of the same id apart.
+    pub fn tag(&self) -> &str {
+        &self.tag
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -189,7 +228,7 @@ impl ClusterHeads {
         Ok(bytes)
     }
 
-    async fn load(&self, id: &str, shared: SharedHead) -> Result<HeadRecord, SharedHeadError> {
+    pub async fn load(&self, id: &str, shared: SharedHead) -> Result<HeadRecord, SharedHeadError> {
         let obj = self.read_object(&mesh_name(id, &shared.tag)).await?;
         let mut parts = Vec::new();
         for (name, role) in shared.meta.listed_parts() {
@@ -208,73 +247,44 @@ impl ClusterHeads {
         })
     }
 
-    /// Keeps `registry` in step with the bucket until `shutdown`: every head in it is
-    /// registered here, every head deleted from it is dropped here. Watches again (from
-    /// each key's current value, which is idempotent) when the watch fails, as it does
-    /// while NATS restarts.
-    pub async fn follow(self, registry: Registry, shutdown: CancellationToken) {
-        loop {
-            match self.kv.watch_with_history(">").await {
-                Ok(mut changes) => loop {
-                    let change = tokio::select! {
-                        _ = shutdown.cancelled() => return,
-                        change = changes.next() => change,
-                    };
-                    match change {
-                        Some(Ok(entry)) => self.apply(&registry, entry).await,
-                        Some(Err(e)) => {
-                            tracing::warn!(error = %e, "registry watch failed; watching again");
-                            break;
+    /// Follows the bucket until `shutdown` or until the receiver is dropped: the current
+    /// value of every key first, then each change, as [`HeadChange`]s in order. Watches
+    /// again (from each key's current value, which is idempotent) when the watch fails, as
+    /// it does while NATS restarts.
+    pub fn changes(self, shutdown: CancellationToken) -> mpsc::Receiver<HeadChange> {
+        let (tx, rx) = mpsc::channel(CHANGES_WAITING);
+        tokio::spawn(async move {
+            loop {
+                match self.kv.watch_with_history(">").await {
+                    Ok(mut changes) => loop {
+                        let change = tokio::select! {
+                            _ = shutdown.cancelled() => return,
+                            change = changes.next() => change,
+                        };
+                        match change {
+                            Some(Ok(entry)) => {
+                                let Some(change) = HeadChange::of(entry) else {
+                                    continue;
+                                };
+                                if tx.send(change).await.is_err() {
+                                    return;
+                                }
+                            }
+                            Some(Err(e)) => {
+                                tracing::warn!(error = %e, "registry watch failed; watching again");
+                                break;
+                            }
+                            None => break,
                         }
-                        None => break,
-                    }
-                },
-                Err(e) => tracing::warn!(error = %e, "cannot watch the cluster registry; retrying"),
+                    },
+                    Err(e) => tracing::warn!(error = %e, "cannot watch the cluster registry; retrying"),
+                }
+                tokio::select! {
+                    _ = shutdown.cancelled() => return,
+                    _ = tokio::time::sleep(REWATCH) => {}
+                }
             }
-            tokio::select! {
-                _ = shutdown.cancelled() => return,
-                _ = tokio::time::sleep(REWATCH) => {}
-            }
-        }
-    }
-
-    async fn apply(&self, registry: &Registry, entry: kv::Entry) {
-        let id = entry.key.as_str();
-        let local_tag = registry.get(id).map(|h| h.registration_tag().map(str::to_string));
-        if entry.operation != kv::Operation::Put {
-            if local_tag.is_some() {
-                tracing::info!(head = %id, "head deleted on another node");
-                registry.drop_local(id);
-            }
-            return;
-        }
-        let shared: SharedHead = match serde_json::from_slice(&entry.value) {
-            Ok(shared) => shared,
-            Err(e) => {
-                tracing::warn!(head = %id, error = %e, "cluster registry entry skipped");
-                return;
-            }
-        };
-        match local_tag {
-            Some(Some(tag)) if tag == shared.tag => return,
-            Some(_) => {
-                tracing::info!(head = %id, "head registered again on another node");
-                registry.drop_local(id);
-            }
-            None => {}
-        }
-        let record = match self.load(id, shared).await {
-            Ok(record) => record,
-            Err(e) => {
-                tracing::warn!(head = %id, error = %e, "cluster head not loaded");
-                return;
-            }
-        };
-        let Ok(slot) = registry.registration_slot(Duration::MAX).await else {
-            return;
-        };
-        if let Err(e) = registry.register(record, false, slot).await {
-            tracing::warn!(head = %id, error = %e, "cluster head not registered here");
-        }
+        });
+        rx
     }
 }

@@ -6,14 +6,17 @@
 //! keep one producer per stream. Bindings, pipelines and sockets stay node-local.
 //! Subjects, buckets and message formats: `proto/PROTOCOL.md` "Cluster bus".
 //!
+//! An adapter: it reports what the bus brings (heads put and deleted, other nodes' frames,
+//! voices and ends) and never touches this node's registry; `crate::server::follow`
+//! applies those reports.
+//!
 //! - [`relay`]: frames and ends between nodes; [`lease`]: one producer per stream and
-//!   node liveness; [`orphans`]: ends for streams whose producer's node vanished;
-//!   [`heads`]: the shared registry; [`credentials`]: how a node authenticates to NATS.
+//!   node liveness; [`heads`]: the shared registry; [`credentials`]: how a node
+//!   authenticates to NATS; [`seal`]: the cluster key's proof on every message.
 
 mod credentials;
 mod heads;
 mod lease;
-mod orphans;
 mod relay;
 mod seal;
 
@@ -22,13 +25,14 @@ use std::time::Duration;
 
 use async_nats::jetstream;
 
+use super::bus_url::redacted;
 use super::config::BusAuth;
-use super::registry::Registry;
 use super::telemetry::Telemetry;
 use crate::mask::Mask;
-pub use credentials::{redacted, CredentialError};
-pub use heads::{ClusterHeads, SharedHeadError};
+pub use credentials::CredentialError;
+pub use heads::{ClusterHeads, HeadChange, SharedHeadError};
 pub use lease::LeaseError;
+pub use relay::{Remote, RemoteBody};
 
 /// Subject and bucket names start with this.
 const PREFIX: &str = "facewire";
@@ -136,29 +140,25 @@ impl Cluster {
         })
     }
 
-    /// Starts what the node does for the cluster until `registry`'s server shuts down:
-    /// answering liveness checks, relaying other nodes' frames to local streams, and
-    /// following the shared registry.
+    /// Starts what the node does for the bus: answering liveness checks, and handing
+    /// every checked message from other nodes' producers to `deliver` (this node's copy
+    /// of the stream is the follower's to change: `crate::server::follow`).
     pub async fn start(
         self: &Arc<Self>,
-        registry: Registry,
         mask: Arc<Mask>,
         telemetry: Arc<Telemetry>,
-        shutdown: tokio_util::sync::CancellationToken,
+        deliver: impl Fn(Remote<'_>) -> Result<(), &'static str> + Send + 'static,
     ) -> Result<(), ClusterError> {
         let liveness = self.leases.answer_liveness(&self.client).await?;
         tokio::spawn(liveness);
-        let inbound =
-            relay::inbound(&self.client, self.seal.clone(), registry.clone(), mask, telemetry).await?;
+        let inbound = relay::inbound(&self.client, self.seal.clone(), mask, telemetry, deliver).await?;
         tokio::spawn(inbound);
-        tokio::spawn(orphans::end_orphans(
-            registry.clone(),
-            self.leases.clone(),
-            shutdown.clone(),
-        ));
-        let follow = self.heads.clone().follow(registry, shutdown);
-        tokio::spawn(follow);
         Ok(())
+    }
+
+    /// Whether any node holds `head`'s stream `stream`'s producer lease now.
+    pub async fn lease_held(&self, head: &str, stream: &str) -> Result<bool, LeaseError> {
+        self.leases.is_held(head, stream).await
     }
 
     /// Whether the NATS connection is up now.
@@ -180,14 +180,4 @@ impl Cluster {
         let lease = self.leases.claim(head, stream, cancel_producer).await?;
         Ok(Box::new(self.outbox.relay(head, stream, lease)))
     }
-}
-
-/// A name nobody else has, for a node (`node-...`) or a registration's tag (`reg-...`):
-/// `prefix`, `-` and 10 hex digits from the process id and the clock.
-pub fn unique_name(prefix: &str) -> String {
-    use sha2::{Digest, Sha256};
-    let seed = format!("{}-{}", std::process::id(), super::now_us());
-    let digest = Sha256::digest(seed.as_bytes());
-    let hex: String = digest[..5].iter().map(|b| format!("{b:02x}")).collect();
-    format!("{prefix}-{hex}")
 }

@@ -23,8 +23,8 @@ use super::lease::Lease;
 use super::seal::Seal;
 use super::{ClusterError, PREFIX};
 use crate::mask::Mask;
-use crate::server::registry::Registry;
-use crate::server::stream::{ReceivedFrame, Relay, RelayedAudio};
+use crate::server::frames::{ReceivedFrame, RelayedAudio};
+use crate::server::stream::Relay;
 use crate::server::telemetry::Telemetry;
 use crate::stream::jsonl::{parse_message, JsonlWriter};
 use facewire_proto::audio_chunk::AudioChunk;
@@ -179,14 +179,36 @@ async fn publish(
     }
 }
 
-/// Subscribes this node to every stream's frames and audio; the returned future relays
-/// them into `registry`'s streams until the connection closes.
+/// A checked message from another node's producer: its stream, the fencing token of the
+/// lease it was sent under, and what it carries. What it does to this node's copy of the
+/// stream is the follower's (`crate::server::follow`).
+#[derive(Debug)]
+pub struct Remote<'a> {
+    pub head: &'a str,
+    pub stream: &'a str,
+    pub lease: u64,
+    pub body: RemoteBody,
+}
+
+#[derive(Debug)]
+pub enum RemoteBody {
+    /// A parameter frame, its producer's node's receive time held to the last
+    /// [`MAX_HOP_US`].
+    Frame(ReceivedFrame),
+    /// An audio chunk checked as a producer's is, its bytes as they came.
+    Audio(RelayedAudio),
+    End(EndReason),
+}
+
+/// Subscribes this node to every stream's frames and audio; the returned future checks
+/// each message and hands it to `deliver` until the connection closes. `deliver`'s error
+/// is why a message was dropped, counted as the checks' own are.
 pub async fn inbound(
     client: &async_nats::Client,
     seal: Arc<Seal>,
-    registry: Registry,
     mask: Arc<Mask>,
     telemetry: Arc<Telemetry>,
+    deliver: impl Fn(Remote<'_>) -> Result<(), &'static str> + Send + 'static,
 ) -> Result<impl Future<Output = ()>, ClusterError> {
     let subscribe = |kind: &str| {
         let wildcard = subject(kind, "*", "*");
@@ -206,22 +228,16 @@ pub async fn inbound(
     Ok(async move {
         while let Some(message) = messages.next().await {
             telemetry.bus_messages_in.inc();
-            if let Err(code) = deliver(&message, &seal, &registry, &mask, &telemetry) {
+            if let Err(code) = read(&message, &seal, &mask).and_then(&deliver) {
                 telemetry.bus_dropped(code);
             }
         }
     })
 }
 
-/// Publishes one bus message into its local stream after the checks a producer's socket
-/// makes (and the cluster key's proof, when set); the error is why it was dropped.
-fn deliver(
-    message: &async_nats::Message,
-    seal: &Seal,
-    registry: &Registry,
-    mask: &Mask,
-    telemetry: &Telemetry,
-) -> Result<(), &'static str> {
+/// One bus message after the checks a producer's socket makes (and the cluster key's
+/// proof, when set); the error is why it was dropped.
+fn read<'a>(message: &'a async_nats::Message, seal: &Seal, mask: &Mask) -> Result<Remote<'a>, &'static str> {
     if !seal.admits(&message.subject, message.headers.as_ref(), &message.payload) {
         return Err("bad_mac");
     }
@@ -244,46 +260,34 @@ fn deliver(
     let lease = header(LEASE)
         .and_then(|v| v.parse::<u64>().ok())
         .ok_or("bad_header")?;
-    let head = registry.get(head).ok_or("unknown_head")?;
-    let stream = head.stream(stream).map_err(|_| "stream_limit")?;
-    // This node's own producer holds the stream: nothing from the bus goes into it.
-    if stream.is_leased_here() {
-        return Err("local_producer");
-    }
-    if kind == AUDIO {
-        stream.admit_relayed(lease, None)?;
-        // Checked as a producer's chunk is; the bytes go on as they came.
+    let body = if kind == AUDIO {
         let chunk = AudioChunk::decode(&message.payload).map_err(|e| {
             tracing::warn!(subject = %message.subject, error = %e, "bus audio refused");
             "bad_audio"
         })?;
-        stream.publish_audio_relayed(Arc::new(RelayedAudio {
+        RemoteBody::Audio(RelayedAudio {
             codec: chunk.body.codec(),
             bytes: message.payload.clone(),
-        }));
-        return Ok(());
-    }
-    if let Some(reason) = header(END) {
-        let reason: EndReason =
-            serde_json::from_value(serde_json::Value::String(reason)).map_err(|_| "bad_end")?;
-        stream.admit_relayed(lease, None)?;
-        stream.end(reason);
-        return Ok(());
-    }
-    let received_us = header(RECEIVED_US)
-        .and_then(|v| v.parse::<u64>().ok())
-        .ok_or("bad_header")?;
-    let text = std::str::from_utf8(&message.payload).map_err(|_| "bad_frame")?;
-    let frame = parse_message("bus", text.trim_end(), mask).map_err(|e| {
-        tracing::warn!(subject = %message.subject, error = %e, "bus frame refused");
-        "bad_frame"
-    })?;
-    stream.admit_relayed(lease, Some((frame.seq, frame.time_s)))?;
-    let now = crate::server::now_us();
-    let received_us = received_us.clamp(now.saturating_sub(MAX_HOP_US), now);
-    telemetry
-        .bus_hop_seconds
-        .observe((now - received_us) as f64 * 1e-6);
-    stream.publish_relayed(Arc::new(ReceivedFrame { frame, received_us }));
-    Ok(())
+        })
+    } else if let Some(reason) = header(END) {
+        RemoteBody::End(serde_json::from_value(serde_json::Value::String(reason)).map_err(|_| "bad_end")?)
+    } else {
+        let received_us = header(RECEIVED_US)
+            .and_then(|v| v.parse::<u64>().ok())
+            .ok_or("bad_header")?;
+        let text = std::str::from_utf8(&message.payload).map_err(|_| "bad_frame")?;
+        let frame = parse_message("bus", text.trim_end(), mask).map_err(|e| {
+            tracing::warn!(subject = %message.subject, error = %e, "bus frame refused");
+            "bad_frame"
+        })?;
+        let now = crate::server::now_us();
+        let received_us = received_us.clamp(now.saturating_sub(MAX_HOP_US), now);
+        RemoteBody::Frame(ReceivedFrame { frame, received_us })
+    };
+    Ok(Remote {
+        head,
+        stream,
+        lease,
+        body,
+    })
 }

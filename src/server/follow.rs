@@ -1,0 +1,153 @@
+//! This node follows the cluster: what the bus adapter ([`super::cluster`]) reports is
+//! applied to this node's registry here, and only here, so neither imports the other.
+//!
+//! - Heads put and deleted in the shared registry are registered or dropped here
+//!   ([`follow_heads`]).
+//! - Other nodes' frames, voices and ends go into this node's copy of their stream,
+//!   held to the rules a producer's socket is ([`deliver`]).
+//! - Streams relayed from a node that vanished end ([`end_orphans`]).
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use tokio_util::sync::CancellationToken;
+
+use super::cluster::{Cluster, ClusterError, ClusterHeads, HeadChange, Remote, RemoteBody};
+use super::registry::Registry;
+use super::telemetry::Telemetry;
+use crate::mask::Mask;
+use facewire_proto::codes::EndReason;
+
+/// Starts following `cluster` into `registry` until `shutdown`.
+pub async fn start(
+    cluster: &Arc<Cluster>,
+    registry: Registry,
+    mask: Arc<Mask>,
+    telemetry: Arc<Telemetry>,
+    shutdown: CancellationToken,
+) -> Result<(), ClusterError> {
+    let (relayed, hops) = (registry.clone(), telemetry.clone());
+    cluster
+        .start(mask, telemetry, move |message| deliver(&relayed, &hops, message))
+        .await?;
+    tokio::spawn(end_orphans(registry.clone(), cluster.clone(), shutdown.clone()));
+    tokio::spawn(follow_heads(cluster.heads.clone(), registry, shutdown));
+    Ok(())
+}
+
+/// Puts one checked message from another node into this node's copy of its stream; the
+/// error is why it was dropped.
+fn deliver(registry: &Registry, telemetry: &Telemetry, message: Remote<'_>) -> Result<(), &'static str> {
+    let head = registry.get(message.head).ok_or("unknown_head")?;
+    let stream = head.stream(message.stream).map_err(|_| "stream_limit")?;
+    // This node's own producer holds the stream: nothing from the bus goes into it.
+    if stream.is_leased_here() {
+        return Err("local_producer");
+    }
+    match message.body {
+        RemoteBody::Audio(audio) => {
+            stream.admit_relayed(message.lease, None)?;
+            stream.publish_audio_relayed(Arc::new(audio));
+        }
+        RemoteBody::End(reason) => {
+            stream.admit_relayed(message.lease, None)?;
+            stream.end(reason);
+        }
+        RemoteBody::Frame(received) => {
+            stream.admit_relayed(message.lease, Some((received.frame.seq, received.frame.time_s)))?;
+            let now = super::now_us();
+            telemetry
+                .bus_hop_seconds
+                .observe(now.saturating_sub(received.received_us) as f64 * 1e-6);
+            stream.publish_relayed(Arc::new(received));
+        }
+    }
+    Ok(())
+}
+
+/// Keeps `registry` in step with the shared one until `shutdown`: every head in it is
+/// registered here, every head deleted from it is dropped here.
+async fn follow_heads(heads: ClusterHeads, registry: Registry, shutdown: CancellationToken) {
+    let mut changes = heads.clone().changes(shutdown);
+    while let Some(change) = changes.recv().await {
+        let (id, shared) = match change {
+            HeadChange::Deleted { id } => {
+                if registry.get(&id).is_some() {
+                    tracing::info!(head = %id, "head deleted on another node");
+                    registry.drop_local(&id);
+                }
+                continue;
+            }
+            HeadChange::Put { id, head } => (id, head),
+        };
+        match registry
+            .get(&id)
+            .map(|h| h.registration_tag().map(str::to_string))
+        {
+            Some(Some(tag)) if tag == shared.tag() => continue,
+            Some(_) => {
+                tracing::info!(head = %id, "head registered again on another node");
+                registry.drop_local(&id);
+            }
+            None => {}
+        }
+        let record = match heads.load(&id, shared).await {
+            Ok(record) => record,
+            Err(e) => {
+                tracing::warn!(head = %id, error = %e, "cluster head not loaded");
+                continue;
+            }
+        };
+        let Ok(slot) = registry.registration_slot(Duration::MAX).await else {
+            continue;
+        };
+        if let Err(e) = registry.register(record, false, slot).await {
+            tracing::warn!(head = %id, error = %e, "cluster head not registered here");
+        }
+    }
+}
+
+/// How often relayed streams are looked at.
+const CHECK_EVERY: Duration = Duration::from_secs(1);
+/// A relayed stream silent for less than this is not asked about: its end may be on the
+/// way over the bus, after its last frame.
+const SILENT_FOR: Duration = Duration::from_secs(1);
+
+/// Ends that always come: a stream fed from another node's producer ends for this node's
+/// viewers when that producer's node vanishes without sending the end (killed, cut off).
+/// Its lease then expires; each node checks the leases of the streams it relays once they
+/// fall silent, and ends those nobody holds with `producer_disconnected`. Runs until
+/// `shutdown`.
+async fn end_orphans(registry: Registry, cluster: Arc<Cluster>, shutdown: CancellationToken) {
+    let mut ticks = tokio::time::interval(CHECK_EVERY);
+    loop {
+        tokio::select! {
+            _ = shutdown.cancelled() => return,
+            _ = ticks.tick() => {}
+        }
+        let now = tokio::time::Instant::now();
+        for head in registry.list() {
+            for stream in head.streams() {
+                if stream
+                    .relay_silent_for(now)
+                    .is_none_or(|silent| silent < SILENT_FOR)
+                {
+                    continue;
+                }
+                match cluster.lease_held(&head.id, &stream.name).await {
+                    Ok(true) => {}
+                    Ok(false) => {
+                        tracing::info!(
+                            head = %head.id,
+                            stream = %stream.name,
+                            "the producer's node went away without ending the stream; ending it"
+                        );
+                        stream.end(EndReason::ProducerDisconnected);
+                    }
+                    // The bus is away: nothing is known, nothing is ended.
+                    Err(e) => tracing::debug!(error = %e, "lease not read"),
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,190 @@
+//! The automatic fit on the CI sample of the head population (`facewire population
+//! --sample`: a third of the development members, a quarter of the held-out ones; ICT
+//! identities, MakeHuman, the scan, face cuts, a low-poly face, other axes, turned,
+//! mirrored and rescaled heads). docs/FITTING.md, "On a population", has the whole
+//! population's table and the goals; this test holds the sample's figures as measured, so
+//! that a change that makes them worse fails here.
+
+use facewire::mask::Mask;
+use facewire::population::{self, Maker};
+
+/// The sample's figures as measured when the population arrived (27 members; see
+/// docs/FITTING.md): 5 refused, 2 fits more than 5 mm (mean) from the reference, the
+/// median of the means 2.27 mm. The goals (no refusal, none over 3 mm) are not met yet.
+const MAX_REFUSED: usize = 5;
+const MAX_OVER_5_MM: usize = 2;
+const MAX_MEDIAN_MM: f32 = 2.4;
+
+#[test]
+fn the_population_sample_is_fitted_as_measured() {
+    let maker = Maker::new(&crate::common::repo_path("data")).unwrap();
+    let mask = Mask::candide3();
+    let sample = population::sample();
+    assert!(sample.len() >= 20, "{} members", sample.len());
+    let mut outcomes = Vec::new();
+    for spec in &sample {
+        let member = maker.make(spec).unwrap();
+        let outcome = population::measure(&member, &mask);
+        match &outcome.result {
+            Ok(m) => eprintln!(
+                "{}: {:.2} mm (max {:.1}), scale {:+.1} %",
+                outcome.member,
+                m.landmark_mean_mm,
+                m.landmark_max_mm,
+                100.0 * m.scale_error
+            ),
+            // A refusal names the head it refuses.
+            Err(e) => {
+                eprintln!("{}: refused: {e}", outcome.member);
+                assert!(e.starts_with(&outcome.member), "{e}");
+            }
+        }
+        outcomes.push(outcome);
+    }
+    let refused = outcomes.iter().filter(|o| o.result.is_err()).count();
+    let mut means: Vec<f32> = outcomes
+        .iter()
+        .filter_map(|o| o.result.as_ref().ok().map(|m| m.landmark_mean_mm))
+        .collect();
+    means.sort_by(f32::total_cmp);
+    let over_5 = means.iter().filter(|&&m| m > 5.0).count();
+    let median = means[means.len() / 2];
+    eprintln!(
+        "{refused} refused of {}, {over_5} over 5 mm, median {median:.2} mm",
+        outcomes.len()
+    );
+    assert!(refused <= MAX_REFUSED, "{refused} refused");
+    assert!(over_5 <= MAX_OVER_5_MM, "{over_5} over 5 mm");
+    assert!(median <= MAX_MEDIAN_MM, "median {median} mm");
+    // The heads the method was first built on stay within the 3 mm goal.
+    for o in outcomes
+        .iter()
+        .filter(|o| ["makehuman", "scan", "ict generic"].contains(&o.member.as_str()))
+    {
+        let m = o.result.as_ref().unwrap_or_else(|e| panic!("{e}"));
+        assert!(m.landmark_mean_mm < 3.0, "{}: {m:?}", o.member);
+    }
+}
+
+/// The animation goals the CI sample of whole heads holds (`facewire population --animate
+/// --sample`, landmark fits, the default algorithm): no lip vertex enters the teeth
+/// beyond what the head has at rest, the tongue at most this deep in them (mm).
+const MAX_TONGUE_DEPTH_MM: f32 = 0.55;
+/// Lip folds are not solved on every head yet (docs/METRICS.md, "On a population"): the
+/// sample's sum over its heads as measured on the syllable stream timed by its voice (seeds
+/// 11, 21, 1001 and 1006 fold 127, 485, 275 and 103 lip triangle-frames), so that a change
+/// that adds folds fails. The goal is 0.
+const MAX_SAMPLE_LIP_FOLDS: u64 = 990;
+
+#[test]
+fn the_whole_heads_animate_within_the_contact_goals() {
+    let data = crate::common::repo_path("data");
+    let maker = Maker::new(&data).unwrap();
+    let mask = Mask::candide3();
+    let algorithm = facewire::report::parse_algorithms(facewire::deform::spec::DEFAULT_ALGORITHM)
+        .unwrap()
+        .remove(0);
+    let stream = data.join("streams/syllables.jsonl");
+    let sample = population::whole_heads_sample();
+    assert!(sample.len() >= 8, "{} heads", sample.len());
+    let mut lip_folds = 0;
+    for spec in &sample {
+        let member = maker.make(spec).unwrap();
+        let targets = spec.source.targets_dir().map_or(Vec::new(), |dir| {
+            facewire::targets::ExpressionTarget::load_dir(
+                &data.join("heads").join(dir),
+                member.head.positions.len(),
+            )
+            .unwrap()
+        });
+        let outcome = facewire::report::animate(
+            &member,
+            facewire::report::FitSource::Landmarks,
+            &mask,
+            &stream,
+            &algorithm,
+            &targets,
+        );
+        let m = outcome
+            .result
+            .unwrap_or_else(|e| panic!("{}: {e}", outcome.member));
+        eprintln!("{}: {m:?}", outcome.member);
+        lip_folds += m.lip_folds;
+        if member.parts.is_empty() {
+            assert_eq!(m.lips_in_teeth, None, "{}", outcome.member);
+            continue;
+        }
+        assert_eq!(m.split_parts, ["teeth"], "{}", outcome.member);
+        assert_eq!(m.lips_in_teeth, Some(0), "{}", outcome.member);
+        // Both eyeballs found on every identity, and no lid left in one through 20 s of
+        // blinks and glances (the lids enter them without the constraint).
+        assert_eq!(m.eyes, 2, "{}", outcome.member);
+        assert_eq!(m.lids_in_eyes, Some(0), "{}", outcome.member);
+        assert!(m.lids_in_eyes_unconstrained.is_some(), "{}", outcome.member);
+        let depth = m.tongue_depth_mm.unwrap();
+        assert!(
+            depth <= MAX_TONGUE_DEPTH_MM,
+            "{}: tongue {depth} mm in the teeth",
+            outcome.member
+        );
+        let truth = m.ground_truth_rms_mm.unwrap();
+        assert!(truth < 0.7, "{}: ground truth {truth} mm", outcome.member);
+    }
+    eprintln!("{lip_folds} lip folds over the sample");
+    assert!(lip_folds <= MAX_SAMPLE_LIP_FOLDS, "{lip_folds} lip folds");
+}
+
+#[test]
+fn teeth_given_whole_are_split_where_the_model_numbers_its_rows() {
+    let data = crate::common::repo_path("data");
+    let maker = Maker::new(&data).unwrap();
+    let mask = Mask::candide3();
+    for spec in population::whole_heads_sample()
+        .into_iter()
+        .filter(|s| s.source.family() == "ict")
+    {
+        let member = maker.make(&spec).unwrap();
+        let fit = member.landmark_fit.clone().unwrap();
+        let registration = facewire::deform::Registration::new(
+            member.head.clone(),
+            facewire::fit::FittedMask::new(mask.clone(), fit),
+        );
+        let teeth = member.parts.iter().find(|p| p.name == "teeth").unwrap();
+        let head = facewire::animate::AnimatedHead::with_parts(registration, member.parts.clone()).unwrap();
+        assert_eq!(head.splits.len(), 1, "{}", spec.name());
+        let split = &head.splits[0];
+        // The model ships 16 teeth in each row, upper first (vertices 0..2208).
+        assert_eq!(
+            (split.upper_pieces, split.lower_pieces),
+            (16, 16),
+            "{}",
+            spec.name()
+        );
+        let sorted = |points: &mut dyn Iterator<Item = glam::Vec3>| {
+            let mut v: Vec<[u32; 3]> = points.map(|p| p.to_array().map(f32::to_bits)).collect();
+            v.sort_unstable();
+            v
+        };
+        let part = |name: &str| head.parts.iter().find(|p| p.name == name).unwrap();
+        let upper = part("teeth_upper");
+        let lower = part("teeth_lower");
+        assert_eq!(upper.role, facewire::head::PartRole::Skull);
+        assert_eq!(lower.role, facewire::head::PartRole::Jaw);
+        assert_eq!(
+            sorted(&mut upper.mesh.positions.iter().copied()),
+            sorted(&mut teeth.mesh.positions[..2208].iter().copied()),
+            "{}",
+            spec.name()
+        );
+        assert_eq!(
+            sorted(&mut lower.mesh.positions.iter().copied()),
+            sorted(&mut teeth.mesh.positions[2208..].iter().copied()),
+            "{}",
+            spec.name()
+        );
+        assert_eq!(
+            upper.mesh.triangles.len() + lower.mesh.triangles.len(),
+            teeth.mesh.triangles.len()
+        );
+    }
+}

@@ -1,0 +1,18 @@
+//! The service's integration tests: `facewire serve` and the router through real sockets,
+//! abuse and bounded work, the CLI's subcommands, the load generator, parts on the wire,
+//! and the JavaScript and Python clients against a live server. One binary (one link);
+//! each file is a module named as it was.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod abuse;
+mod bounded_work;
+mod cli;
+mod load;
+mod parts;
+mod python_client;
+mod routes;
+mod serve_process;
+mod server;
+mod web_decode;
