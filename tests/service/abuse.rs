@@ -319,11 +319,10 @@ async fn shutdown_closes_every_viewer_with_a_reason_and_finishes_despite_half_se
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn streams_and_algorithms_are_bounded_and_memory_returns_to_baseline() {
-    // Its own process, so that its memory is the server's alone. The default algorithm is
-    // U, as when this bound was measured: it is about what streams and bindings leave
-    // behind. (With V as the default, one CI run of the unoptimized test build grew 29.7 to
-    // 38.0 MiB here; the cause was not pinned down.)
+async fn streams_and_algorithms_are_bounded_and_end_when_their_viewers_leave() {
+    // Memory over thousands of stream names and hundreds of bindings is measured by
+    // `benches/stream_churn_memory.py` (docs/PERFORMANCE.md); this holds the limits and the
+    // ends.
     let server = Server::spawn(
         "default_algorithm = \"U\"\n[limits]\nmax_streams_per_head = 4\nstream_linger_s = 0.05\nmax_bindings_per_head = 2\n",
     )
@@ -364,53 +363,34 @@ async fn streams_and_algorithms_are_bounded_and_memory_returns_to_baseline() {
     tokio::time::sleep(Duration::from_millis(300)).await;
     assert!(server.info("mh", "").await.streams.is_empty());
 
-    // Thousands of stream names and hundreds of algorithms come and go; memory returns.
-    // One viewer per stream name; one in ten asks for another algorithm (100 of them,
-    // each bound, then evicted), the others for the default one.
-    let churn = async |names: std::ops::Range<usize>| {
-        for i in names {
-            let algo = match i % 10 {
-                0 => format!("point_distance:k={}", 2 + (i / 10) % 100),
-                _ => String::new(),
-            };
-            let url = server.ws(&format!("/v1/heads/mh/streams/n{i}/view?algo={algo}"));
-            // Room comes back as soon as the streams before have lingered out.
-            let mut tries = 0;
-            let mut viewer = loop {
-                let mut viewer = connect(&url).await;
-                match next_json(&mut viewer).await {
-                    ServerMessage::Snapshot(_) => break viewer,
-                    ServerMessage::Error { code, .. } if code.as_str() == "limit_reached" && tries < 200 => {
-                        tries += 1;
-                        tokio::time::sleep(Duration::from_millis(10)).await;
-                    }
-                    other => panic!("viewer {i}: {other:?}"),
+    // Stream names and algorithms come and go: one viewer per name, one in ten asking for
+    // another algorithm (each bound, then evicted); nothing is left behind.
+    for i in 0..60usize {
+        let algo = match i % 10 {
+            0 => format!("point_distance:k={}", 2 + i / 10),
+            _ => String::new(),
+        };
+        let url = server.ws(&format!("/v1/heads/mh/streams/n{i}/view?algo={algo}"));
+        // Room comes back as soon as the streams before have lingered out.
+        let mut tries = 0;
+        let mut viewer = loop {
+            let mut viewer = connect(&url).await;
+            match next_json(&mut viewer).await {
+                ServerMessage::Snapshot(_) => break viewer,
+                ServerMessage::Error { code, .. } if code.as_str() == "limit_reached" && tries < 200 => {
+                    tries += 1;
+                    tokio::time::sleep(Duration::from_millis(10)).await;
                 }
-            };
-            viewer.close(None).await.unwrap();
-            while next_message(&mut viewer).await.is_some() {}
-        }
-    };
-    // The first round reaches the allocator's and the blocking pool's working size (the
-    // server grows from 21 to 32 MiB over its first 3,000 names and stays at 35 MiB up to
-    // 11,000); the second must not grow past it.
-    // Retired pipelines' memory is given back at most once a second (`TRIM_INTERVAL`).
-    churn(0..2000).await;
-    tokio::time::sleep(Duration::from_millis(1500)).await;
-    let baseline = server.resident_kib();
-    churn(2000..4000).await;
-    tokio::time::sleep(Duration::from_millis(1500)).await;
-    let after = server.resident_kib();
+                other => panic!("viewer {i}: {other:?}"),
+            }
+        };
+        viewer.close(None).await.unwrap();
+        while next_message(&mut viewer).await.is_some() {}
+    }
+    tokio::time::sleep(Duration::from_millis(300)).await;
     let info = server.info("mh", "").await;
     assert!(info.streams.is_empty(), "{:?}", info.streams);
     assert!(info.algorithms.len() <= 2, "{:?}", info.algorithms);
-    eprintln!("resident memory: {baseline} KiB after 2,000 stream names and 200 algorithm bindings, {after} KiB after 2,000 more names and 200 more bindings");
-    // 8 MiB over 2,000 names is 4 KiB a name; a stream that kept its pipeline would cost
-    // about 220 KiB.
-    assert!(
-        after < baseline + 8 * 1024,
-        "{baseline} KiB -> {after} KiB after 2,000 more stream names and 200 more algorithm bindings"
-    );
     server.stop().await;
 }
 
