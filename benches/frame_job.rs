@@ -57,6 +57,7 @@ fn frame_job(c: &mut Criterion) {
         b.iter(|| {
             let frame = next.next().expect("cycled");
             job.deform(frame);
+            job.measure(frame).expect("finite");
             black_box(
                 job.encode(frame, FrameTimes::default(), FrameLayout::Fwf2)
                     .expect("finite")

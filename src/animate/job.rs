@@ -1,19 +1,26 @@
-//! The per-frame job for one head and one algorithm: pose the mask from a frame, deform
-//! the head, find the head's own rigid motion and the jaw's (kept apart from the
-//! deformation), shape the tongue, keep the lips and the tongue out of the teeth, turn the
-//! eyes with the gaze and keep the lids out of them, measure
-//! lip (and optionally whole-face) roughness, quantize the deltas and encode the viewer
-//! frame. Every buffer is made once, in [`FrameJob::new`].
+//! The per-frame job for one head and one algorithm, in three stages a caller runs in
+//! order and may time apart:
+//!
+//! 1. [`FrameJob::deform`]: pose the mask from a frame, deform the head, find the head's
+//!    own rigid motion and the jaw's (kept apart from the deformation), shape the tongue,
+//!    keep the lips and the tongue out of the teeth, turn the eyes with the gaze and keep
+//!    the lids out of them;
+//! 2. [`FrameJob::measure`]: the frame's [`FrameMeters`] (lip roughness and folds, the
+//!    heat asked for);
+//! 3. [`FrameJob::encode`]: quantize the deltas and encode the viewer frame with those
+//!    measures (or [`FrameJob::encode_json`], the baseline, which carries none).
+//!
+//! Every buffer is made once, in [`FrameJob::new`].
 
 use std::sync::Arc;
 
 use glam::Vec3;
 
+use super::frame_meters::{FrameMeasures, FrameMeters, MeterError};
 use super::json_frame::write_json_frame;
 use super::{head_motion, jaw_motion, AnimatedHead, ContactScratch, Gaze, RigidMotion};
 use crate::deform::{Binding, DeformScratch};
 use crate::mask::LIP_VERTICES;
-use crate::metrics::{FoldMeter, LipRoughness, RegionError, Roughness, RoughnessError};
 use crate::stream::{ArkitBasis, Frame, FramePoser};
 use facewire_proto::viewer_frame::{
     EyeMotion, FrameContent, FrameEncoder, FrameHeader, FrameLayout, LipFolds, LipRoughness as WireLip,
@@ -43,12 +50,6 @@ impl Heat {
     }
 }
 
-/// The meter behind a frame's per-vertex values.
-enum HeatMeter {
-    Roughness(Roughness),
-    Folds(FoldMeter),
-}
-
 /// The server's clock readings a viewer frame carries (µs since the Unix epoch).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct FrameTimes {
@@ -60,10 +61,8 @@ pub struct FrameTimes {
 
 #[derive(Debug, thiserror::Error)]
 pub enum FrameJobError {
-    #[error("roughness: {0}")]
-    Roughness(#[from] RoughnessError),
-    #[error("lip folds: {0}")]
-    Folds(#[from] RegionError),
+    #[error(transparent)]
+    Meter(#[from] MeterError),
     /// Cannot happen for frames within the documented parameter ranges; checked so that
     /// nothing non-finite ever reaches a viewer.
     #[error("frame {seq}: the deformed head has a non-finite position at vertex {vertex}")]
@@ -92,10 +91,10 @@ pub struct FrameJob {
     /// ones as a viewer frame carries them.
     eye_motions: Vec<RigidMotion>,
     eye_wire: Vec<EyeMotion>,
-    lip: LipRoughness,
+    meters: FrameMeters,
+    /// The last deformed frame was measured: [`FrameJob::encode`] may send its measures.
+    measured: bool,
     lip_wire: WireLip,
-    lip_folds: FoldMeter,
-    heat: Option<(HeatMeter, Vec<f32>)>,
     encoder: FrameEncoder,
     /// The last [`FrameJob::encode_json`] frame.
     json: Vec<u8>,
@@ -110,24 +109,21 @@ impl FrameJob {
         basis: Arc<ArkitBasis>,
         heat: Heat,
     ) -> Result<FrameJob, FrameJobError> {
+        let meters = FrameMeters::new(&head, heat)?;
+        Ok(FrameJob::with_meters(head, binding, basis, meters))
+    }
+
+    /// A job whose frames are measured by `meters` (made for `head`).
+    pub fn with_meters(
+        head: Arc<AnimatedHead>,
+        binding: Arc<Binding>,
+        basis: Arc<ArkitBasis>,
+        meters: FrameMeters,
+    ) -> FrameJob {
         let reg = &head.registration;
         let n = reg.vertex_count();
         let tongue_n = head.tongue.as_ref().map_or(0, |(_, t)| t.vertex_count());
-        let lip = LipRoughness::new(&reg.head, &head.lip_region)?;
-        let lip_folds = FoldMeter::new(&reg.head, head.lip_region.union())?;
-        let all_triangles: Vec<u32> = (0..reg.head.triangles.len() as u32).collect();
-        let heat = match heat {
-            Heat::None => None,
-            Heat::Roughness => Some((
-                HeatMeter::Roughness(Roughness::whole_mesh(&reg.head)?),
-                vec![0.0; n],
-            )),
-            Heat::Folds => Some((
-                HeatMeter::Folds(FoldMeter::new(&reg.head, &all_triangles)?),
-                vec![0.0; n],
-            )),
-        };
-        Ok(FrameJob {
+        FrameJob {
             poser: FramePoser::new(&reg.fitted),
             scratch: binding.scratch(reg.mask_rest().len(), reg.mask_triangles().len()),
             deformed: vec![Vec3::ZERO; n],
@@ -140,19 +136,18 @@ impl FrameJob {
             contact: head.contact.as_ref().map(|c| c.scratch(n, tongue_n)),
             eye_motions: vec![RigidMotion::IDENTITY; head.eyes.len()],
             eye_wire: Vec::with_capacity(head.eyes.len()),
-            lip,
-            lip_folds,
+            meters,
+            measured: false,
             lip_wire: WireLip {
                 per_vertex: vec![0.0; LIP_VERTICES.len()],
                 ..WireLip::default()
             },
-            heat,
             encoder: FrameEncoder::for_head(n + tongue_n, LIP_VERTICES.len()),
             json: Vec::new(),
             head,
             binding,
             basis,
-        })
+        }
     }
 
     pub fn head(&self) -> &AnimatedHead {
@@ -163,6 +158,7 @@ impl FrameJob {
     /// units, in the head's vertex order, before the head's own motion
     /// ([`FrameJob::head_motion`] has that).
     pub fn deform(&mut self, frame: &Frame) -> &[Vec3] {
+        self.measured = false;
         let reg = &self.head.registration;
         self.head_motion = head_motion(frame, &reg.fitted.fit.pose);
         let mask_now = self.poser.pose(&reg.fitted, &self.basis, frame);
@@ -232,6 +228,21 @@ impl FrameJob {
         self.poser.posed()
     }
 
+    /// Measures the head as [`FrameJob::deform`] left it, for `frame` (the rows carry its
+    /// `seq` and time): what [`FrameJob::encode`] sends with it.
+    pub fn measure(&mut self, frame: &Frame) -> Result<FrameMeasures<'_>, FrameJobError> {
+        self.check_finite(frame)?;
+        self.meters.measure(&self.deformed, frame.seq, frame.time_s)?;
+        self.measured = true;
+        Ok(self.meters.last())
+    }
+
+    /// Whether the tongue moved in the last [`FrameJob::deform`] (shaped by the frame or
+    /// pushed out of the teeth).
+    pub fn tongue_shaped(&self) -> bool {
+        self.tongue_shaped
+    }
+
     /// The head as [`FrameJob::deform`] left it as the naive JSON baseline: every position
     /// as a number, nothing else (`format=json` viewers, `facewire load --format json`).
     pub fn encode_json(&mut self, frame: &Frame) -> Result<&[u8], FrameJobError> {
@@ -250,16 +261,17 @@ impl FrameJob {
         }
     }
 
-    /// Encodes the head as [`FrameJob::deform`] left it, for `frame`, as a viewer frame in
-    /// `layout`: quantized deltas against the rest mesh, the head's and the jaw's motions,
-    /// the tongue's deltas, lip roughness and folds, the label, per-vertex heat values if
-    /// asked for.
+    /// Encodes the head as [`FrameJob::deform`] left it and [`FrameJob::measure`] measured
+    /// it, for `frame`, as a viewer frame in `layout`: quantized deltas against the rest
+    /// mesh, the head's and the jaw's motions, the tongue's deltas, lip roughness and folds,
+    /// the label, per-vertex heat values if asked for.
     pub fn encode(
         &mut self,
         frame: &Frame,
         times: FrameTimes,
         layout: FrameLayout,
     ) -> Result<&[u8], FrameJobError> {
+        debug_assert!(self.measured, "encode follows measure");
         self.check_finite(frame)?;
         let rest = &self.head.registration.head.positions;
         for ((d, now), rest) in self.deltas.iter_mut().zip(&self.deformed).zip(rest) {
@@ -269,27 +281,17 @@ impl FrameJob {
             *wire = delta.to_array();
         }
         let tongue_part = self.head.tongue.as_ref().map(|(part, _)| *part as u8);
-        let rows = self.lip.rows(&self.deformed, frame.seq, frame.time_s)?;
-        for (slot, row) in self.lip_wire.per_vertex.iter_mut().zip(&rows) {
+        let measures = self.meters.last();
+        let rows = measures.lip_rows;
+        for (slot, row) in self.lip_wire.per_vertex.iter_mut().zip(rows) {
             *slot = row.mean as f32;
         }
         let summary = rows[rows.len() - 1];
-        let folds = self.lip_folds.measure(&self.deformed)?;
+        let folds = measures.lip_folds;
         self.lip_wire.min = summary.min as f32;
         self.lip_wire.max = summary.max as f32;
         self.lip_wire.mean = summary.mean as f32;
-        let heat = match &mut self.heat {
-            Some((HeatMeter::Roughness(roughness), values)) => {
-                roughness.face_vertex_roughness(&self.deformed, values)?;
-                Some(values.as_slice())
-            }
-            Some((HeatMeter::Folds(meter), values)) => {
-                meter.measure(&self.deformed)?;
-                meter.vertex_turns_deg(values);
-                Some(values.as_slice())
-            }
-            None => None,
-        };
+        let heat = measures.heat;
         self.eye_wire.clear();
         for (eye, motion) in self.eye_motions.iter().enumerate() {
             if let Some(motion) = motion.to_wire() {

@@ -6,6 +6,7 @@
 
 mod eyeball;
 mod eyelid_contact;
+mod frame_meters;
 mod gaze;
 mod head;
 mod head_motion;
@@ -20,6 +21,7 @@ mod tongue;
 
 pub use eyeball::{fit_sphere, Eyeball, EyeballError, RadialProfile, Side, PROFILE_BINS};
 pub use eyelid_contact::{EyelidContact, LidsInEyes, INSIDE_TOLERANCE_MM, LID_WATCH_MM};
+pub use frame_meters::{FrameMeasures, FrameMeters, MeterError};
 pub use gaze::{Gaze, GAZE_LIMIT_RAD};
 pub use head::{AnimatedHead, AnimatedHeadError, PartInput, PartSplit, STEP_MM};
 pub use head_motion::{head_motion, NECK_PIVOT_MASK};

@@ -4,6 +4,7 @@
 
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use super::fitted_head::FittedHeadArgs;
 use super::part_arg::{describe_parts, load_parts};
@@ -67,14 +68,13 @@ pub fn run(args: Args) -> CliResult {
     describe_parts(&animated);
 
     let basis = ArkitBasis::shipped();
+    let animated = Arc::new(animated);
     let input = CompareInput {
-        registration: &animated.registration,
+        head: &animated,
         stream: &args.stream,
         basis: &basis,
         algorithms: &algorithms,
         targets: targets.as_ref().map_or(&[], |t| t.targets.as_slice()),
-        parts: &animated.parts,
-        contact: animated.contact.as_ref(),
     };
     let mut bar = ProgressBar::new(std::io::stderr().is_terminal());
     let comparison = compare(&input, &mut |p| bar.update(p))?;

@@ -12,10 +12,10 @@ use std::time::Instant;
 use super::fitted_head::FittedHeadArgs;
 use super::part_arg::{describe_parts, load_parts};
 use super::{CliResult, FilePath};
-use crate::animate::{AnimatedHead, FrameJob, Heat};
+use crate::animate::{AnimatedHead, FrameJob, FrameMeters, Heat};
 use crate::deform::{bind, AlgoSpec};
 use crate::head::obj;
-use crate::metrics::{FaceVertices, FoldMeter, LipRoughness, RoughnessTsvWriter, FOLDS_TSV_HEADER};
+use crate::metrics::{FaceVertices, LipRoughnessRow, RoughnessTsvWriter, FOLDS_TSV_HEADER};
 use crate::stream::{open_stream, ArkitBasis};
 
 #[derive(Debug, clap::Args)]
@@ -99,7 +99,6 @@ pub fn run(args: Args) -> CliResult {
     );
     describe_parts(&animated);
     let registration = &animated.registration;
-    let mut lips = LipRoughness::new(&registration.head, &animated.lip_region)?;
     let metrics_path = args.out.join("metrics.tsv");
     let in_metrics = |e| format!("{}: {e}", metrics_path.display());
     let mut metrics = RoughnessTsvWriter::new(BufWriter::new(create(&metrics_path)?)).map_err(in_metrics)?;
@@ -110,18 +109,19 @@ pub fn run(args: Args) -> CliResult {
         &registration.anchors,
         mm,
     )?;
-    let mut lip_folds = FoldMeter::new(&registration.head, animated.lip_region.union())?;
-    let mut face_folds = FoldMeter::new(&registration.head, &face.triangles(&registration.head))?;
+    // The viewer frames' meters, and the face's folds besides.
+    let meters = FrameMeters::new(&animated, Heat::None)?
+        .with_face_folds(&animated, &face.triangles(&registration.head))?;
     let folds_path = args.out.join("folds.tsv");
     let mut folds = BufWriter::new(create(&folds_path)?);
     writeln!(folds, "{FOLDS_TSV_HEADER}")?;
 
-    let mut job = FrameJob::new(
+    let mut job = FrameJob::with_meters(
         animated.clone(),
         Arc::new(binding),
         Arc::new(ArkitBasis::shipped()),
-        Heat::None,
-    )?;
+        meters,
+    );
     let header = vec![
         format!("facewire deform: {} with {spec}", args.fitted.head.display()),
         format!(
@@ -150,8 +150,7 @@ pub fn run(args: Args) -> CliResult {
             continue;
         }
         job.deform(&frame);
-        let (deformed, mask_now) = (job.deformed(), job.mask());
-        job.head_motion().apply_into(deformed, &mut placed);
+        job.head_motion().apply_into(job.deformed(), &mut placed);
         let path = args.out.join(format!("frame_{index:05}.obj"));
         let mut file = BufWriter::new(create(&path)?);
         obj::write(&mut file, &header, &placed, &registration.head.triangles)?;
@@ -179,9 +178,14 @@ pub fn run(args: Args) -> CliResult {
             first_vertex += out.len() as u32;
         }
         file.flush()?;
-        let rows = lips.rows(deformed, index as u64, frame.time_s)?;
+        let measures = job.measure(&frame)?;
+        // metrics.tsv numbers its rows by the frame's index in the stream.
+        let rows = measures.lip_rows.map(|row| LipRoughnessRow {
+            frame: index as u64,
+            ..row
+        });
         metrics.write_rows(&rows).map_err(in_metrics)?;
-        let (lip, face) = (lip_folds.measure(deformed)?, face_folds.measure(deformed)?);
+        let (lip, face) = (measures.lip_folds, measures.face_folds.unwrap_or_default());
         writeln!(
             folds,
             "{index}\t{}\t{}\t{}\t{}\t{}\t{}\t{}",
@@ -193,6 +197,7 @@ pub fn run(args: Args) -> CliResult {
             face.turned_over_90,
             face.max_dihedral_increase_deg
         )?;
+        let mask_now = job.mask();
         for (j, (now, rest)) in mask_now.iter().zip(registration.mask_rest()).enumerate() {
             let d = *now - *rest;
             writeln!(

@@ -1,35 +1,39 @@
 //! Runs the comparison: every algorithm bound once to the registered head and driven through
-//! every frame of a stream, measuring lip roughness and fidelity per frame (docs/METRICS.md)
-//! and timing the deform alone; then, where the head has artist-made expression targets,
-//! driving each algorithm by each target sampled at the anchors and measuring the error
-//! against the target itself.
+//! every frame of a stream by the service's own per-frame job ([`FrameJob`]: deform, then
+//! its [`FrameMeters`]), so the lip roughness and folds reported are those a viewer is
+//! sent; beside them fidelity and the face's crease per frame (docs/METRICS.md), and the
+//! job's deform stage timed. Then, where the head has artist-made expression targets,
+//! each algorithm is driven by each target sampled at the anchors and measured against
+//! the target itself.
 
 use std::path::Path;
+use std::sync::Arc;
 use std::time::Instant;
 
 use glam::Vec3;
 use serde::Serialize;
 
 use super::{Candidate, CompareError};
-use crate::animate::{jaw_motion, ContactScratch, TeethContact, TongueShaper};
+use crate::animate::{AnimatedHead, FrameJob, FrameJobError, FrameMeters, Heat};
 use crate::deform::{bind, Registration};
-use crate::head::Part;
 use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
 use crate::metrics::{
-    control_error, ground_truth_error, mouth_opening, ContactFrame, FaceCrease, FaceVertices, FoldMeter,
-    LipRegion, LipRoughness, MouthContact, SyllableScores, LIP_ROWS,
+    control_error, ground_truth_error, mouth_opening, ContactFrame, FaceCrease, FaceVertices, MouthContact,
+    SyllableScores, LIP_ROWS,
 };
-use crate::stream::{open_stream, ArkitBasis, FramePoser};
+use crate::stream::{open_stream, ArkitBasis};
 use crate::targets::ExpressionTarget;
 
 /// Syllable label of frames that carry none.
 pub const UNLABELLED: &str = "-";
 
 /// What to compare.
-#[derive(Debug, Clone, Copy)]
+#[derive(Clone, Copy)]
 pub struct CompareInput<'a> {
-    /// The head with its fitted mask, registered once for every algorithm.
-    pub registration: &'a Registration,
+    /// The head with its fitted mask (registered once for every algorithm), its parts
+    /// (teeth, gums, tongue, eyes, with their roles, for the contact measures) and the
+    /// constraints the per-frame job applies after each deform.
+    pub head: &'a Arc<AnimatedHead>,
     /// The parameter stream (`.jsonl`, `.fap`, `.fau`); read once to check and count it,
     /// then once per algorithm, so it is never held in memory whole.
     pub stream: &'a Path,
@@ -38,12 +42,6 @@ pub struct CompareInput<'a> {
     pub algorithms: &'a [Candidate],
     /// Expression targets of this head for the ground-truth error; empty for none.
     pub targets: &'a [ExpressionTarget],
-    /// The head's parts (teeth, gums, tongue) with their roles, for the contact measures;
-    /// empty for none.
-    pub parts: &'a [Part],
-    /// The contact constraint applied after each deform (the service's and `facewire
-    /// deform`'s, [`crate::animate::AnimatedHead::contact`]); `None` for none.
-    pub contact: Option<&'a TeethContact>,
 }
 
 /// Where a running comparison is, for a progress display.
@@ -211,37 +209,45 @@ pub fn compare(
     input: &CompareInput<'_>,
     progress: &mut dyn FnMut(Progress<'_>),
 ) -> Result<Comparison, CompareError> {
-    let reg = input.registration;
+    let head = input.head;
+    let reg = &head.registration;
     let mask = &reg.fitted.mask;
     let mm = reg.mm_per_unit();
     let rest = &reg.head.positions;
 
-    let region = LipRegion::new(&reg.head, &reg.anchors, mm).map_err(CompareError::LipRegion)?;
-    let mut lips = LipRoughness::new(&reg.head, &region).map_err(CompareError::LipEvaluator)?;
-    let rest_roughness = lips
-        .rows(rest, 0, 0.0)
-        .map_err(|source| CompareError::Roughness {
+    let region = &head.lip_region;
+    let face = FaceVertices::new(&reg.head, mask, &reg.anchors, mm).map_err(CompareError::FaceRegion)?;
+    let face_triangles = face.triangles(&reg.head);
+    let meters = |algorithm: &str| {
+        FrameMeters::new(head, Heat::None)
+            .and_then(|m| m.with_face_folds(head, &face_triangles))
+            .map_err(|source| CompareError::Meters {
+                algorithm: algorithm.into(),
+                frame: 0,
+                source,
+            })
+    };
+    let rest_roughness = meters("rest")?
+        .measure(rest, 0, 0.0)
+        .map_err(|source| CompareError::Meters {
             algorithm: "rest".into(),
             frame: 0,
             source,
-        })?[LIP_ROWS - 1]
+        })?
+        .lip_rows[LIP_ROWS - 1]
         .mean;
-    let face = FaceVertices::new(&reg.head, mask, &reg.anchors, mm).map_err(CompareError::FaceRegion)?;
     let face_crease = FaceCrease::new(&reg.head, face.vertices()).map_err(CompareError::FaceEvaluator)?;
-    let lip_folds = FoldMeter::new(&reg.head, region.union()).map_err(CompareError::LipRegion)?;
-    let face_folds =
-        FoldMeter::new(&reg.head, &face.triangles(&reg.head)).map_err(CompareError::FaceRegion)?;
     let survey = survey(input)?;
-    let tongue = TongueShaper::for_parts(input.parts, &reg.fitted, mm).map(|(_, shaper)| shaper);
-    let tongue_vertices = tongue
+    let tongue_vertices = head
+        .tongue
         .as_ref()
-        .map(|t| (t.landmarks().tip_vertex, t.free_vertices()));
+        .map(|(_, t)| (t.landmarks().tip_vertex, t.free_vertices()));
     let mouth = MouthContact::new(
         &reg.head,
-        &region,
+        region,
         &reg.fitted.fit.pose,
         mm,
-        input.parts,
+        &head.parts,
         tongue_vertices,
     );
     let rest_contact = mouth
@@ -268,23 +274,16 @@ pub fn compare(
     let mut run = Run {
         input,
         survey,
-        lips,
         face,
+        face_triangles,
         face_crease,
-        lip_folds,
-        face_folds,
-        poser: FramePoser::new(&reg.fitted),
+        basis: Arc::new(input.basis.clone()),
         deformed: vec![Vec3::ZERO; rest.len()],
         target_positions,
         controls: vec![Vec3::ZERO; mask.vertices.len()],
         target_mask: vec![Vec3::ZERO; mask.vertices.len()],
         stream: StreamTotals::default(),
-        tongue_deltas: vec![Vec3::ZERO; tongue.as_ref().map_or(0, TongueShaper::vertex_count)],
-        contact: input
-            .contact
-            .map(|c| c.scratch(rest.len(), tongue.as_ref().map_or(0, TongueShaper::vertex_count))),
         mouth,
-        tongue,
     };
     let mut algorithms = Vec::with_capacity(input.algorithms.len());
     for (index, candidate) in input.algorithms.iter().enumerate() {
@@ -314,7 +313,7 @@ pub fn compare(
         face_triangles: run.face_crease.triangles(),
         rest_face_roughness: run.face_crease.rest_mean(),
         rest_ground_truth,
-        tongue: run
+        tongue: head
             .tongue
             .as_ref()
             .and(algorithms.first())
@@ -381,22 +380,18 @@ impl StreamTotals {
 struct Run<'i, 'a> {
     input: &'i CompareInput<'a>,
     survey: Survey,
-    lips: LipRoughness,
     face: FaceVertices,
+    /// The face's triangles, whose folds each job's meters measure.
+    face_triangles: Vec<u32>,
     face_crease: FaceCrease,
-    lip_folds: FoldMeter,
-    face_folds: FoldMeter,
-    poser: FramePoser,
+    basis: Arc<ArkitBasis>,
+    /// The head deformed by a target (the stream's frames are the job's).
     deformed: Vec<Vec3>,
     target_positions: Vec<Vec3>,
     controls: Vec<Vec3>,
     target_mask: Vec<Vec3>,
     stream: StreamTotals,
     mouth: Option<MouthContact>,
-    /// The tongue's shaper, when the head has one.
-    tongue: Option<TongueShaper>,
-    tongue_deltas: Vec<Vec3>,
-    contact: Option<ContactScratch>,
 }
 
 impl Run<'_, '_> {
@@ -406,7 +401,7 @@ impl Run<'_, '_> {
         candidate: &Candidate,
         report: &mut dyn FnMut(Stage),
     ) -> Result<AlgorithmResult, CompareError> {
-        let reg = self.input.registration;
+        let reg = &self.input.head.registration;
         let mask = &reg.fitted.mask;
         let mm = reg.mm_per_unit();
         let rest = &reg.head.positions;
@@ -416,8 +411,21 @@ impl Run<'_, '_> {
             source,
         };
         report(Stage::Binding);
-        let binding = bind(reg, &candidate.spec);
+        let binding = Arc::new(bind(reg, &candidate.spec));
         let mut scratch = binding.scratch(mask.vertices.len(), mask.triangles.len());
+        let meters = FrameMeters::new(self.input.head, Heat::None)
+            .and_then(|m| m.with_face_folds(self.input.head, &self.face_triangles))
+            .map_err(|source| CompareError::Meters {
+                algorithm: spec.clone(),
+                frame: 0,
+                source,
+            })?;
+        let mut job = FrameJob::with_meters(
+            self.input.head.clone(),
+            binding.clone(),
+            self.basis.clone(),
+            meters,
+        );
 
         let frames = self.survey.frames;
         let mut syllables = SyllableScores::new();
@@ -431,43 +439,30 @@ impl Run<'_, '_> {
         let mut contact = Vec::with_capacity(if self.mouth.is_some() { frames } else { 0 });
         for (f, frame) in open_stream(self.input.stream, mask)?.enumerate() {
             let frame = frame?;
-            let mask_now = self.poser.pose(&reg.fitted, self.input.basis, &frame);
             let started = Instant::now();
-            binding.deform(
-                rest,
-                reg.mask_rest(),
-                mask_now,
-                reg.mask_triangles(),
-                &mut scratch,
-                &mut self.deformed,
-            );
-            let mut deform_us = started.elapsed().as_secs_f64() * 1e6;
-            let jaw = jaw_motion(reg.mask_rest(), mask_now, &reg.fitted.fit.pose).affine();
-            let mut tongue_shaped = match &self.tongue {
-                Some(shaper) => shaper.shape(&frame, &mut self.tongue_deltas),
-                None => false,
-            };
-            if let (Some(contact), Some(contact_scratch)) = (self.input.contact, &mut self.contact) {
-                let tongue = self.tongue.as_ref().map(|_| self.tongue_deltas.as_mut_slice());
-                let started = Instant::now();
-                let applied = contact.apply(&mut self.deformed, jaw, tongue, contact_scratch);
-                deform_us += started.elapsed().as_secs_f64() * 1e6;
-                tongue_shaped |= applied.tongue_pushed > 0;
-            }
-            durations.push(deform_us);
+            job.deform(&frame);
+            durations.push(started.elapsed().as_secs_f64() * 1e6);
 
-            let rows = self
-                .lips
-                .rows(&self.deformed, f as u64, frame.time_s)
-                .map_err(|source| CompareError::Roughness {
+            let measures = job.measure(&frame).map_err(|source| match source {
+                FrameJobError::Meter(source) => CompareError::Meters {
                     algorithm: spec.clone(),
                     frame: f,
                     source,
-                })?;
-            syllables.add(frame.label.as_deref().unwrap_or(UNLABELLED), &rows);
+                },
+                other => CompareError::Job {
+                    algorithm: spec.clone(),
+                    source: other,
+                },
+            })?;
+            syllables.add(frame.label.as_deref().unwrap_or(UNLABELLED), measures.lip_rows);
+            lip_folds += u64::from(measures.lip_folds.turned_over_60);
+            if let Some(face) = measures.face_folds {
+                fold_deg = fold_deg.max(face.max_dihedral_increase_deg);
+            }
+            let (deformed, mask_now) = (job.deformed(), job.mask());
             let (face_mean, crease) =
                 self.face_crease
-                    .measure(&self.deformed)
+                    .measure(deformed)
                     .map_err(|source| CompareError::Roughness {
                         algorithm: spec.clone(),
                         frame: f,
@@ -475,28 +470,15 @@ impl Run<'_, '_> {
                     })?;
             face_sum += face_mean;
             creases.push(crease);
-            let folds_error = |source| CompareError::Folds {
-                algorithm: spec.clone(),
-                frame: f,
-                source,
-            };
-            lip_folds += u64::from(
-                self.lip_folds
-                    .measure(&self.deformed)
-                    .map_err(folds_error)?
-                    .turned_over_60,
-            );
-            let face = self.face_folds.measure(&self.deformed).map_err(folds_error)?;
-            fold_deg = fold_deg.max(face.max_dihedral_increase_deg);
 
             control_displacements(reg, mask_now, &mut self.controls);
             let control =
-                control_error(&self.deformed, rest, &reg.anchors, &self.controls, mm).map_err(fidelity)?;
+                control_error(deformed, rest, &reg.anchors, &self.controls, mm).map_err(fidelity)?;
             if control.moving > 0 {
                 self.stream.moving_frames += 1;
                 control_sum += control.mean_mm;
             }
-            let opening = mouth_opening(&self.deformed, &reg.anchors, mask_now, mm).map_err(fidelity)?;
+            let opening = mouth_opening(deformed, &reg.anchors, mask_now, mm).map_err(fidelity)?;
             if let Some(ratio) = opening.ratio {
                 self.stream.open_frames += 1;
                 ratio_sum += ratio;
@@ -507,11 +489,11 @@ impl Run<'_, '_> {
                 self.stream.exact_ratio_sum += exact / opening.mask_mm;
             }
             if let Some(mouth) = &self.mouth {
-                let tongue = tongue_shaped.then_some(self.tongue_deltas.as_slice());
+                let tongue = job.tongue_shaped().then_some(job.tongue_deltas());
                 contact.push(ContactRow {
                     frame: f,
                     label: frame.label.clone().unwrap_or_else(|| UNLABELLED.into()),
-                    contact: mouth.measure(&self.deformed, jaw, tongue),
+                    contact: mouth.measure(deformed, job.jaw_motion().affine(), tongue),
                 });
             }
             report(Stage::Frames {
@@ -615,7 +597,7 @@ struct Survey {
 fn survey(input: &CompareInput<'_>) -> Result<Survey, CompareError> {
     let mut frames = 0;
     let mut labels: Vec<String> = Vec::new();
-    for frame in open_stream(input.stream, &input.registration.fitted.mask)? {
+    for frame in open_stream(input.stream, &input.head.registration.fitted.mask)? {
         let frame = frame?;
         let label = frame.label.as_deref().unwrap_or(UNLABELLED);
         if !labels.iter().any(|l| l == label) {

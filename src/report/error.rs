@@ -1,5 +1,6 @@
 //! Why a comparison or its report failed, with the file, algorithm or target at fault.
 
+use crate::animate::{FrameJobError, MeterError};
 use crate::deform::SpecError;
 use crate::metrics::{FidelityError, RegionError, RoughnessError};
 use crate::stream::StreamError;
@@ -24,12 +25,8 @@ pub enum CompareError {
     Stream(#[from] StreamError),
     #[error("{path}: the stream has no frames")]
     EmptyStream { path: String },
-    #[error("the lip region of the head: {0}")]
-    LipRegion(#[source] RegionError),
     #[error("the face vertices of the head: {0}")]
     FaceRegion(#[source] RegionError),
-    #[error("the lip roughness evaluator of the head: {0}")]
-    LipEvaluator(#[source] RoughnessError),
     #[error("the face roughness evaluator of the head: {0}")]
     FaceEvaluator(#[source] RoughnessError),
     #[error("roughness with {algorithm}, frame {frame}: {source}")]
@@ -38,11 +35,16 @@ pub enum CompareError {
         frame: usize,
         source: RoughnessError,
     },
-    #[error("folds with {algorithm}, frame {frame}: {source}")]
-    Folds {
+    #[error("lip roughness or folds with {algorithm}, frame {frame}: {source}")]
+    Meters {
         algorithm: String,
         frame: usize,
-        source: RegionError,
+        source: MeterError,
+    },
+    #[error("{algorithm}: {source}")]
+    Job {
+        algorithm: String,
+        source: FrameJobError,
     },
     #[error("fidelity with {algorithm}: {source}")]
     Fidelity {

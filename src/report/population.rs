@@ -178,13 +178,11 @@ fn measure(
     let lids = lids_in_eyes(&animated, &bare, algorithm);
     let basis = ArkitBasis::shipped();
     let input = CompareInput {
-        registration: &animated.registration,
+        head: &animated,
         stream,
         basis: &basis,
         algorithms: std::slice::from_ref(algorithm),
         targets,
-        parts: &animated.parts,
-        contact: animated.contact.as_ref(),
     };
     let comparison = compare(&input, &mut |_| {}).map_err(|e| e.to_string())?;
     let result = comparison.algorithms.first().ok_or("no algorithm ran")?;

@@ -2,12 +2,13 @@
 //! ([`ErrorCode`]) and a message a person can act on, as JSON
 //! (`{"error":"unknown_head","message":"no head \"x\""}`). Server faults log their cause
 //! under the request's id and answer only `internal` with that id, never internal text
-//! such as file paths.
+//! such as file paths. A socket refused before its session closes with
+//! [`ApiError::close_code`].
 
 use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use axum::Json;
-use facewire_proto::codes::ErrorCode;
+use facewire_proto::codes::{CloseCode, ErrorCode};
 use facewire_proto::messages::ErrorBody;
 
 use crate::quote::quote;
@@ -125,6 +126,20 @@ impl ApiError {
             ApiError::ShuttingDown => ErrorCode::ShuttingDown,
             ApiError::BusUnavailable(_) => ErrorCode::BusUnavailable,
             ApiError::Internal(_) => ErrorCode::Internal,
+        }
+    }
+
+    /// The WebSocket close code of a viewer or producer refused with this error before
+    /// its session starts (proto/PROTOCOL.md, "Close codes"): what to do next, as the
+    /// status is for HTTP. Whatever a client cannot fix by asking otherwise is "try later".
+    pub fn close_code(&self) -> CloseCode {
+        match self {
+            ApiError::UnknownHead(_) => CloseCode::UnknownHead,
+            ApiError::RegistrationFailed { .. } => CloseCode::RegistrationFailed,
+            ApiError::BadAlgorithm(_) | ApiError::BadId { .. } => CloseCode::BadRequest,
+            ApiError::ProducerBusy(_) => CloseCode::ProducerBusy,
+            ApiError::ShuttingDown => CloseCode::GoingAway,
+            _ => CloseCode::TryLater,
         }
     }
 }

@@ -224,27 +224,39 @@ fn message_len(message: &Message) -> usize {
     }
 }
 
-/// One frame through the job; `None` (logged and counted) when it cannot be shown.
+/// One frame through the job's stages, each timed apart; `None` (logged and counted) when
+/// it cannot be shown. JSON frames carry no measures, so their pipelines measure nothing.
 fn process(
     job: &mut FrameJob,
     format: FrameFormat,
     received: &ReceivedFrame,
     telemetry: &Telemetry,
 ) -> Option<Encoded> {
+    let frame = &received.frame;
     let started = Instant::now();
-    job.deform(&received.frame);
+    job.deform(frame);
     let deformed_at = Instant::now();
     telemetry
         .deform_seconds
         .observe((deformed_at - started).as_secs_f64());
+    let measured = match format {
+        FrameFormat::Binary(_) => job.measure(frame).map(drop),
+        FrameFormat::Json => Ok(()),
+    };
+    let measured_at = Instant::now();
+    if format != FrameFormat::Json {
+        telemetry
+            .measure_seconds
+            .observe((measured_at - deformed_at).as_secs_f64());
+    }
     let times = FrameTimes {
         received_us: received.received_us,
         send_us: super::now_us(),
     };
-    let encoded = match format {
-        FrameFormat::Binary(layout) => job.encode(&received.frame, times, layout),
-        FrameFormat::Json => job.encode_json(&received.frame),
-    };
+    let encoded = measured.and_then(|()| match format {
+        FrameFormat::Binary(layout) => job.encode(frame, times, layout),
+        FrameFormat::Json => job.encode_json(frame),
+    });
     let message = match encoded.map(Bytes::copy_from_slice) {
         Ok(bytes) if format != FrameFormat::Json => Message::Binary(bytes),
         Ok(bytes) => Message::Text(Utf8Bytes::try_from(bytes).expect("serde_json writes UTF-8")),
@@ -257,7 +269,7 @@ fn process(
     let published = Instant::now();
     telemetry
         .encode_seconds
-        .observe((published - deformed_at).as_secs_f64());
+        .observe((published - measured_at).as_secs_f64());
     telemetry.latency(
         "receive_to_publish",
         times.send_us.saturating_sub(received.received_us) as f64 * 1e-6,

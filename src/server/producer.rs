@@ -133,11 +133,7 @@ async fn producer_session(
         Err(refused) => {
             let code = refused.code();
             state.telemetry.reject(code.as_str());
-            let close_code = match refused {
-                ApiError::ProducerBusy(_) => CloseCode::ProducerBusy,
-                _ => CloseCode::TryLater,
-            };
-            return refuse(&mut socket, code, close_code, refused.to_string()).await;
+            return refuse(&mut socket, code, refused.close_code(), refused.to_string()).await;
         }
     };
     state.telemetry.producers.inc();

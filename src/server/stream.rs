@@ -5,11 +5,12 @@
 //! frame newer than `stream_linger_s`; the head's sweep drops it after that.
 
 use std::collections::HashMap;
+use std::future::Future;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use tokio::sync::{broadcast, watch, Notify};
+use tokio::sync::{broadcast, watch, Notify, OnceCell};
 use tokio::time::Instant;
 use tokio_util::sync::CancellationToken;
 
@@ -43,7 +44,9 @@ pub struct Stream {
     producer: Mutex<Option<CancellationToken>>,
     /// Told when a producer gives the slot back.
     released: Notify,
-    pipelines: Mutex<HashMap<PipelineKey, Arc<Pipeline>>>,
+    /// One slot per key: its pipeline once started (`OnceCell`: the first viewer starts
+    /// it, the others wait for it).
+    pipelines: Mutex<HashMap<PipelineKey, Arc<OnceCell<Arc<Pipeline>>>>>,
     viewers: AtomicUsize,
     last_activity: Mutex<Instant>,
     /// When the last frame from another node's producer came, while the stream has not
@@ -230,35 +233,65 @@ impl Stream {
         ViewerHold { stream: self.clone() }
     }
 
-    /// A receiver of the running pipeline for `key`, or of a new one made by `start`;
-    /// retired pipelines (no viewer left) are replaced. `full()` when `max_pipelines` run
+    /// A receiver of the running pipeline for `key`, or of a new one made by `start`. One
+    /// viewer starts a key's pipeline while the others asking for it wait, and no lock is
+    /// held while it starts (`start` may build its job on the blocking pool). Retired
+    /// pipelines (no viewer left) are replaced. `full()` when `max_pipelines` run or start
     /// already and none is `key`'s.
-    pub fn pipeline<E>(
+    pub async fn pipeline<E, F>(
         &self,
         key: PipelineKey,
         max_pipelines: usize,
         full: impl FnOnce() -> E,
-        start: impl FnOnce(
-            watch::Receiver<ParamTimeline>,
-        ) -> Result<(Arc<Pipeline>, watch::Receiver<Timeline<Encoded>>), E>,
-    ) -> Result<watch::Receiver<Timeline<Encoded>>, E> {
-        let mut pipelines = self.pipelines.lock().expect("pipelines lock");
-        if let Some(rx) = pipelines.get(&key).and_then(|p| p.subscribe()) {
-            return Ok(rx);
+        start: impl FnOnce(watch::Receiver<ParamTimeline>) -> F,
+    ) -> Result<watch::Receiver<Timeline<Encoded>>, E>
+    where
+        F: Future<Output = Result<(Arc<Pipeline>, watch::Receiver<Timeline<Encoded>>), E>>,
+    {
+        let mut start = Some(start);
+        loop {
+            let slot = {
+                let mut pipelines = self.pipelines.lock().expect("pipelines lock");
+                pipelines.retain(|_, slot| slot.get().is_none_or(|p| !p.is_retired()));
+                match pipelines.get(&key) {
+                    Some(slot) => slot.clone(),
+                    None if pipelines.len() >= max_pipelines => return Err(full()),
+                    None => pipelines.entry(key.clone()).or_default().clone(),
+                }
+            };
+            let mut first = None;
+            let started = slot
+                .get_or_try_init(|| async {
+                    let start = start.take().expect("a pipeline is started once per call");
+                    let (pipeline, rx) = start(self.subscribe()).await?;
+                    first = Some(rx);
+                    Ok(pipeline)
+                })
+                .await;
+            match started {
+                Ok(pipeline) => match first.or_else(|| pipeline.subscribe()) {
+                    Some(rx) => return Ok(rx),
+                    // Retired between starting and joining: replaced on the next turn.
+                    None => continue,
+                },
+                Err(e) => {
+                    let mut pipelines = self.pipelines.lock().expect("pipelines lock");
+                    if pipelines
+                        .get(&key)
+                        .is_some_and(|s| Arc::ptr_eq(s, &slot) && s.get().is_none())
+                    {
+                        pipelines.remove(&key);
+                    }
+                    return Err(e);
+                }
+            }
         }
-        pipelines.retain(|_, p| !p.is_retired());
-        if pipelines.len() >= max_pipelines {
-            return Err(full());
-        }
-        let (pipeline, rx) = start(self.subscribe())?;
-        pipelines.insert(key, pipeline);
-        Ok(rx)
     }
 
-    /// Pipelines running now (retired ones are dropped on the way).
+    /// Pipelines running or starting now (retired ones are dropped on the way).
     pub fn pipeline_count(&self) -> usize {
         let mut pipelines = self.pipelines.lock().expect("pipelines lock");
-        pipelines.retain(|_, p| !p.is_retired());
+        pipelines.retain(|_, slot| slot.get().is_none_or(|p| !p.is_retired()));
         pipelines.len()
     }
 

@@ -51,7 +51,10 @@ pub struct Telemetry {
     /// Frames skipped: `deform` (a pipeline was busy when newer parameters came) or
     /// `viewer` (a viewer was slower than the stream).
     pub frames_skipped: Family<StageLabel, Counter>,
+    /// A frame's stages in a pipeline (`FrameJob`): deform, measure (lip roughness and
+    /// folds, heat; binary frames only), encode.
     pub deform_seconds: Histogram,
+    pub measure_seconds: Histogram,
     pub encode_seconds: Histogram,
     /// Latency per hop: `receive_to_publish` (parameters in to encoded frame out) and
     /// `publish_to_send` (encoded to written to a viewer socket).
@@ -96,6 +99,7 @@ impl Default for Telemetry {
             audio_resyncs: Counter::default(),
             frames_skipped: Family::default(),
             deform_seconds: seconds_histogram(),
+            measure_seconds: seconds_histogram(),
             encode_seconds: seconds_histogram(),
             latency_seconds: Family::new_with_constructor(seconds_histogram),
             viewers: Gauge::default(),
@@ -142,8 +146,13 @@ impl Default for Telemetry {
             t.deform_seconds.clone(),
         );
         registry.register(
+            "measure_seconds",
+            "Measure time per frame (lip roughness and folds, heat)",
+            t.measure_seconds.clone(),
+        );
+        registry.register(
             "encode_seconds",
-            "Roughness and encode time per frame",
+            "Encode time per frame (quantize and write the viewer frame)",
             t.encode_seconds.clone(),
         );
         registry.register("latency_seconds", "Latency per hop", t.latency_seconds.clone());

@@ -27,7 +27,7 @@ use super::AppState;
 use crate::animate::{FrameJob, Heat};
 use crate::deform::AlgoSpec;
 use crate::mask::LIP_VERTICES;
-use facewire_proto::codes::{CloseCode, EndReason, ErrorCode};
+use facewire_proto::codes::{CloseCode, EndReason};
 use facewire_proto::messages::{SectionInfo, ServerMessage, Snapshot};
 use facewire_proto::viewer_frame::{self, FrameLayout};
 
@@ -117,8 +117,8 @@ pub async fn view(
         .on_upgrade(move |mut socket| async move {
             match open_view(&state, &id, &stream, &query).await {
                 Ok(view) => view.run(socket, &state).await,
-                Err((error, close_code)) => {
-                    refuse(&mut socket, error.code(), close_code, error.to_string()).await;
+                Err(error) => {
+                    refuse(&mut socket, error.code(), error.close_code(), error.to_string()).await;
                 }
             }
             drop(session);
@@ -136,49 +136,26 @@ struct View {
     audio: Option<broadcast::Receiver<Arc<RelayedAudio>>>,
 }
 
-fn close_code_for(error: &ApiError) -> CloseCode {
-    match error.code() {
-        ErrorCode::UnknownHead => CloseCode::UnknownHead,
-        ErrorCode::RegistrationFailed => CloseCode::RegistrationFailed,
-        ErrorCode::BadAlgorithm | ErrorCode::BadId => CloseCode::BadRequest,
-        ErrorCode::ShuttingDown => CloseCode::GoingAway,
-        _ => CloseCode::TryLater,
-    }
-}
-
-async fn open_view(
-    state: &AppState,
-    id: &str,
-    name: &str,
-    query: &ViewQuery,
-) -> Result<View, (ApiError, CloseCode)> {
-    let refused = |e: ApiError| {
-        let code = close_code_for(&e);
-        (e, code)
-    };
+async fn open_view(state: &AppState, id: &str, name: &str, query: &ViewQuery) -> Result<View, ApiError> {
     let slot = state.viewer_slots.clone().try_acquire_owned().map_err(|_| {
-        refused(ApiError::LimitReached(format!(
+        ApiError::LimitReached(format!(
             "{} viewers are watching, the most this server takes; try again later",
             state.config.limits.max_viewers
-        )))
+        ))
     })?;
-    let head = state.registry.head(id).map_err(refused)?;
-    let spec = state.viewer_algorithm(query.algo.as_deref()).map_err(refused)?;
-    let heat = query.heat().map_err(refused)?;
-    let format = query.format().map_err(refused)?;
-    let audio_codec = query.audio().map_err(refused)?;
+    let head = state.registry.head(id)?;
+    let spec = state.viewer_algorithm(query.algo.as_deref())?;
+    let heat = query.heat()?;
+    let format = query.format()?;
+    let audio_codec = query.audio()?;
     let ready = tokio::select! {
-        ready = head.wait_ready(REGISTRATION_WAIT) => ready.map_err(refused)?,
-        _ = head.deleted.cancelled() => return Err(refused(ApiError::UnknownHead(id.to_string()))),
-        _ = state.shutdown.cancelled() => return Err(refused(ApiError::ShuttingDown)),
+        ready = head.wait_ready(REGISTRATION_WAIT) => ready?,
+        _ = head.deleted.cancelled() => return Err(ApiError::UnknownHead(id.to_string())),
+        _ = state.shutdown.cancelled() => return Err(ApiError::ShuttingDown),
     };
-    let stream = head.stream(name).map_err(refused)?;
+    let stream = head.stream(name)?;
     let hold = stream.hold();
-    let binding = ready
-        .bindings
-        .get(&ready.animated, &spec)
-        .await
-        .map_err(refused)?;
+    let binding = ready.bindings.get(&ready.animated, &spec).await?;
     let key = PipelineKey {
         spec: spec.to_string(),
         heat,
@@ -192,19 +169,18 @@ async fn open_view(
             crate::quote::quote(name)
         ))
     };
+    let (animated, arkit) = (ready.animated.clone(), state.arkit.clone());
+    let (trimmer, telemetry) = (state.trimmer.clone(), state.telemetry.clone());
     let frames = stream
-        .pipeline(key, max_pipelines, full, |params| {
-            let job = FrameJob::new(ready.animated.clone(), binding, state.arkit.clone(), heat)
+        .pipeline(key, max_pipelines, full, move |params| async move {
+            // Its meters' tables take milliseconds on a large head: off the runtime.
+            let job = tokio::task::spawn_blocking(move || FrameJob::new(animated, binding, arkit, heat))
+                .await
+                .map_err(ApiError::internal)?
                 .map_err(ApiError::internal)?;
-            Ok(Pipeline::start(
-                job,
-                format,
-                params,
-                state.trimmer.clone(),
-                state.telemetry.clone(),
-            ))
+            Ok(Pipeline::start(job, format, params, trimmer, telemetry))
         })
-        .map_err(refused)?;
+        .await?;
     let reg = &ready.animated.registration;
     let snapshot = Snapshot {
         protocol: facewire_proto::PROTOCOL_VERSION.into(),

@@ -20,6 +20,7 @@ mod frame;
 pub mod idle_eyes;
 pub mod jsonl;
 mod lines;
+pub mod mouth_shapes;
 mod poser;
 mod reader;
 mod strict_json;

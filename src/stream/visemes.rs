@@ -7,7 +7,7 @@
 //! alike. docs/STREAMS.md, "Visemes", has the tables.
 
 use super::frame::VisemeFap;
-use super::syllables::{Consonant, CHANNELS, CONSONANTS, TONGUE_FAPS, VOWELS};
+use super::mouth_shapes::{Consonant, CHANNELS, CONSONANTS, TONGUE_FAPS, VOWELS};
 
 /// One MPEG-4 viseme: its number (also Oculus/Meta's index), Oculus/Meta's name, the
 /// sounds it stands for, and its mouth shape as weights of [`CHANNELS`].

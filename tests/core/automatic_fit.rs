@@ -474,14 +474,13 @@ fn the_automatic_fit_animates_the_heads_as_well_as_the_landmark_fit() {
 /// Lip triangle-frames turned over 60 degrees, and the sharpest fold on the face (degrees),
 /// with V over the syllable stream, as `facewire compare` counts them.
 fn folds_with_v(registration: &Registration) -> (u64, f64) {
+    let head = std::sync::Arc::new(facewire::animate::AnimatedHead::new(registration.clone()).unwrap());
     let input = CompareInput {
-        registration,
+        head: &head,
         stream: &crate::common::data("streams/syllables.jsonl"),
         basis: &ArkitBasis::shipped(),
         algorithms: &parse_algorithms("V").unwrap(),
         targets: &[],
-        parts: &[],
-        contact: None,
     };
     let v = &compare_algorithms(&input, &mut |_| {}).unwrap().algorithms[0].summary;
     (v.lip_folds, v.fold_deg)

@@ -396,3 +396,72 @@ fn compare_errors_name_what_is_wrong() {
     assert!(err.contains("/nonexistent/targets"), "{err}");
     assert!(!out.exists(), "nothing is written on bad input");
 }
+
+/// What `facewire compare` reports of the lips is what a viewer is sent, frame for frame:
+/// the ICT head with its teeth, tongue and eyes (so the contact and eyelid constraints run)
+/// through the service's per-frame job, each frame encoded as FWF2 and decoded, against
+/// `report::compare` over the same frames. One code path makes both; this holds it.
+#[test]
+fn compare_reports_the_lips_a_viewer_is_sent() {
+    use facewire::animate::{FrameJob, FrameTimes, Heat};
+    use facewire::deform::bind;
+    use facewire::report::{compare, parse_algorithms, CompareInput};
+    use facewire::stream::ArkitBasis;
+    use facewire_proto::viewer_frame::{decode, FrameLayout};
+    use std::sync::Arc;
+
+    let dir = tempfile::tempdir().unwrap();
+    let (stream, frames) = short_stream(dir.path());
+    let head = Arc::new(crate::common::ict_head());
+    let algorithms = parse_algorithms("V").unwrap();
+    let basis = ArkitBasis::shipped();
+    let comparison = compare(
+        &CompareInput {
+            head: &head,
+            stream: &stream,
+            basis: &basis,
+            algorithms: &algorithms,
+            targets: &[],
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    let reported = &comparison.algorithms[0];
+
+    let binding = Arc::new(bind(&head.registration, &algorithms[0].spec));
+    let mut job = FrameJob::new(head.clone(), binding, Arc::new(basis), Heat::None).unwrap();
+    let (mut folds, mut by_label) = (0u64, Vec::<(String, usize, f64)>::new());
+    for frame in &frames {
+        job.deform(frame);
+        job.measure(frame).unwrap();
+        let sent = decode(
+            job.encode(frame, FrameTimes::default(), FrameLayout::Fwf2)
+                .unwrap(),
+        )
+        .unwrap();
+        folds += u64::from(sent.folds.expect("FWF2 carries folds").turned_over_60);
+        let label = frame.label.clone().unwrap_or_else(|| "-".into());
+        match by_label.iter_mut().find(|(l, _, _)| *l == label) {
+            Some((_, n, sum)) => {
+                *n += 1;
+                *sum += f64::from(sent.lip.mean);
+            }
+            None => by_label.push((label, 1, f64::from(sent.lip.mean))),
+        }
+    }
+    assert_eq!(
+        reported.summary.lip_folds, folds,
+        "lip triangle-frames turned past 60 degrees"
+    );
+    assert_eq!(reported.syllables.len(), by_label.len());
+    for (row, (label, n, sum)) in reported.syllables.iter().zip(&by_label) {
+        assert_eq!((&row.syllable, row.frames), (label, *n as u64));
+        // The wire carries the mean as f32.
+        let sent = sum / *n as f64;
+        assert!(
+            (row.roughness_mean - sent).abs() <= 1e-6 * sent.abs().max(1e-9),
+            "{label}: reported {} against {sent} sent",
+            row.roughness_mean
+        );
+    }
+}

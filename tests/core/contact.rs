@@ -13,17 +13,15 @@ use facewire::stream::ArkitBasis;
 
 /// `algorithms` over `stream` on the ICT head with its parts, as `facewire compare`.
 fn compare_on_ict(algorithms: &str, stream: &Path) -> Comparison {
-    let head = ict_head();
+    let head = std::sync::Arc::new(ict_head());
     let basis = ArkitBasis::shipped();
     let algorithms = parse_algorithms(algorithms).unwrap();
     let input = CompareInput {
-        registration: &head.registration,
+        head: &head,
         stream,
         basis: &basis,
         algorithms: &algorithms,
         targets: &[],
-        parts: &head.parts,
-        contact: head.contact.as_ref(),
     };
     compare(&input, &mut |_| {}).unwrap()
 }

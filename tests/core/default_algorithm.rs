@@ -23,15 +23,13 @@ fn on_every_shipped_head_the_default_folds_no_lip_and_is_smoother_than_h() {
     let basis = ArkitBasis::shipped();
     let algorithms = parse_algorithms("H,U,V").unwrap();
     for name in ["lee_perry_smith_head", "makehuman_head", "ict_head"] {
-        let reg = register(name);
+        let head = std::sync::Arc::new(facewire::animate::AnimatedHead::new(register(name)).unwrap());
         let input = CompareInput {
-            registration: &reg,
+            head: &head,
             stream: &data("streams/syllables.jsonl"),
             basis: &basis,
             algorithms: &algorithms,
             targets: &[],
-            parts: &[],
-            contact: None,
         };
         let comparison = compare(&input, &mut |_| {}).unwrap();
         let row = |letter: &str| {

@@ -67,6 +67,7 @@ fn a_frame_with_only_head_motion_moves_every_vertex_rigidly_about_the_neck_pivot
             assert!(worst < 0.01, "{name} {spec}: {worst} mm from the rigid motion");
 
             // On the wire: no deltas, the motion beside them, the same placed head.
+            job.measure(&frame).unwrap();
             let decoded = decode(
                 job.encode(&frame, FrameTimes::default(), FrameLayout::Fwf2)
                     .unwrap(),

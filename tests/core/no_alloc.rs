@@ -13,15 +13,17 @@ use facewire::mask::Mask;
 use facewire::stream::{open_stream, ArkitBasis};
 use facewire_proto::viewer_frame::FrameLayout;
 
-/// Allocations while `job` deforms and encodes every frame in both layouts, after a first
+/// Allocations while `job` deforms, measures and encodes every frame in both layouts, after a first
 /// frame has sized the encoder's buffers.
 fn allocations_over(job: &mut FrameJob, frames: &[facewire::stream::Frame]) -> u64 {
     job.deform(&frames[0]);
+    job.measure(&frames[0]).unwrap();
     job.encode(&frames[0], FrameTimes::default(), FrameLayout::Fwf2)
         .unwrap();
     allocations_during(|| {
         for frame in frames {
             job.deform(frame);
+            job.measure(frame).unwrap();
             for layout in [FrameLayout::Fwf2, FrameLayout::Fwf1] {
                 job.encode(frame, FrameTimes::default(), layout).unwrap();
             }

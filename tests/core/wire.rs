@@ -28,6 +28,7 @@ fn measure(head: &Arc<AnimatedHead>, spec: &AlgoSpec) -> (f64, f32) {
     let mut decoded = Vec::new();
     for frame in &frames {
         let deformed = job.deform(frame).to_vec();
+        job.measure(frame).unwrap();
         let encoded = job
             .encode(frame, FrameTimes::default(), FrameLayout::Fwf2)
             .unwrap();
@@ -91,7 +92,9 @@ fn a_turning_head_compresses_like_a_still_one() {
             ..frame.clone()
         };
         still.deform(&frame);
+        still.measure(&frame).unwrap();
         let deformed = turning.deform(&moving).to_vec();
+        turning.measure(&moving).unwrap();
         let motion = turning.head_motion();
         // The same deltas, byte for byte; 28 bytes of motion beside them (and, in FWF2, its
         // section's kind and length).

@@ -1,7 +1,8 @@
 //! The syllable generator and the shipped syllable stream built from it.
 
 use facewire::mask::Mask;
-use facewire::stream::syllables::{self, ANTICIPATION, CHANNELS, CONSONANTS, SYLLABLES, VOWELS};
+use facewire::stream::mouth_shapes::{ANTICIPATION, CHANNELS, CONSONANTS, VOWELS};
+use facewire::stream::syllables::{self, SYLLABLES};
 use std::io::Write;
 
 use super::read_all;
