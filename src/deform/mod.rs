@@ -38,30 +38,22 @@ pub use weights::triangle_weights;
 /// Binds `spec` to a registered head.
 pub fn bind(reg: &Registration, spec: &AlgoSpec) -> Binding {
     match *spec {
-        AlgoSpec::Bary1 { alpha } => bary1::bind(reg, *spec, alpha),
-        AlgoSpec::Bary2 { weights } => bary2::bind(reg, *spec, &weights),
-        AlgoSpec::Geometric { weights } => geometric::bind(reg, *spec, &weights),
-        AlgoSpec::PointDistance {
-            k,
-            local,
-            interpolate,
-        } => point_distance::bind(reg, *spec, k, local, interpolate),
-        AlgoSpec::PlanarBones { weights } => planar_bones::bind(reg, *spec, &weights),
-        AlgoSpec::Renato1 => renato1::bind(reg, *spec),
-        AlgoSpec::Renato2 { alpha } => renato2::bind(reg, *spec, alpha),
-        AlgoSpec::Renato3 { weights } => renato3::bind(reg, *spec, &weights),
-        AlgoSpec::Kshirsagar => kshirsagar::bind(reg, *spec),
+        AlgoSpec::Bary1(p) => bary1::bind(reg, *spec, p.alpha),
+        AlgoSpec::Bary2(p) => bary2::bind(reg, *spec, &p.weights),
+        AlgoSpec::Geometric(p) => geometric::bind(reg, *spec, &p.weights),
+        AlgoSpec::PointDistance(p) => point_distance::bind(reg, *spec, p.k, p.local, p.interpolate),
+        AlgoSpec::PlanarBones(p) => planar_bones::bind(reg, *spec, &p.weights),
+        AlgoSpec::Renato1(_) => renato1::bind(reg, *spec),
+        AlgoSpec::Renato2(p) => renato2::bind(reg, *spec, p.alpha),
+        AlgoSpec::Renato3(p) => renato3::bind(reg, *spec, &p.weights),
+        AlgoSpec::Kshirsagar(_) => kshirsagar::bind(reg, *spec),
         AlgoSpec::Rbf(params) => rbf::bind(reg, *spec, &params),
-        AlgoSpec::Biharmonic {
-            hold_mm,
-            eyes_hold_mm,
-            k,
-        } => {
+        AlgoSpec::Biharmonic(p) => {
             let reach = biharmonic::Reach {
-                eyes_mm: eyes_hold_mm,
-                other_mm: hold_mm,
+                eyes_mm: p.eyes_hold_mm,
+                other_mm: p.hold_mm,
             };
-            biharmonic::bind(reg, *spec, reach, k)
+            biharmonic::bind(reg, *spec, reach, p.k)
         }
     }
 }

@@ -113,7 +113,7 @@ fn no_nan_on_the_shipped_streams() {
 fn is_normalized(spec: &AlgoSpec) -> bool {
     !matches!(
         spec,
-        AlgoSpec::Bary1 { .. } | AlgoSpec::Renato1 | AlgoSpec::Renato2 { .. } | AlgoSpec::Biharmonic { .. }
+        AlgoSpec::Bary1(_) | AlgoSpec::Renato1(_) | AlgoSpec::Renato2(_) | AlgoSpec::Biharmonic(_)
     ) && !matches!(spec, AlgoSpec::Rbf(p) if !p.polynomial)
 }
 
@@ -144,7 +144,7 @@ fn local_frame_variants_move_rigidly_with_a_rigid_mask() {
         let mask_now: Vec<Vec3> = reg.mask_rest().iter().map(|p| rigid(*p)).collect();
         for spec in variants()
             .into_iter()
-            .filter(|s| matches!(s, AlgoSpec::Bary2 { .. } | AlgoSpec::PlanarBones { .. }))
+            .filter(|s| matches!(s, AlgoSpec::Bary2(_) | AlgoSpec::PlanarBones(_)))
         {
             let out = deform_with(reg, &bind(reg, &spec), &mask_now);
             let worst = out
