@@ -4,7 +4,7 @@
 
 use serde::Serialize;
 
-use super::ServerUse;
+use super::report::ServerUse;
 
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct ServerSample {
