@@ -7,6 +7,7 @@ mod deform;
 mod demo;
 mod fit;
 mod fitted_head;
+pub mod head_client;
 mod inspect;
 mod load;
 mod part_arg;

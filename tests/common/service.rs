@@ -4,6 +4,7 @@
 use std::net::SocketAddr;
 use std::time::Duration;
 
+use facewire::cli::head_client::HeadClient;
 use facewire::server::{serve, AppState, Config};
 use facewire_proto::messages::{HeadInfo, ServerMessage};
 use facewire_proto::viewer_frame::{decode, ViewerFrame};
@@ -150,6 +151,12 @@ impl Server {
         }
     }
 
+    /// The head client the load generator uses, on this server; `query` is empty or
+    /// `?token=...`.
+    pub fn heads(&self, query: &str) -> HeadClient {
+        HeadClient::new(&self.http(""), query.strip_prefix("?token="))
+    }
+
     /// Registers a shipped head under `id` (`query` carries a token) and waits until it
     /// is ready.
     pub async fn register(&self, id: &str, name: &str, query: &str) -> HeadInfo {
@@ -158,49 +165,22 @@ impl Server {
             "obj": std::fs::read_to_string(data(&format!("heads/{name}.obj"))).unwrap(),
             "fit": std::fs::read_to_string(data(&format!("heads/{name}.fit.toml"))).unwrap(),
         });
-        let response = reqwest::Client::new()
-            .post(self.http(&format!("/v1/heads{query}")))
-            .json(&body)
-            .send()
-            .await
-            .unwrap();
-        assert_eq!(response.status(), 202, "{}", response.text().await.unwrap());
+        let status = self.heads(query).register(id, &body).await.unwrap();
+        assert_eq!(status, 202);
         self.wait_ready(id, query).await
     }
 
-    /// Polls head info until the head is ready; panics if it fails or takes 30 s.
+    /// Waits until head `id` is ready; panics if it fails or takes 30 s.
     pub async fn wait_ready(&self, id: &str, query: &str) -> HeadInfo {
-        for _ in 0..600 {
-            let info = self.info(id, query).await;
-            match info.status.as_str() {
-                "ready" => return info,
-                "failed" => panic!("registration failed: {:?}", info.error),
-                _ => tokio::time::sleep(Duration::from_millis(50)).await,
-            }
-        }
-        panic!("head {id} did not become ready");
+        let info = self.heads(query).wait_ready(id, Duration::from_secs(30)).await;
+        serde_json::from_value(info.unwrap_or_else(|e| panic!("{e}"))).unwrap()
     }
 
-    /// Polls until this cluster node has head `id` ready (registered on another node and
+    /// Waits until this cluster node has head `id` ready (registered on another node and
     /// followed here: unknown at first); panics if it fails or takes longer than `within`.
     pub async fn wait_ready_in_cluster(&self, id: &str, within: Duration) {
-        let started = std::time::Instant::now();
-        loop {
-            let response = reqwest::get(self.http(&format!("/v1/heads/{id}"))).await.unwrap();
-            if response.status() == 200 {
-                let info: HeadInfo = response.json().await.unwrap();
-                match info.status.as_str() {
-                    "ready" => return,
-                    "failed" => panic!("{id} failed on {}: {:?}", self.addr, info.error),
-                    _ => {}
-                }
-            }
-            assert!(
-                started.elapsed() < within,
-                "{id} not ready on {} within {within:?}",
-                self.addr
-            );
-            tokio::time::sleep(Duration::from_millis(50)).await;
+        if let Err(e) = self.heads("").wait_ready(id, within).await {
+            panic!("{e}");
         }
     }
 

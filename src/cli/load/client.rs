@@ -1,13 +1,17 @@
-//! The run's HTTP side of the server: registering the head it loads (the embedded MakeHuman
-//! head) and waiting until every node has it ready.
+//! The run's head: the embedded MakeHuman head registered for it (through the one
+//! [`HeadClient`] the tests use too), and how long every node may take to have it ready.
 
 use std::time::Duration;
 
+use crate::cli::head_client::HeadClient;
+
+/// How long a node may take to have the run's head ready (a cluster node follows the
+/// registry).
+pub(super) const READY_WITHIN: Duration = Duration::from_secs(30);
+
 /// Registers the MakeHuman head (embedded) for the run and waits until it is ready.
 pub(super) async fn register(
-    http: &reqwest::Client,
-    base: &str,
-    with_token: &impl Fn(&str) -> String,
+    client: &HeadClient,
 ) -> Result<String, Box<dyn std::error::Error + Send + Sync>> {
     let head = crate::server::demo::DEMO_HEADS
         .iter()
@@ -20,45 +24,7 @@ pub(super) async fn register(
         "obj": String::from_utf8_lossy(obj),
         "fit": fit,
     });
-    let response = http
-        .post(with_token(&format!("{base}/v1/heads")))
-        .json(&body)
-        .send()
-        .await
-        .map_err(|e| format!("cannot reach {base}: {e}"))?;
-    if !response.status().is_success() {
-        return Err(format!(
-            "registering the MakeHuman head: {} {}",
-            response.status(),
-            response.text().await?
-        )
-        .into());
-    }
-    wait_ready(http, base, &id, with_token).await?;
+    client.register(&id, &body).await?;
+    client.wait_ready(&id, READY_WITHIN).await?;
     Ok(id)
-}
-
-/// Waits (30 s at most) until the node at `base` has head `id` ready; a node of a cluster
-/// may not know it yet (404) while it follows the registry.
-pub(super) async fn wait_ready(
-    http: &reqwest::Client,
-    base: &str,
-    id: &str,
-    with_token: &impl Fn(&str) -> String,
-) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
-    for _ in 0..600 {
-        let info: serde_json::Value = http
-            .get(with_token(&format!("{base}/v1/heads/{id}")))
-            .send()
-            .await
-            .map_err(|e| format!("cannot reach {base}: {e}"))?
-            .json()
-            .await?;
-        match info["status"].as_str() {
-            Some("ready") => return Ok(()),
-            Some("failed") => return Err(format!("head {id} failed on {base}: {}", info["error"]).into()),
-            _ => tokio::time::sleep(Duration::from_millis(50)).await,
-        }
-    }
-    Err(format!("head {id} was not ready on {base} within 30 s").into())
 }

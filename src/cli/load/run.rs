@@ -7,7 +7,7 @@ use std::time::{Duration, Instant as StdInstant};
 
 use tokio::time::Instant;
 
-use super::client::{register, wait_ready};
+use super::client::{register, READY_WITHIN};
 use super::latency::Latencies;
 use super::pauses::{explained_by_host, PauseWatch};
 use super::plan::syllable_frames;
@@ -17,6 +17,7 @@ use super::send_times::SendTimes;
 use super::server_metrics::{self, ServerSample};
 use super::viewer::{self, ViewerOutcome, ViewerPlan};
 use super::{Args, STALL_PERIODS};
+use crate::cli::head_client::HeadClient;
 use crate::server::process::cpu_seconds;
 
 pub(super) async fn load(
@@ -25,24 +26,17 @@ pub(super) async fn load(
     view_bases: &[String],
 ) -> Result<LoadReport, Box<dyn std::error::Error + Send + Sync>> {
     let http = reqwest::Client::new();
-    let token_query = args
-        .token
-        .as_deref()
-        .map_or(String::new(), |t| format!("token={t}"));
-    let with_token = |path: &str| -> String {
-        match (&token_query, path.contains('?')) {
-            (t, _) if t.is_empty() => path.to_string(),
-            (t, true) => format!("{path}&{t}"),
-            (t, false) => format!("{path}?{t}"),
-        }
-    };
+    let client = HeadClient::new(base, args.token.as_deref());
+    let with_token = |url: &str| client.with_token(url);
     let (head, registered) = match &args.head {
         Some(head) => (head.clone(), false),
-        None => (register(&http, base, &with_token).await?, true),
+        None => (register(&client).await?, true),
     };
     // Every node registers a cluster's head itself: wait until the viewers' nodes have it.
     for node in view_bases {
-        wait_ready(&http, node, &head, &with_token).await?;
+        HeadClient::new(node, args.token.as_deref())
+            .wait_ready(&head, READY_WITHIN)
+            .await?;
     }
     let mut nodes = vec![base.to_string()];
     nodes.extend(view_bases.iter().filter(|n| n.as_str() != base).cloned());
