@@ -85,7 +85,9 @@ def main():
         config = os.path.join(folder, "churn.toml")
         with open(config, "w") as f:
             f.write(CONFIG)
-        server = subprocess.Popen([binary, "serve", "--addr", "127.0.0.1:0", "--config", config],
+        data = os.path.join(folder, "data")
+        server = subprocess.Popen([binary, "serve", "--addr", "127.0.0.1:0", "--config", config,
+                                   "--data-dir", data],
                                   stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
         try:
             url = server.stdout.readline().strip().replace("facewire listening on ", "").rstrip("/")

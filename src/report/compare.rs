@@ -218,16 +218,7 @@ pub fn compare(
     let region = &head.lip_region;
     let face = FaceVertices::new(&reg.head, mask, &reg.anchors, mm).map_err(CompareError::FaceRegion)?;
     let face_triangles = face.triangles(&reg.head);
-    let meters = |algorithm: &str| {
-        FrameMeters::new(head, Heat::None)
-            .and_then(|m| m.with_face_folds(head, &face_triangles))
-            .map_err(|source| CompareError::Meters {
-                algorithm: algorithm.into(),
-                frame: 0,
-                source,
-            })
-    };
-    let rest_roughness = meters("rest")?
+    let rest_roughness = report_meters(head, &face_triangles, "rest")?
         .measure(rest, 0, 0.0)
         .map_err(|source| CompareError::Meters {
             algorithm: "rest".into(),
@@ -323,6 +314,22 @@ pub fn compare(
     })
 }
 
+/// The meters a report reads for `algorithm`: a viewer's (lip roughness and folds) and the
+/// folds of the face's triangles.
+fn report_meters(
+    head: &AnimatedHead,
+    face_triangles: &[u32],
+    algorithm: &str,
+) -> Result<FrameMeters, CompareError> {
+    FrameMeters::new(head, Heat::None)
+        .and_then(|m| m.with_face_folds(head, face_triangles))
+        .map_err(|source| CompareError::Meters {
+            algorithm: algorithm.into(),
+            frame: 0,
+            source,
+        })
+}
+
 /// The tongue's contact over one pass of the stream.
 fn tongue_contact(rows: &[ContactRow]) -> TongueContact {
     TongueContact {
@@ -413,13 +420,7 @@ impl Run<'_, '_> {
         report(Stage::Binding);
         let binding = Arc::new(bind(reg, &candidate.spec));
         let mut scratch = binding.scratch(mask.vertices.len(), mask.triangles.len());
-        let meters = FrameMeters::new(self.input.head, Heat::None)
-            .and_then(|m| m.with_face_folds(self.input.head, &self.face_triangles))
-            .map_err(|source| CompareError::Meters {
-                algorithm: spec.clone(),
-                frame: 0,
-                source,
-            })?;
+        let meters = report_meters(self.input.head, &self.face_triangles, &spec)?;
         let mut job = FrameJob::with_meters(
             self.input.head.clone(),
             binding.clone(),
