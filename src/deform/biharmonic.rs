@@ -26,6 +26,7 @@ use rayon::prelude::*;
 
 use super::anchor_system::{centres, Centre};
 use super::binding::{Binding, LinearTerm};
+use super::lip_seam::without_seam;
 use super::spec::AlgoSpec;
 use super::Registration;
 use crate::head::CotanLaplacian;
@@ -123,7 +124,8 @@ fn weight_fields(
     if free_count == 0 {
         return Some(fields);
     }
-    let laplacian = CotanLaplacian::new(&reg.head.positions, &reg.head.triangles);
+    let triangles = without_seam(reg);
+    let laplacian = CotanLaplacian::new(&reg.head.positions, &triangles);
     // Q = L M^-1 L, summed over the middle vertex m: Q_ij += L_im L_mj / M_m for i and j in
     // m's closed ring. Only Q_ff's lower triangle is kept; Q_fc goes to the right-hand side.
     let mut lower: Vec<Triplet<usize, usize, f64>> = Vec::new();

@@ -13,6 +13,7 @@ mod binding;
 mod bones;
 mod geometric;
 mod kshirsagar;
+mod lip_seam;
 mod mouth_calibration;
 mod normalize;
 pub mod planar_bones;

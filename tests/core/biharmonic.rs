@@ -185,3 +185,53 @@ fn on_icts_light_stage_targets_the_eyes_short_reach_beats_holding_at_40_mm_and_u
     assert!(held < 0.7 * u, "biharmonic {held} mm against U {u} mm");
     assert!(recommended < held - 0.015, "V {recommended} mm against {held} mm");
 }
+
+/// ICT identity seed 4 (landmark fit) joins its lips along the contact line: the upper
+/// inner lip's anchor and the lower one's share an edge 0.8 mm long. With the lower lip's
+/// controls dropped 10 mm and the upper lip's still, a field through both carried the slope
+/// on past the still anchor and lifted the upper lip 4.4 mm between its contours (it
+/// folded there on 3,939 lip triangle-frames of the syllable stream). With the seam
+/// between the lips left out of the energy no vertex of the upper lip (nearer an
+/// upper-lip control's anchor than any other lip control's) rises 1 mm (measured 0.88 mm,
+/// near a mouth corner, where the lips stay joined).
+#[test]
+fn a_dropped_lower_lip_does_not_lift_the_upper_lip_joined_to_it() {
+    use facewire::fit::FittedMask;
+    use facewire::mask::{Mask, LIP_VERTICES, LOWER_LIP, UPPER_LIP};
+    use facewire::population::{self, Maker};
+
+    let maker = Maker::new(&crate::common::repo_path("data")).unwrap();
+    let spec = population::whole_heads()
+        .into_iter()
+        .find(|s| s.name() == "ict seed 4 (sigma 1)")
+        .unwrap();
+    let member = maker.make(&spec).unwrap();
+    let fitted = FittedMask::new(Mask::candide3(), member.landmark_fit.clone().unwrap());
+    let reg = Registration::try_new(member.head, fitted).unwrap();
+    let mm = reg.mm_per_unit();
+    // The identities are +y up in head units.
+    let mut mask_now = reg.mask_rest().to_vec();
+    for &j in &LOWER_LIP {
+        mask_now[j] -= Vec3::Y * (10.0 / mm);
+    }
+    let spec: AlgoSpec = facewire::deform::spec::DEFAULT_ALGORITHM.parse().unwrap();
+    let out = deform_with(&reg, &bind(&reg, &spec), &mask_now);
+    let nearest_lip = |v: u32| {
+        LIP_VERTICES
+            .iter()
+            .map(|&j| (j, reg.distance_to_control(j as u32, v)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap()
+            .0
+    };
+    let (lifted, vertex) = (0..reg.vertex_count() as u32)
+        .filter(|&v| UPPER_LIP.contains(&nearest_lip(v)))
+        .map(|v| ((out[v as usize].y - reg.head.positions[v as usize].y) * mm, v))
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .unwrap();
+    eprintln!("upper lip lifted at most {lifted:.2} mm (vertex {vertex})");
+    assert!(
+        lifted < 1.0,
+        "vertex {vertex} of the upper lip lifted {lifted} mm"
+    );
+}
