@@ -9,7 +9,9 @@ use std::path::{Path, PathBuf};
 use super::CliResult;
 use crate::mask::Mask;
 use crate::population::{self, Maker, MemberSpec};
-use crate::report::{animate, parse_algorithms, AnimationMeasures, AnimationOutcome, FitSource};
+use crate::report::{
+    animate, parse_algorithms, AnimationMeasures, AnimationOutcome, FitSource, TargetLipFolds,
+};
 use crate::targets::ExpressionTarget;
 
 #[derive(Debug, clap::Args)]
@@ -116,14 +118,14 @@ fn option<T: Copy>(value: Option<T>, show: impl Fn(T) -> String) -> String {
 /// The table, then a summary per fit for the development and the held-out members.
 pub fn table(outcomes: &[AnimationOutcome]) -> String {
     let mut out = String::new();
-    out.push_str("| head | held out | fit | lip folds (triangle-frames) | sharpest fold (deg) | lips in teeth at rest / beyond rest (vertex-frames) | tongue in teeth (frames, deepest mm) | f/v gap (mm) | ground truth (mm) | deform (us) | lids in eyes without / with the constraint (vertex-frames) |\n");
-    out.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
+    out.push_str("| head | held out | fit | lip folds (triangle-frames) | sharpest fold (deg) | lips in teeth at rest / beyond rest (vertex-frames) | tongue in teeth (frames, deepest mm) | f/v gap (mm) | ground truth (mm) | lip folds on the targets: the algorithm / the targets / the algorithm's not the target's | deform (us) | lids in eyes without / with the constraint (vertex-frames) |\n");
+    out.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for o in outcomes {
         let held = if o.held_out { "yes" } else { "" };
         let _ = match &o.result {
             Ok(m) => writeln!(
                 out,
-                "| {} | {held} | {} | {} | {:.0} | {} / {} | {} | {} | {} | {:.0} | {} |",
+                "| {} | {held} | {} | {} | {:.0} | {} / {} | {} | {} | {} | {} | {:.0} | {} |",
                 o.member,
                 o.fit.name(),
                 m.lip_folds,
@@ -136,6 +138,10 @@ pub fn table(outcomes: &[AnimationOutcome]) -> String {
                 },
                 option(m.fv_gap_mm, |d| format!("{d:.2}")),
                 option(m.ground_truth_rms_mm, |d| format!("{d:.3}")),
+                option(m.target_lip_folds, |f| format!(
+                    "{} / {} / {}",
+                    f.algorithm, f.targets, f.algorithm_not_in_target
+                )),
                 m.deform_us,
                 match (m.lids_in_eyes_unconstrained, m.lids_in_eyes) {
                     (Some(without), Some(with)) => format!("{without} / {with}"),
@@ -144,15 +150,15 @@ pub fn table(outcomes: &[AnimationOutcome]) -> String {
             ),
             Err(e) => writeln!(
                 out,
-                "| {} | {held} | {} | not animated: {} | | | | | | | |",
+                "| {} | {held} | {} | not animated: {} | | | | | | | | |",
                 o.member,
                 o.fit.name(),
                 e.replace('|', "/")
             ),
         };
     }
-    out.push_str("\n| heads | fit | animated | with lip folds | lip folds (sum) | with lips in teeth beyond rest | tongue deeper than 0.5 mm | f/v gap over 1.5 mm | worst ground truth (mm) | median deform (us) | with lids in eyes, without / with the constraint |\n");
-    out.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
+    out.push_str("\n| heads | fit | animated | with lip folds | lip folds (sum) | with lips in teeth beyond rest | tongue deeper than 0.5 mm | f/v gap over 1.5 mm | worst ground truth (mm) | lip folds on the targets (sums): the algorithm / the targets / the algorithm's not the target's | median deform (us) | with lids in eyes, without / with the constraint |\n");
+    out.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (group, held) in [("development", false), ("held out", true)] {
         for fit in [FitSource::Landmarks, FitSource::Automatic] {
             let rows: Vec<&AnimationOutcome> = outcomes
@@ -172,7 +178,7 @@ pub fn table(outcomes: &[AnimationOutcome]) -> String {
             deform.sort_by(f64::total_cmp);
             let _ = writeln!(
                 out,
-                "| {group} ({}) | {} | {} | {} | {} | {} | {} | {} | {worst_truth:.3} | {:.0} | {} / {} |",
+                "| {group} ({}) | {} | {} | {} | {} | {} | {} | {} | {worst_truth:.3} | {} | {:.0} | {} / {} |",
                 rows.len(),
                 fit.name(),
                 done.len(),
@@ -181,6 +187,17 @@ pub fn table(outcomes: &[AnimationOutcome]) -> String {
                 count(&|m| m.lips_in_teeth.is_some_and(|v| v > 0)),
                 count(&|m| m.tongue_depth_mm.is_some_and(|d| d > 0.5)),
                 count(&|m| m.fv_gap_mm.is_some_and(|d| d > 1.5)),
+                {
+                    let sum = |f: fn(&TargetLipFolds) -> u64| {
+                        done.iter().filter_map(|m| m.target_lip_folds.as_ref()).map(f).sum::<u64>()
+                    };
+                    format!(
+                        "{} / {} / {}",
+                        sum(|f| f.algorithm),
+                        sum(|f| f.targets),
+                        sum(|f| f.algorithm_not_in_target)
+                    )
+                },
                 deform.get(deform.len() / 2).copied().unwrap_or(f64::NAN),
                 count(&|m| m.lids_in_eyes_unconstrained.is_some_and(|v| v > 0)),
                 count(&|m| m.lids_in_eyes.is_some_and(|v| v > 0)),

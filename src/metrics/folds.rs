@@ -183,6 +183,14 @@ impl FoldMeter {
 }
 
 impl FoldMeter {
+    /// Whether each of the region's triangles turned more than [`FOLD_DEG`] in the last
+    /// pose [`FoldMeter::measure`]d, in the region's triangle order: two poses' folds
+    /// compared triangle by triangle.
+    pub fn turned_past_fold(&self) -> impl Iterator<Item = bool> + '_ {
+        let fold_cosine = FOLD_DEG.to_radians().cos();
+        self.turn_cosines.iter().map(move |&c| c < fold_cosine)
+    }
+
     /// Per head vertex, the largest turn (degrees) of its triangles in the region in the
     /// last pose [`FoldMeter::measure`]d; 0 for vertices outside the region. `out` has one
     /// slot per head vertex. Allocates nothing.

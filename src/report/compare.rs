@@ -18,8 +18,8 @@ use crate::animate::{AnimatedHead, FrameJob, FrameJobError, FrameMeters, Heat};
 use crate::deform::{bind, Registration};
 use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
 use crate::metrics::{
-    control_error, ground_truth_error, mouth_opening, ContactFrame, FaceCrease, FaceVertices, MouthContact,
-    SyllableScores, LIP_ROWS,
+    control_error, ground_truth_error, mouth_opening, ContactFrame, FaceCrease, FaceVertices, FoldMeter,
+    MouthContact, SyllableScores, LIP_ROWS,
 };
 use crate::stream::{open_stream, ArkitBasis};
 use crate::targets::ExpressionTarget;
@@ -130,6 +130,14 @@ pub struct TargetRow {
     pub target: String,
     pub rms_mm: f64,
     pub max_mm: f64,
+    /// Lip triangles the measured head turned more than 60 degrees (`metrics::FOLD_DEG`)
+    /// from rest: the algorithm's when asked for the target, 0 for the head at rest.
+    pub lip_folds: u32,
+    /// The target's own lip triangles turned more than 60 degrees: what the face itself
+    /// does.
+    pub target_lip_folds: u32,
+    /// Of `lip_folds`, those the target does not turn past 60 degrees itself.
+    pub lip_folds_not_in_target: u32,
 }
 
 /// Everything measured about one algorithm.
@@ -246,6 +254,12 @@ pub fn compare(
         .map(|m| m.measure(rest, glam::Affine3A::IDENTITY, None));
 
     let mut target_positions = vec![Vec3::ZERO; rest.len()];
+    let mut lip_fold_meter =
+        FoldMeter::new(&reg.head, region.union()).map_err(|source| CompareError::Meters {
+            algorithm: "rest".into(),
+            frame: 0,
+            source: source.into(),
+        })?;
     let mut rest_ground_truth = Vec::with_capacity(input.targets.len());
     for target in input.targets {
         target.apply_into(rest, 1.0, &mut target_positions)?;
@@ -255,10 +269,21 @@ pub fn compare(
                 source,
             }
         })?;
+        let target_lip_folds = lip_fold_meter
+            .measure(&target_positions)
+            .map_err(|source| CompareError::Meters {
+                algorithm: "rest".into(),
+                frame: 0,
+                source: source.into(),
+            })?
+            .turned_over_60;
         rest_ground_truth.push(TargetRow {
             target: target.name.clone(),
             rms_mm: error.rms_mm,
             max_mm: error.max_mm,
+            lip_folds: 0,
+            target_lip_folds,
+            lip_folds_not_in_target: 0,
         });
     }
 
@@ -271,6 +296,8 @@ pub fn compare(
         basis: Arc::new(input.basis.clone()),
         deformed: vec![Vec3::ZERO; rest.len()],
         target_positions,
+        lip_fold_meter,
+        target_turned: Vec::new(),
         controls: vec![Vec3::ZERO; mask.vertices.len()],
         target_mask: vec![Vec3::ZERO; mask.vertices.len()],
         stream: StreamTotals::default(),
@@ -395,6 +422,10 @@ struct Run<'i, 'a> {
     /// The head deformed by a target (the stream's frames are the job's).
     deformed: Vec<Vec3>,
     target_positions: Vec<Vec3>,
+    /// The lip region's folds, of a target and of its deform compared.
+    lip_fold_meter: FoldMeter,
+    /// Which lip triangles the target being scored turns past 60 degrees.
+    target_turned: Vec<bool>,
     controls: Vec<Vec3>,
     target_mask: Vec<Vec3>,
     stream: StreamTotals,
@@ -532,10 +563,36 @@ impl Run<'_, '_> {
             target.apply_into(rest, 1.0, &mut self.target_positions)?;
             let error = ground_truth_error(&self.deformed, &self.target_positions, &self.face, mm)
                 .map_err(fidelity)?;
+            let folds = |source: crate::metrics::RegionError| CompareError::Meters {
+                algorithm: spec.clone(),
+                frame: 0,
+                source: source.into(),
+            };
+            let target_lip_folds = self
+                .lip_fold_meter
+                .measure(&self.target_positions)
+                .map_err(folds)?
+                .turned_over_60;
+            self.target_turned.clear();
+            self.target_turned.extend(self.lip_fold_meter.turned_past_fold());
+            let lip_folds = self
+                .lip_fold_meter
+                .measure(&self.deformed)
+                .map_err(folds)?
+                .turned_over_60;
+            let lip_folds_not_in_target = self
+                .lip_fold_meter
+                .turned_past_fold()
+                .zip(&self.target_turned)
+                .filter(|&(turned, &by_target)| turned && !by_target)
+                .count() as u32;
             ground_truth.push(TargetRow {
                 target: target.name.clone(),
                 rms_mm: error.rms_mm,
                 max_mm: error.max_mm,
+                lip_folds,
+                target_lip_folds,
+                lip_folds_not_in_target,
             });
             report(Stage::Targets {
                 done: t + 1,

@@ -171,7 +171,9 @@ pub fn render(comparison: &Comparison, context: &ReportContext<'_>, files: &File
              displacements, the algorithm deforms the head from them, and the RMS distance to \
              the target itself is taken over the {} face vertices; the column is the mean over \
              the targets. Not moving at all scores {:.2} mm (the `rest` row). Every pair is in \
-             `ground_truth.tsv` (RMS and max, with a `rest` row per target).",
+             `ground_truth.tsv` (RMS and max, with a `rest` row per target, and the lip \
+             triangles turned past 60 degrees by the algorithm, by the target itself and by \
+             the algorithm where the target does not turn them).",
             c.rest_ground_truth.len(),
             thousands(c.face_vertices),
             rest_gt_mean

@@ -27,7 +27,7 @@ pub use compare::{
 };
 pub use error::CompareError;
 pub use markdown::{pareto_front, ReportContext};
-pub use population::{animate, AnimationMeasures, AnimationOutcome, FitSource};
+pub use population::{animate, AnimationMeasures, AnimationOutcome, FitSource, TargetLipFolds};
 pub use tables::{
     algorithms_header, algorithms_tsv, contact_tsv, face_tsv, ground_truth_tsv, syllables_tsv,
     CONTACT_HEADER, FACE_HEADER, GROUND_TRUTH_HEADER, REST_LETTER, REST_SPEC, SYLLABLES_HEADER,

@@ -76,6 +76,10 @@ pub struct AnimationMeasures {
     pub fv_gap_mm: Option<f64>,
     /// Mean RMS error over the expression targets, mm; `None` without targets.
     pub ground_truth_rms_mm: Option<f64>,
+    /// Over the expression targets, each asked for at weight 1 (`None` without targets):
+    /// lip triangles turned more than 60 degrees by the algorithm, by the targets
+    /// themselves, and by the algorithm where its target does not turn them (summed).
+    pub target_lip_folds: Option<TargetLipFolds>,
     /// Median deform call, microseconds (this machine).
     pub deform_us: f64,
     /// Parts given whole that were split into upper and lower rows (`teeth`).
@@ -86,6 +90,14 @@ pub struct AnimationMeasures {
     /// at rest, without the lid constraint and with it; `None` without eyes.
     pub lids_in_eyes_unconstrained: Option<u64>,
     pub lids_in_eyes: Option<u64>,
+}
+
+/// Lip folds on the expression targets, summed over them.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct TargetLipFolds {
+    pub algorithm: u64,
+    pub targets: u64,
+    pub algorithm_not_in_target: u64,
 }
 
 /// Seconds of blinks and glances the eyes are measured over (25 frames a second; five or
@@ -203,6 +215,19 @@ fn measure(
         tongue_depth_mm: comparison.tongue.map(|t| t.max_depth_mm),
         fv_gap_mm: result.summary.fv_gap_mm,
         ground_truth_rms_mm: result.summary.ground_truth_rms_mm,
+        target_lip_folds: (!result.ground_truth.is_empty()).then(|| TargetLipFolds {
+            algorithm: result.ground_truth.iter().map(|r| u64::from(r.lip_folds)).sum(),
+            targets: result
+                .ground_truth
+                .iter()
+                .map(|r| u64::from(r.target_lip_folds))
+                .sum(),
+            algorithm_not_in_target: result
+                .ground_truth
+                .iter()
+                .map(|r| u64::from(r.lip_folds_not_in_target))
+                .sum(),
+        }),
         deform_us: result.summary.deform_us,
         split_parts: animated.splits.iter().map(|s| s.name.clone()).collect(),
         eyes: animated.eyes.len(),

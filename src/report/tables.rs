@@ -11,7 +11,8 @@ pub const SYLLABLES_HEADER: &str = "letter\tspec\tsyllable\tframes\troughness_me
 /// Header of `face.tsv`.
 pub const FACE_HEADER: &str = "letter\tspec\tface_roughness_mean\tcrease";
 /// Header of `ground_truth.tsv`.
-pub const GROUND_TRUTH_HEADER: &str = "letter\tspec\ttarget\trms_mm\tmax_mm";
+pub const GROUND_TRUTH_HEADER: &str =
+    "letter\tspec\ttarget\trms_mm\tmax_mm\tlip_folds\ttarget_lip_folds\tlip_folds_not_in_target";
 
 /// Header of `contact.tsv`.
 pub const CONTACT_HEADER: &str =
@@ -103,7 +104,11 @@ pub fn ground_truth_tsv(comparison: &Comparison) -> Option<String> {
                 .map(|r| (REST_LETTER, REST_SPEC, r)),
         );
     for (letter, spec, r) in rows {
-        let _ = writeln!(out, "{letter}\t{spec}\t{}\t{}\t{}", r.target, r.rms_mm, r.max_mm);
+        let _ = writeln!(
+            out,
+            "{letter}\t{spec}\t{}\t{}\t{}\t{}\t{}\t{}",
+            r.target, r.rms_mm, r.max_mm, r.lip_folds, r.target_lip_folds, r.lip_folds_not_in_target
+        );
     }
     Some(out)
 }

@@ -465,3 +465,53 @@ fn compare_reports_the_lips_a_viewer_is_sent() {
         );
     }
 }
+
+/// Each expression target's lip folds are counted three ways: the algorithm's when asked
+/// for the target, the target's own (what the face itself does; the same in the rest row),
+/// and the algorithm's that the target does not make. On the ICT head the light-stage
+/// jawOpen turns lip triangles past 60 degrees itself (the crease of each mouth corner
+/// opening).
+#[test]
+fn compare_counts_the_lip_folds_of_the_targets_themselves() {
+    use facewire::report::{compare, parse_algorithms, CompareInput};
+    use facewire::stream::ArkitBasis;
+    use facewire::targets::ExpressionTarget;
+    use std::sync::Arc;
+
+    let dir = tempfile::tempdir().unwrap();
+    let (stream, _) = short_stream(dir.path());
+    let head = Arc::new(crate::common::ict_head());
+    let targets = ExpressionTarget::load_dir(
+        &data("heads/ict_targets/skin"),
+        head.registration.head.positions.len(),
+    )
+    .unwrap();
+    let algorithms = parse_algorithms("V").unwrap();
+    let comparison = compare(
+        &CompareInput {
+            head: &head,
+            stream: &stream,
+            basis: &ArkitBasis::shipped(),
+            algorithms: &algorithms,
+            targets: &targets,
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    let rows = &comparison.algorithms[0].ground_truth;
+    assert_eq!(rows.len(), targets.len());
+    for (row, rest) in rows.iter().zip(&comparison.rest_ground_truth) {
+        assert_eq!(row.target, rest.target);
+        assert_eq!(
+            (rest.lip_folds, rest.lip_folds_not_in_target),
+            (0, 0),
+            "{}",
+            rest.target
+        );
+        assert_eq!(row.target_lip_folds, rest.target_lip_folds, "{}", row.target);
+        assert!(row.lip_folds_not_in_target <= row.lip_folds, "{row:?}");
+    }
+    let jaw_open = rows.iter().find(|r| r.target == "jawOpen").unwrap();
+    eprintln!("{jaw_open:?}");
+    assert!(jaw_open.target_lip_folds > 0, "{jaw_open:?}");
+}
