@@ -19,7 +19,7 @@
 //! every vertex keeps some of the energy.
 
 use super::Registration;
-use crate::mask::{LOWER_LIP, UPPER_LIP};
+use crate::mask::{LIP_VERTICES, LOWER_LIP, UPPER_LIP};
 
 /// Which lip a head vertex belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,7 +65,7 @@ pub fn without_seam(reg: &Registration) -> Vec<[u32; 3]> {
 /// The lip of the lip control whose anchor is nearest `v` along the surface; `Neither`
 /// for a mouth corner's or when no lip anchor reaches it.
 fn nearest_lip(reg: &Registration, v: u32) -> Lip {
-    let nearest = crate::mask::LIP_VERTICES
+    let nearest = LIP_VERTICES
         .iter()
         .map(|&j| (j, reg.distance_to_control(j as u32, v)))
         .filter(|(_, d)| d.is_finite())

@@ -260,6 +260,8 @@ pub fn compare(
             frame: 0,
             source: source.into(),
         })?;
+    // Which lip triangles each target turns past 60 degrees itself, measured once.
+    let mut target_folds = Vec::with_capacity(input.targets.len());
     let mut rest_ground_truth = Vec::with_capacity(input.targets.len());
     for target in input.targets {
         target.apply_into(rest, 1.0, &mut target_positions)?;
@@ -271,12 +273,13 @@ pub fn compare(
         })?;
         let target_lip_folds = lip_fold_meter
             .measure(&target_positions)
-            .map_err(|source| CompareError::Meters {
+            .map_err(|source| CompareError::TargetFolds {
                 algorithm: "rest".into(),
-                frame: 0,
-                source: source.into(),
+                target: target.name.clone(),
+                source,
             })?
             .turned_over_60;
+        target_folds.push(lip_fold_meter.turned_past_fold().collect::<Vec<bool>>());
         rest_ground_truth.push(TargetRow {
             target: target.name.clone(),
             rms_mm: error.rms_mm,
@@ -297,7 +300,7 @@ pub fn compare(
         deformed: vec![Vec3::ZERO; rest.len()],
         target_positions,
         lip_fold_meter,
-        target_turned: Vec::new(),
+        target_folds,
         controls: vec![Vec3::ZERO; mask.vertices.len()],
         target_mask: vec![Vec3::ZERO; mask.vertices.len()],
         stream: StreamTotals::default(),
@@ -422,10 +425,10 @@ struct Run<'i, 'a> {
     /// The head deformed by a target (the stream's frames are the job's).
     deformed: Vec<Vec3>,
     target_positions: Vec<Vec3>,
-    /// The lip region's folds, of a target and of its deform compared.
+    /// The lip region's folds of a target's deform.
     lip_fold_meter: FoldMeter,
-    /// Which lip triangles the target being scored turns past 60 degrees.
-    target_turned: Vec<bool>,
+    /// Per target, which lip triangles it turns past 60 degrees itself.
+    target_folds: Vec<Vec<bool>>,
     controls: Vec<Vec3>,
     target_mask: Vec<Vec3>,
     stream: StreamTotals,
@@ -563,27 +566,21 @@ impl Run<'_, '_> {
             target.apply_into(rest, 1.0, &mut self.target_positions)?;
             let error = ground_truth_error(&self.deformed, &self.target_positions, &self.face, mm)
                 .map_err(fidelity)?;
-            let folds = |source: crate::metrics::RegionError| CompareError::Meters {
-                algorithm: spec.clone(),
-                frame: 0,
-                source: source.into(),
-            };
-            let target_lip_folds = self
-                .lip_fold_meter
-                .measure(&self.target_positions)
-                .map_err(folds)?
-                .turned_over_60;
-            self.target_turned.clear();
-            self.target_turned.extend(self.lip_fold_meter.turned_past_fold());
             let lip_folds = self
                 .lip_fold_meter
                 .measure(&self.deformed)
-                .map_err(folds)?
+                .map_err(|source| CompareError::TargetFolds {
+                    algorithm: spec.clone(),
+                    target: target.name.clone(),
+                    source,
+                })?
                 .turned_over_60;
+            let by_target = &self.target_folds[t];
+            let target_lip_folds = by_target.iter().filter(|&&turned| turned).count() as u32;
             let lip_folds_not_in_target = self
                 .lip_fold_meter
                 .turned_past_fold()
-                .zip(&self.target_turned)
+                .zip(by_target)
                 .filter(|&(turned, &by_target)| turned && !by_target)
                 .count() as u32;
             ground_truth.push(TargetRow {

@@ -41,6 +41,12 @@ pub enum CompareError {
         frame: usize,
         source: MeterError,
     },
+    #[error("lip folds with {algorithm}, target {target}: {source}")]
+    TargetFolds {
+        algorithm: String,
+        target: String,
+        source: crate::metrics::RegionError,
+    },
     #[error("{algorithm}: {source}")]
     Job {
         algorithm: String,
