@@ -3,8 +3,10 @@
 //! Checks that the page goes live, that the head moves, that switching the algorithm
 //! reconnects with it, that a second view runs beside the first, that a stream which stops
 //! sending shows as stalled and a new stream appears in the picker, that the heat-map's
-//! scale is picked and kept in the URL, that a head posted with neither a fit nor landmarks
-//! is fitted, shown with its fit report and talks, that an unknown head shows the error
+//! scale is picked and kept in the URL, that the lips drawn tinted or in high contrast stand
+//! out from the skin at least three times as much as drawn like it, that a head posted with
+//! neither a fit nor landmarks is fitted, shown with its fit report and talks, that an
+//! unknown head shows the error
 //! state, that a page given two cluster nodes moves to the second when the first is
 //! killed, and that with the sound on the face is seen when its voice is heard.
 //! WebDriver is plain HTTP and JSON, spoken here with reqwest; the test's own producer
@@ -333,6 +335,11 @@ async fn check_the_page(browser: &Browser) {
         check_the_face_is_seen_when_its_voice_is_heard(browser, &url, Duration::from_secs(120)).await;
         return;
     }
+    if std::env::var_os("FACEWIRE_LIPS_ONLY").is_some() {
+        let (_demo, url) = start_demo();
+        check_the_lips_read(browser, &url, Duration::from_secs(120)).await;
+        return;
+    }
     check_failover_across_nodes(browser).await;
     let (_demo, url) = start_demo();
     let long = Duration::from_secs(120);
@@ -417,6 +424,7 @@ async fn check_the_page(browser: &Browser) {
     println!("headless Chromium, two views: frames {fps}, bytes per frame {bytes}");
 
     check_the_heat_map_scale(browser, &url, long).await;
+    check_the_lips_read(browser, &url, long).await;
     check_the_inner_mouth_close_up(browser, &url, long).await;
     check_a_stalled_stream(browser, &url, long).await;
     check_a_head_posted_with_no_fit(browser, &url, long).await;
@@ -1189,4 +1197,163 @@ async fn check_the_face_is_seen_when_its_voice_is_heard(browser: &Browser, url: 
     browser
         .command("/window/rect", Some(json!({ "width": 1280, "height": 1000 })))
         .await;
+}
+
+/// The luminance step across the lip border, measured in the page from two screenshots
+/// (base64 PNGs of the same frame): `region`, drawn with `lips=region` (lip white, skin
+/// black, parts grey, unlit), says where the border is; `shot` is the picture measured.
+/// Lip pixels (region weight 0.9 or more) within 12 px of the face outside the lips, and
+/// face pixels outside them (weight 0.1 or less, reached from the picture's edge without
+/// crossing a lip, so the mouth's opening is left out) within 12 px of a lip: the mean
+/// relative luminance (linear sRGB, Rec. 709) of each band in `shot`.
+const LIP_STEP_JS: &str = r#"
+const [regionB64, shotB64] = arguments;
+const load = (b64) => new Promise((done) => {
+  const img = new Image();
+  img.onload = () => {
+    const c = document.createElement('canvas'); c.width = img.width; c.height = img.height;
+    const g = c.getContext('2d'); g.drawImage(img, 0, 0);
+    done({ w: c.width, h: c.height, d: g.getImageData(0, 0, c.width, c.height).data });
+  };
+  img.src = 'data:image/png;base64,' + b64;
+});
+window.lipStep = null;
+Promise.all([load(regionB64), load(shotB64)]).then(([region, shot]) => {
+  const { w, h } = region; const n = w * h; const BAND = 12;
+  // Background: the clear colour (32, 36, 42); parts: grey 128 (within 3).
+  const kind = new Uint8Array(n); // 0 background, 1 part, 2 face (weight in lip[])
+  const lip = new Float32Array(n);
+  for (let p = 0; p < n; p++) {
+    const r = region.d[4 * p], g = region.d[4 * p + 1], b = region.d[4 * p + 2];
+    if (Math.abs(r - 32) <= 3 && Math.abs(g - 36) <= 3 && Math.abs(b - 42) <= 3) continue;
+    if (Math.abs(r - 128) <= 3 && Math.abs(g - 128) <= 3 && Math.abs(b - 128) <= 3) { kind[p] = 1; continue; }
+    kind[p] = 2; lip[p] = r / 255;
+  }
+  // Outside the lips: reached from the edge through pixels that are not lip (< 0.5).
+  const outside = new Uint8Array(n); const queue = new Int32Array(n); let head = 0, tail = 0;
+  const push = (p) => { if (!outside[p] && !(kind[p] === 2 && lip[p] >= 0.5)) { outside[p] = 1; queue[tail++] = p; } };
+  for (let x = 0; x < w; x++) { push(x); push((h - 1) * w + x); }
+  for (let y = 0; y < h; y++) { push(y * w); push(y * w + w - 1); }
+  while (head < tail) {
+    const p = queue[head++]; const x = p % w;
+    if (x > 0) push(p - 1); if (x < w - 1) push(p + 1);
+    if (p >= w) push(p - w); if (p < n - w) push(p + w);
+  }
+  // Chessboard distance to the nearest pixel of a set, two passes.
+  const distance = (inSet) => {
+    const d = new Float32Array(n).fill(1e9);
+    for (let p = 0; p < n; p++) if (inSet(p)) d[p] = 0;
+    for (let y = 0; y < h; y++) for (let x = 0; x < w; x++) {
+      const p = y * w + x; let v = d[p];
+      if (x > 0) v = Math.min(v, d[p - 1] + 1);
+      if (y > 0) { v = Math.min(v, d[p - w] + 1); if (x > 0) v = Math.min(v, d[p - w - 1] + 1); if (x < w - 1) v = Math.min(v, d[p - w + 1] + 1); }
+      d[p] = v;
+    }
+    for (let y = h - 1; y >= 0; y--) for (let x = w - 1; x >= 0; x--) {
+      const p = y * w + x; let v = d[p];
+      if (x < w - 1) v = Math.min(v, d[p + 1] + 1);
+      if (y < h - 1) { v = Math.min(v, d[p + w] + 1); if (x < w - 1) v = Math.min(v, d[p + w + 1] + 1); if (x > 0) v = Math.min(v, d[p + w - 1] + 1); }
+      d[p] = v;
+    }
+    return d;
+  };
+  const toLip = distance((p) => kind[p] === 2 && lip[p] >= 0.5);
+  const toFace = distance((p) => kind[p] === 2 && outside[p] && lip[p] < 0.5);
+  const linear = (c) => { c /= 255; return c <= 0.04045 ? c / 12.92 : Math.pow((c + 0.055) / 1.055, 2.4); };
+  const luminance = (p) => 0.2126 * linear(shot.d[4 * p]) + 0.7152 * linear(shot.d[4 * p + 1]) + 0.0722 * linear(shot.d[4 * p + 2]);
+  let lipSum = 0, lipCount = 0, skinSum = 0, skinCount = 0;
+  for (let p = 0; p < n; p++) {
+    if (kind[p] !== 2) continue;
+    if (lip[p] >= 0.9 && toFace[p] <= BAND) { lipSum += luminance(p); lipCount++; }
+    if (lip[p] <= 0.1 && outside[p] && toLip[p] <= BAND) { skinSum += luminance(p); skinCount++; }
+  }
+  window.lipStep = { lip: lipSum / lipCount, skin: skinSum / skinCount, lipCount, skinCount };
+});
+"#;
+
+/// The lips drawn in their own colour: on a still frame of each shipped head in the mouth
+/// close-up, the luminance step across the lip border (LIP_STEP_JS) with the lips tinted
+/// and in high contrast is at least three times the step with them drawn like the skin
+/// (`lips=off`, how the page drew every head before). The lip controls change only the
+/// drawing and the URL keeps them.
+/// `FACEWIRE_SCREENSHOTS=DIR` keeps the pictures (`DIR/lips-{head}-{mode}.png.base64`).
+async fn check_the_lips_read(browser: &Browser, url: &str, long: Duration) {
+    for head in ["scan", "makehuman", "ict"] {
+        browser
+            .open(&format!("{url}?head={head}&stream=still&mouth=1&lips=region"))
+            .await;
+        let mut producer = connect_producer(url, head, "still").await;
+        produce_line(&mut producer, r#"{"seq":0,"t":0}"#.to_string()).await;
+        browser
+            .wait_for(
+                &format!("{head}'s still stream live"),
+                &state_is("status-0", "live"),
+                long,
+            )
+            .await;
+        browser
+            .wait_for(
+                &format!("{head}'s lips loaded"),
+                "return document.getElementById('view-0')?.dataset.lips === 'loaded'",
+                long,
+            )
+            .await;
+        let mut shots = Vec::new();
+        for mode in ["region", "off", "tint", "contrast"] {
+            browser
+                .js(&format!(
+                    "const s = document.getElementById('lips'); s.value = '{mode}'; \
+                     s.dispatchEvent(new Event('change'))"
+                ))
+                .await;
+            tokio::time::sleep(Duration::from_millis(600)).await;
+            let shot = browser.screenshot("#canvas-0").await;
+            if let Some(dir) = std::env::var_os("FACEWIRE_SCREENSHOTS") {
+                let name = format!("lips-{head}-{mode}.png.base64");
+                std::fs::write(std::path::Path::new(&dir).join(name), &shot).unwrap();
+            }
+            shots.push(shot);
+        }
+        let address = browser.js("return location.search").await;
+        assert!(
+            address.as_str().unwrap().contains("lips=contrast"),
+            "the URL keeps the lips' look: {address}"
+        );
+        let mut steps = Vec::new();
+        for shot in &shots[1..] {
+            browser
+                .command(
+                    "/execute/sync",
+                    Some(json!({ "script": LIP_STEP_JS, "args": [shots[0], shot] })),
+                )
+                .await;
+            let step = browser
+                .wait_for("the lip step measured", "return window.lipStep", long)
+                .await;
+            let (lip, skin) = (step["lip"].as_f64().unwrap(), step["skin"].as_f64().unwrap());
+            assert!(
+                step["lipCount"].as_u64().unwrap() > 1000 && step["skinCount"].as_u64().unwrap() > 1000,
+                "{head}: too few pixels either side of the lip border to measure: {step}"
+            );
+            steps.push((lip - skin).abs());
+        }
+        let [off, tint, contrast] = steps[..] else {
+            unreachable!()
+        };
+        println!(
+            "{head}: luminance step across the lip border: off {off:.4}, tint {tint:.4} ({:.1}x), \
+             high contrast {contrast:.4} ({:.1}x)",
+            tint / off,
+            contrast / off
+        );
+        assert!(
+            tint >= 3.0 * off,
+            "{head}: tinted lips step {tint:.4}, off {off:.4}"
+        );
+        assert!(
+            contrast >= 3.0 * off,
+            "{head}: high contrast step {contrast:.4}, off {off:.4}"
+        );
+        drop(producer);
+    }
 }

@@ -1,4 +1,6 @@
-// app.js: the page. Reads ?head=&stream=&algo=&algo2=&heat=&heat2=&heatmax=&heatmax2=&view=&view2=&cut=&cut2=&mouth=&token=&nodes=&audio=
+// app.js: the page. Reads ?head=&stream=&algo=&algo2=&heat=&heat2=&heatmax=&heatmax2=&view=&view2=&cut=&cut2=&mouth=&lips=&lipstrength=&token=&nodes=&audio=
+// (lips: tint, contrast, region or off, how both views draw the lips; lipstrength: the
+// tint's strength, 0 to 1)
 // (heat=1 colours by roughness, heat=folds by folds; nodes: server base URLs to fail over
 // between, nodes.js; audio=opus|pcm|none: the voice's codec, by default Opus where the
 // browser decodes it; view: front, side, cutaway or see-through, cut: the cut-away's turn
@@ -14,11 +16,12 @@
 
 import { attachPointerControls, handleCameraKey, OrbitCamera } from "./camera.js";
 import { LiveChart } from "./chart.js";
-import { parseMesh } from "./decode.js";
+import { parseLipTint, parseMesh } from "./decode.js";
 import { fitOutcome, fitPaths } from "./fit.js";
 import { Nodes } from "./nodes.js";
 import { DEFAULT_HEAT_MAX, Panel } from "./panel.js";
 import { audioCodec, quantile, Sound } from "./sound.js";
+import { LIP_MODES } from "./render.js";
 import { Talk } from "./talk.js";
 
 /** A view whose last frame is older than this does not hold the other one back. */
@@ -37,6 +40,8 @@ const controls = {
   zoomOut: byId("zoom-out"),
   resetView: byId("reset-view"),
   mouthView: byId("mouth-view"),
+  lips: byId("lips"),
+  lipStrength: byId("lip-strength"),
   sound: byId("sound"),
   talk: byId("talk"),
   volume: byId("volume"),
@@ -69,6 +74,11 @@ const page = {
   stream: params.get("stream") || "main",
   token: params.get("token") || "",
   panels: [],
+  /** How every view draws the lips (render.js setLips). */
+  lips: {
+    mode: LIP_MODES.includes(params.get("lips")) ? params.get("lips") : "tint",
+    strength: params.has("lipstrength") ? Number(params.get("lipstrength")) : 1,
+  },
 };
 const camera = new OrbitCamera();
 const sound = new Sound({ onChange: showSoundState });
@@ -81,6 +91,8 @@ let soundCodec = null;
 window.facewireSound = sound;
 const chart = new LiveChart(byId("chart"));
 const meshes = new Map();
+/** Lip weights by URL, as `meshes`. */
+const lipTints = new Map();
 let framedMesh = null;
 /**
  * The fit report's fetches: `seen` is the chosen head's status when the last one started
@@ -111,6 +123,33 @@ function loadMesh(url) {
     meshes.set(url, promise);
   }
   return meshes.get(url);
+}
+
+/** Lip weights by URL (the snapshot's `lip_tint`), fetched once and shared by both views. */
+function loadLipTint(url, vertexCount) {
+  if (!lipTints.has(url)) {
+    const promise = nodes.fetch(url).then((response) => {
+      if (!response.ok) {
+        throw new Error(`HTTP ${response.status}`);
+      }
+      return response.arrayBuffer().then((buffer) => parseLipTint(buffer, vertexCount));
+    });
+    promise.catch(() => lipTints.delete(url));
+    lipTints.set(url, promise);
+  }
+  return lipTints.get(url);
+}
+
+/** The lip controls as `page.lips` has them; the strength only matters for a tint. */
+function showLips() {
+  const { mode, strength } = page.lips;
+  controls.lips.value = mode;
+  controls.lipStrength.value = String(strength);
+  controls.lipStrength.disabled = mode === "region" || mode === "off";
+  controls.lipStrength.setAttribute("aria-valuetext", `${Math.round(strength * 100)} percent`);
+  for (const panel of page.panels) {
+    panel.setLips(page.lips);
+  }
 }
 
 function showPageMessage(text) {
@@ -183,6 +222,12 @@ function writeUrl() {
   });
   if (camera.closeUp) {
     query.set("mouth", "1");
+  }
+  if (page.lips.mode !== "tint") {
+    query.set("lips", page.lips.mode);
+  }
+  if (page.lips.strength !== 1) {
+    query.set("lipstrength", String(page.lips.strength));
   }
   if (page.token) {
     query.set("token", page.token);
@@ -388,6 +433,8 @@ function addPanel(algorithm, heat, heatMax) {
     algorithms: page.algorithms,
     chart,
     loadMesh,
+    loadLipTint,
+    lips: page.lips,
     onMesh: (url, mesh, mouth) => {
       if (framedMesh !== url) {
         framedMesh = url;
@@ -544,6 +591,18 @@ async function start() {
   controls.zoomOut.addEventListener("click", () => camera.zoomOut());
   controls.resetView.addEventListener("click", () => camera.reset());
   controls.mouthView.addEventListener("click", () => setCloseUp(!camera.closeUp));
+  controls.lips.addEventListener("change", () => {
+    page.lips = { ...page.lips, mode: controls.lips.value };
+    showLips();
+    writeUrl();
+  });
+  controls.lipStrength.addEventListener("input", () => {
+    page.lips = { ...page.lips, strength: Number(controls.lipStrength.value) };
+    showLips();
+    writeUrl();
+  });
+  page.lips.strength = Number.isFinite(page.lips.strength) ? Math.max(0, Math.min(1, page.lips.strength)) : 1;
+  showLips();
   controls.sound.addEventListener("click", toggleSound);
   controls.talk.addEventListener("click", toggleTalk);
   controls.volume.addEventListener("input", () => sound.setVolume(Number(controls.volume.value)));

@@ -1,7 +1,7 @@
 // decode.js: reads the server's binary formats into typed arrays: the rest mesh
-// (`mesh.bin`, "FWM1"), the viewer frame, in either layout (proto/PROTOCOL.md): the
-// sectioned "FWF2" the page asks for, and the frozen "FWF1" that a server before FWF2 sends,
-// and the audio chunk ("FWA1").
+// (`mesh.bin`, "FWM1"), where its lips are (`lips.bin`, "FWL1"), the viewer frame, in
+// either layout (proto/PROTOCOL.md): the sectioned "FWF2" the page asks for, and the
+// frozen "FWF1" that a server before FWF2 sends, and the audio chunk ("FWA1").
 // Both decode to the same object, so the page does not care which arrived. It touches no
 // DOM, so node runs it in tests/service/web_decode.rs against frames from the server's own encoder
 // and in fixtures.test.mjs against frames captured from real servers. Every length is
@@ -10,6 +10,7 @@
 // returns a promise.
 
 const MESH_MAGIC = "FWM1";
+const LIP_TINT_MAGIC = "FWL1";
 const FWF1_MAGIC = "FWF1";
 const FWF2_MAGIC = "FWF2";
 const AUDIO_MAGIC = "FWA1";
@@ -190,6 +191,27 @@ export function parseMesh(buffer) {
     }
   }
   return { vertexCount, triangleCount, mmPerUnit, positions, indices };
+}
+
+/**
+ * `lips.bin` (FWL1): how much each rest-mesh vertex is lip, 0 to 1, as a Float32Array
+ * (one per vertex). `vertexCount`: the rest mesh's, which the weights must match.
+ */
+export function parseLipTint(buffer, vertexCount) {
+  const r = new Reader(new Uint8Array(buffer));
+  r.magic(LIP_TINT_MAGIC);
+  const count = r.u32("vertex count");
+  if (buffer.byteLength !== 8 + count) {
+    throw new DecodeError("vertex count", 4, `${count} vertices need ${8 + count} bytes, got ${buffer.byteLength}`);
+  }
+  if (count !== vertexCount) {
+    throw new DecodeError("vertex count", 4, `${count} weights for a rest mesh of ${vertexCount} vertices`);
+  }
+  const weights = new Float32Array(count);
+  for (let i = 0; i < count; i++) {
+    weights[i] = r.u8("weights") / 255;
+  }
+  return weights;
 }
 
 /** seq, producer_time_s, server_receive_us, server_send_us: both layouts' timing fields. */

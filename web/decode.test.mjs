@@ -11,6 +11,7 @@ import {
   decodeFrame,
   DecodeError,
   motionMatrix,
+  parseLipTint,
   parseMesh,
   readFrameHeader,
 } from "./decode.js";
@@ -124,10 +125,16 @@ for (const [i, c] of cases.malformedMeshes.entries()) {
   await throwsOn(parseMesh, c.bytes, c.field, `malformed mesh ${i} (${c.name})`);
 }
 
+const lips = parseLipTint(bufferOf(cases.lipTint.bytes), cases.lipTint.vertexCount);
+same([...lips], cases.lipTint.expected, "lip tint");
+for (const c of cases.malformedLipTints) {
+  await throwsOn((buffer) => parseLipTint(buffer, cases.lipTint.vertexCount), c.bytes, c.field, `malformed lip tint (${c.name})`);
+}
+
 if (failures.length > 0) {
   console.error(`${failures.length} mismatch(es):\n${failures.slice(0, 40).join("\n")}`);
   process.exit(1);
 }
 console.log(
-  `decode.js agrees with the Rust encoder on ${cases.frames.length} frames, ${cases.audio.length} audio chunks and a mesh`,
+  `decode.js agrees with the Rust encoder on ${cases.frames.length} frames, ${cases.audio.length} audio chunks, a mesh and its lip tint`,
 );

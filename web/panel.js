@@ -82,13 +82,15 @@ function boxCentre(positions) {
 export class Panel {
   /**
    * `index`: 0 or 1; `algorithms`: the /v1/algorithms list; `loadMesh(url)`: a promise of
-   * a parsed mesh; `onMesh(url, mesh)`: a mesh is shown; `onSettings()`: the user changed
+   * a parsed mesh; `loadLipTint(url, vertexCount)`: a promise of a head's lip weights
+   * (decode.js parseLipTint); `lips`: how the lips are drawn (render.js setLips);
+   * `onMesh(url, mesh)`: a mesh is shown; `onSettings()`: the user changed
    * this view's algorithm or heat-map; `nodes`: the page's Nodes (nodes.js), shared by
    * both views and the fetches; `sound`: the page's Sound (sound.js), whose clock the view
    * draws by, and `audio`: the codec this view asks for and feeds the sound with, or null
    * (the other view, or no sound).
    */
-  constructor({ index, container, algorithms, chart, loadMesh, onMesh, onSettings, nodes, sound, audio, look }) {
+  constructor({ index, container, algorithms, chart, loadMesh, loadLipTint, onMesh, onSettings, nodes, sound, audio, look, lips }) {
     this.index = index;
     this.sound = sound;
     this.audio = audio;
@@ -96,6 +98,7 @@ export class Panel {
     this.node = nodes.index;
     this.chart = chart;
     this.loadMesh = loadMesh;
+    this.loadLipTint = loadLipTint;
     this.onMesh = onMesh;
     const fragment = document.getElementById("view-template").content.cloneNode(true);
     this.parts = {};
@@ -150,6 +153,7 @@ export class Panel {
 
     this.renderer = new HeadRenderer(canvas);
     this.setLook(look ?? { mode: "front", cutDeg: 0 });
+    this.setLips(lips);
     this.socket = new ViewerSocket({
       onSnapshot: (snapshot) => this.snapshotArrived(snapshot),
       onFrame: (buffer, arrivalUs) => this.frameArrived(buffer, arrivalUs),
@@ -307,6 +311,7 @@ export class Panel {
         this.onMesh(snapshot.rest_mesh, mesh, snapshot.mouth);
         this.needsDraw = true;
         this.loadParts(snapshot);
+        this.loadLips(snapshot, mesh);
       },
       (error) => {
         this.meshUrl = null;
@@ -341,6 +346,39 @@ export class Panel {
       },
       (error) => this.showMessage(`Cannot load the head's parts: ${error.message}`),
     );
+  }
+
+  /**
+   * Where the head's lips are (the snapshot's `lip_tint`, absent from older servers), for
+   * drawing them in their own colour; the view's `data-lips` says `loaded` or `none`.
+   */
+  loadLips(snapshot, mesh) {
+    const { view } = this.parts;
+    delete view.dataset.lips;
+    if (!snapshot.lip_tint) {
+      view.dataset.lips = "none";
+      return;
+    }
+    this.loadLipTint(snapshot.lip_tint, mesh.vertexCount).then(
+      (weights) => {
+        if (snapshot.rest_mesh !== this.meshUrl) {
+          return;
+        }
+        this.renderer.setLipTint(weights);
+        view.dataset.lips = "loaded";
+        this.needsDraw = true;
+      },
+      (error) => {
+        view.dataset.lips = "none";
+        this.showMessage(`Cannot load where the lips are (${snapshot.lip_tint}): ${error.message}`);
+      },
+    );
+  }
+
+  /** How the lips are drawn (render.js setLips): the page's choice, for every view. */
+  setLips(lips) {
+    this.renderer.setLips(lips);
+    this.needsDraw = true;
   }
 
   frameArrived(buffer, arrivalUs) {

@@ -8,7 +8,10 @@
 // front, at the side, at a cut-away (a plane through the mouth, midsagittal or at any
 // angle about the vertical, removes the half nearest the camera, and what it cuts shows
 // in section: flat colours where the inside of a mesh is seen), or through a see-through
-// skin at the teeth, gums and tongue.
+// skin at the teeth, gums and tongue. The lips are drawn in their own colour (the server's
+// `lips.bin` says how much each vertex is lip): a tint, a high-contrast look for
+// lip-reading (darker lips, lighter skin, a rim light on the lips), the lip region alone
+// in flat white on black (what the fit takes for the lips), or off.
 
 import { applyDeltas, motionMatrix } from "./decode.js";
 
@@ -19,10 +22,12 @@ uniform mat4 u_projection;
 in vec3 a_position;
 in vec3 a_normal;
 in float a_heat;
+in float a_lip; // how much the vertex is lip, 0 to 1 (0 for the parts, which have none)
 out vec3 v_position;
 out vec3 v_rest; // the vertex before any motion, head units: where an eye's iris is
 out vec3 v_normal;
 out float v_heat;
+out float v_lip;
 
 void main() {
   mat4 model_view = u_view * u_model;
@@ -31,6 +36,7 @@ void main() {
   v_rest = a_position;
   v_normal = mat3(model_view) * a_normal;
   v_heat = a_heat;
+  v_lip = a_lip;
   gl_Position = u_projection * p;
 }`;
 
@@ -51,10 +57,17 @@ uniform vec2 u_eye_radii;
 uniform vec4 u_clip;
 uniform vec3 u_section; // sRGB
 uniform float u_alpha; // 1 but for a see-through skin
+// The lips: their albedo (sRGB) mixed into u_albedo by v_lip x strength, and a rim light
+// of this strength on them. u_flat >= 0 draws flat grey u_flat, white where lip, unlit.
+uniform vec3 u_lip_albedo;
+uniform float u_lip_strength;
+uniform float u_lip_rim;
+uniform float u_flat;
 in vec3 v_position;
 in vec3 v_rest;
 in vec3 v_normal;
 in float v_heat;
+in float v_lip;
 out vec4 out_colour;
 
 vec3 viridis(float t) {
@@ -84,11 +97,16 @@ void main() {
     out_colour = vec4(u_section, 1.0);
     return;
   }
+  if (u_flat >= 0.0) {
+    out_colour = vec4(mix(vec3(u_flat), vec3(1.0), v_lip), u_alpha);
+    return;
+  }
   float length_n = length(v_normal);
   vec3 n = length_n > 0.0 ? v_normal / length_n : vec3(0.0, 0.0, 1.0);
   if (!gl_FrontFacing) n = -n;
   vec3 to_eye = normalize(-v_position);
-  vec3 base = u_heat_scale > 0.0 ? viridis(v_heat / u_heat_scale) : u_albedo;
+  float lip = v_lip * u_lip_strength;
+  vec3 base = u_heat_scale > 0.0 ? viridis(v_heat / u_heat_scale) : mix(u_albedo, u_lip_albedo, lip);
   if (u_eye_radii.x > 0.0) {
     vec3 d = v_rest - u_eye_centre;
     float along = dot(d, u_eye_forward);
@@ -105,6 +123,9 @@ void main() {
     + albedo * light(n, to_eye, vec3(-0.5, 0.6, 0.8), vec3(1.0, 0.96, 0.9) * 0.95, 40.0)
     + albedo * light(n, to_eye, vec3(0.7, 0.1, 0.5), vec3(0.75, 0.85, 1.0) * 0.35, 20.0)
     + light(n, to_eye, vec3(0.2, 0.5, -1.0), vec3(1.0) * 0.25, 8.0);
+  if (u_heat_scale <= 0.0) {
+    lit += vec3(1.0, 0.92, 0.9) * u_lip_rim * lip * pow(1.0 - max(dot(n, to_eye), 0.0), 2.0);
+  }
   out_colour = vec4(pow(lit, vec3(1.0 / 2.2)), u_alpha);
 }`;
 
@@ -121,6 +142,21 @@ const NO_CUT = new Float32Array([0, 0, 0, 0]);
 /** What a cut shows where it goes through a mesh, sRGB: the albedo, darker and redder for skin. */
 const SKIN_SECTION = [0.72, 0.36, 0.34];
 const sectionOf = (albedo) => albedo.map((c) => c * 0.8);
+/**
+ * How the lips are drawn (`lips=` in the page's URL): `tint`, their own colour over the
+ * skin's; `contrast`, for lip-reading: darker lips on a lighter skin with a rim light on
+ * them; `region`, the lip region alone, flat white on black, the parts grey; `off`.
+ * Each with its skin and lip albedos (sRGB) and rim light.
+ */
+const LIP_LOOKS = {
+  tint: { skin: SKIN, lip: [0.62, 0.28, 0.31], rim: 0 },
+  contrast: { skin: [0.95, 0.86, 0.8], lip: [0.46, 0.12, 0.16], rim: 0.6 },
+  region: { skin: SKIN, lip: SKIN, rim: 0 },
+  off: { skin: SKIN, lip: SKIN, rim: 0 },
+};
+export const LIP_MODES = Object.keys(LIP_LOOKS);
+/** The flat grey the parts and eyes are drawn in when the lip region is shown. */
+const REGION_PART_GREY = 0.5;
 /** A see-through skin's opacity. */
 const SEE_THROUGH_ALPHA = 0.3;
 
@@ -217,12 +253,17 @@ export class HeadRenderer {
       clip: gl.getUniformLocation(program, "u_clip"),
       section: gl.getUniformLocation(program, "u_section"),
       alpha: gl.getUniformLocation(program, "u_alpha"),
+      lipAlbedo: gl.getUniformLocation(program, "u_lip_albedo"),
+      lipStrength: gl.getUniformLocation(program, "u_lip_strength"),
+      lipRim: gl.getUniformLocation(program, "u_lip_rim"),
+      flat: gl.getUniformLocation(program, "u_flat"),
     };
     this.vao = gl.createVertexArray();
     this.buffers = {
       position: this.attribute("a_position", 3),
       normal: this.attribute("a_normal", 3),
       heat: this.attribute("a_heat", 1),
+      lip: this.attribute("a_lip", 1),
       index: gl.createBuffer(),
     };
     this.indexCount = 0;
@@ -236,6 +277,8 @@ export class HeadRenderer {
     this.shapedPart = null;
     /** How the head is looked at (setLook) and the point the cut goes through (setCutCentre). */
     this.look = { mode: "front", cutDeg: 0 };
+    /** How the lips are drawn (setLips): one of LIP_MODES and the tint's strength, 0 to 1. */
+    this.lips = { mode: "tint", strength: 1 };
     this.cutCentre = [0, 0, 0];
     gl.enable(gl.DEPTH_TEST);
     gl.blendFunc(gl.SRC_ALPHA, gl.ONE_MINUS_SRC_ALPHA);
@@ -248,6 +291,28 @@ export class HeadRenderer {
    */
   setLook({ mode, cutDeg }) {
     this.look = { mode: LOOKS.includes(mode) ? mode : "front", cutDeg: Number.isFinite(cutDeg) ? cutDeg : 0 };
+  }
+
+  /** How the lips are drawn: `mode` one of LIP_MODES, `strength` 0 to 1. */
+  setLips({ mode, strength }) {
+    this.lips = {
+      mode: LIP_MODES.includes(mode) ? mode : "tint",
+      strength: Number.isFinite(strength) ? Math.max(0, Math.min(1, strength)) : 1,
+    };
+  }
+
+  /**
+   * How much each rest-mesh vertex is lip (decode.js parseLipTint), or null when the
+   * server says nothing (every vertex skin).
+   */
+  setLipTint(weights) {
+    const gl = this.gl;
+    gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.lip);
+    if (weights) {
+      gl.bufferSubData(gl.ARRAY_BUFFER, 0, weights);
+    } else {
+      gl.bufferSubData(gl.ARRAY_BUFFER, 0, new Float32Array(this.normals.length / 3));
+    }
   }
 
   /** The point the cut plane goes through (head units, before the head's motion). */
@@ -312,6 +377,8 @@ export class HeadRenderer {
     gl.bufferData(gl.ARRAY_BUFFER, mesh.positions.byteLength, gl.DYNAMIC_DRAW);
     gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.heat);
     gl.bufferData(gl.ARRAY_BUFFER, mesh.vertexCount * 4, gl.DYNAMIC_DRAW);
+    gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.lip);
+    gl.bufferData(gl.ARRAY_BUFFER, mesh.vertexCount * 4, gl.STATIC_DRAW); // zeros: no lips until setLipTint
     this.indexCount = mesh.indices.length;
     this.model = IDENTITY;
     this.jawModel = IDENTITY;
@@ -526,10 +593,16 @@ export class HeadRenderer {
     gl.uniformMatrix4fv(this.uniforms.projection, false, projection);
     gl.uniform4fv(this.uniforms.clip, this.clipPlane(view));
     gl.uniform1f(this.uniforms.alpha, 1);
+    const region = this.lips.mode === "region";
+    const lipLook = LIP_LOOKS[this.lips.mode];
+    gl.uniform3fv(this.uniforms.lipAlbedo, lipLook.lip);
+    gl.uniform1f(this.uniforms.lipStrength, this.lips.strength);
+    gl.uniform1f(this.uniforms.lipRim, lipLook.rim);
     if (!seeThrough) {
       this.drawSkin();
     }
     gl.uniform1f(this.uniforms.heatScale, 0);
+    gl.uniform1f(this.uniforms.flat, region ? REGION_PART_GREY : -1);
     for (const part of this.parts) {
       gl.uniformMatrix4fv(this.uniforms.model, false, part.role === "skull" ? this.model : this.jawModel);
       gl.uniform3fv(this.uniforms.albedo, part.albedo);
@@ -566,7 +639,8 @@ export class HeadRenderer {
     const gl = this.gl;
     gl.uniformMatrix4fv(this.uniforms.model, false, this.model);
     gl.uniform1f(this.uniforms.heatScale, this.heatScale);
-    gl.uniform3fv(this.uniforms.albedo, SKIN);
+    gl.uniform1f(this.uniforms.flat, this.lips.mode === "region" && this.heatScale === 0 ? 0 : -1);
+    gl.uniform3fv(this.uniforms.albedo, LIP_LOOKS[this.lips.mode].skin);
     gl.uniform3fv(this.uniforms.section, SKIN_SECTION);
     gl.bindVertexArray(this.vao);
     gl.drawElements(gl.TRIANGLES, this.indexCount, gl.UNSIGNED_INT, 0);

@@ -9,6 +9,7 @@
 //! - [`param_frame`]: the binary per-frame message a producer may send instead of JSON,
 //!   `FWP2` or the frozen `FWP1`.
 //! - [`mesh`]: the binary rest mesh a viewer downloads once.
+//! - [`lip_tint`]: where the rest mesh's lips are, for drawing them in their own colour.
 //! - [`audio_chunk`]: a piece of a stream's voice on its timeline (`FWA1`), from producers
 //!   and to viewers.
 //!
@@ -19,6 +20,7 @@
 pub mod audio_chunk;
 pub mod codes;
 mod delta_block;
+pub mod lip_tint;
 pub mod mesh;
 pub mod messages;
 pub mod param_frame;

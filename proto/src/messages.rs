@@ -18,6 +18,10 @@ pub struct Snapshot {
     /// Rest mesh, binary (`mesh.bin`: see PROTOCOL.md) and OBJ.
     pub rest_mesh: String,
     pub rest_obj: String,
+    /// Where the rest mesh's lips are (`lips.bin`, `FWL1`: a weight per vertex), for
+    /// drawing them in their own colour. Absent from servers before it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lip_tint: Option<String>,
     /// Millimetres per head unit.
     pub mm_per_unit: f32,
     /// Quantization step of the deltas, head units per count.

@@ -13,6 +13,7 @@ mod head_motion;
 mod jaw;
 mod job;
 mod json_frame;
+mod lip_tint;
 mod part_role;
 mod part_split;
 mod rigid;
@@ -27,6 +28,7 @@ pub use head::{AnimatedHead, AnimatedHeadError, PartInput, PartSplit, STEP_MM};
 pub use head_motion::{head_motion, NECK_PIVOT_MASK};
 pub use jaw::{jaw_motion, CHIN_VERTICES, JAW_PIVOT_MASK};
 pub use job::{FrameJob, FrameJobError, FrameTimes, Heat};
+pub use lip_tint::{lip_tint, SOFT_EDGE_MM};
 pub use part_role::infer_role;
 pub use rigid::RigidMotion;
 pub use teeth_contact::{

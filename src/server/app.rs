@@ -46,6 +46,10 @@ pub fn app(state: AppState) -> Router {
             get(heads::mesh_bin).route_layer(viewer()),
         )
         .route(
+            "/v1/heads/{id}/lips.bin",
+            get(heads::lips_bin).route_layer(viewer()),
+        )
+        .route(
             "/v1/heads/{id}/parts/{part}/mesh.bin",
             get(heads::part_mesh_bin).route_layer(viewer()),
         )

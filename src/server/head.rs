@@ -32,6 +32,8 @@ pub struct ReadyHead {
     /// `mesh.bin` (FWM1) and OBJ of the rest mesh.
     pub rest_bin: Bytes,
     pub rest_obj: Bytes,
+    /// `lips.bin` (FWL1): where the rest mesh's lips are, for drawing them.
+    pub lips_bin: Bytes,
     /// `mesh.bin` of each part, in `animated.parts` order, then of each eyeball.
     pub part_bins: Vec<Bytes>,
     /// The fit's residuals and warnings, for head info.

@@ -181,6 +181,16 @@ pub async fn mesh_bin(State(state): State<AppState>, Path(id): Path<String>) -> 
         .into_response())
 }
 
+/// `GET /v1/heads/{id}/lips.bin`: where the rest mesh's lips are (`FWL1`).
+pub async fn lips_bin(State(state): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {
+    let ready = state.registry.head(&id)?.ready()?;
+    Ok((
+        [(header::CONTENT_TYPE, "application/octet-stream")],
+        ready.lips_bin.clone(),
+    )
+        .into_response())
+}
+
 /// `GET /v1/heads/{id}/parts/{part}/mesh.bin`.
 pub async fn part_mesh_bin(
     State(state): State<AppState>,

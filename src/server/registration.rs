@@ -12,12 +12,13 @@ use bytes::Bytes;
 use super::bindings::BindingCache;
 use super::head::ReadyHead;
 use super::store::PartRecord;
-use crate::animate::{AnimatedHead, AnimatedHeadError, PartInput};
+use crate::animate::{lip_tint, AnimatedHead, AnimatedHeadError, PartInput};
 use crate::cancel::Cancel;
 use crate::deform::Registration;
 use crate::fit::{AutomaticFitError, FitError, FitFile, FitFileError, FitReport, FittedMask, Landmarks};
 use crate::head::{obj, raster_cost, Head, MeshBudget, ObjError, OverBudget, RasterCostError};
 use crate::mask::Mask;
+use facewire_proto::lip_tint::LipTint;
 use facewire_proto::mesh::RestMesh;
 use facewire_proto::messages::FitSummary;
 
@@ -100,6 +101,12 @@ pub fn register(
         )
     };
     let rest_bin = mesh_bin(&reg.head);
+    let lips_bin = Bytes::from(
+        LipTint {
+            weights: lip_tint(reg),
+        }
+        .encode(),
+    );
     let part_bins = animated
         .parts
         .iter()
@@ -138,6 +145,7 @@ pub fn register(
     Ok(ReadyHead {
         animated: Arc::new(animated),
         rest_bin,
+        lips_bin,
         part_bins,
         fit,
         fit_report,

@@ -191,6 +191,7 @@ async fn open_view(state: &AppState, id: &str, name: &str, query: &ViewQuery) ->
         triangles: reg.head.triangles.len() as u32,
         rest_mesh: format!("/v1/heads/{id}/mesh.bin"),
         rest_obj: format!("/v1/heads/{id}/mesh.obj"),
+        lip_tint: Some(format!("/v1/heads/{id}/lips.bin")),
         mm_per_unit: reg.mm_per_unit(),
         step: ready.animated.step,
         lip_vertices: LIP_VERTICES.iter().map(|&v| v as u32).collect(),

@@ -22,6 +22,7 @@ mod geometry;
 mod head_motion;
 mod jaw;
 mod kshirsagar;
+mod lip_tint;
 mod metrics;
 mod mouth_calibration;
 mod no_alloc;

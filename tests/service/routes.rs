@@ -84,7 +84,7 @@ async fn every_endpoint_takes_exactly_the_tokens_of_the_table() {
     let admin = [false, false, false, false, false, true];
     let producer_plain = [false, false, false, true, false, true];
     let producer_own = [false, false, false, false, true, true];
-    let table: [(Method, &str, [bool; 6]); 21] = [
+    let table: [(Method, &str, [bool; 6]); 22] = [
         (Method::GET, "/healthz", open),
         (Method::GET, "/", open),
         (Method::GET, "/app.js", open),
@@ -93,6 +93,7 @@ async fn every_endpoint_takes_exactly_the_tokens_of_the_table() {
         (Method::GET, "/v1/heads", viewer),
         (Method::GET, "/v1/heads/own", viewer),
         (Method::GET, "/v1/heads/own/mesh.bin", viewer),
+        (Method::GET, "/v1/heads/own/lips.bin", viewer),
         (Method::GET, "/v1/heads/own/mesh.obj", viewer),
         (Method::GET, "/v1/heads/own/fit", viewer),
         (Method::GET, "/v1/heads/own/fit.png?view=side", viewer),

@@ -431,7 +431,21 @@ async fn heads_survive_a_restart() {
     let server = Server::start(config.clone()).await;
     server.register("mh", "makehuman_head", "").await;
     let mut viewer = connect(&server.ws("/v1/heads/mh/streams/s/view")).await;
-    assert!(matches!(next_json(&mut viewer).await, ServerMessage::Snapshot(_)));
+    let ServerMessage::Snapshot(snapshot) = next_json(&mut viewer).await else {
+        panic!("expected a snapshot");
+    };
+    // Where the lips are, for drawing them: one weight per vertex, some of them lip.
+    assert_eq!(snapshot.lip_tint.as_deref(), Some("/v1/heads/mh/lips.bin"));
+    let lips = reqwest::get(server.http("/v1/heads/mh/lips.bin"))
+        .await
+        .unwrap()
+        .bytes()
+        .await
+        .unwrap();
+    let lips = facewire_proto::lip_tint::LipTint::decode(&lips).unwrap();
+    assert_eq!(lips.weights.len(), 4352);
+    let lip = lips.weights.iter().filter(|&&w| w == 255).count();
+    assert!((50..1000).contains(&lip), "{lip} vertices are all lip");
     server.stop().await;
     // Viewers are told why they are closed.
     match next_json(&mut viewer).await {

@@ -12,6 +12,7 @@ use crate::common::repo_path;
 use std::process::Command;
 
 use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
+use facewire_proto::lip_tint::LipTint;
 use facewire_proto::viewer_frame::{
     decode, EyeMotion, FrameContent, FrameEncoder, FrameHeader, FrameLayout, FrameViseme, LipFolds,
     LipRoughness, RigidMotion,
@@ -585,6 +586,9 @@ fn cases() -> Value {
     let mesh = mesh_bin(&positions, &triangles, 50.3);
     let out_of_range = mesh_bin(&positions, &[[0, 1, 4]], 50.3);
     let short = mesh[..mesh.len() - 4].to_vec();
+    let lips = LipTint {
+        weights: vec![0, 1, 128, 255],
+    };
     json!({
         "frames": frames,
         "malformedFrames": malformed_frames,
@@ -604,6 +608,16 @@ fn cases() -> Value {
             { "name": "short", "bytes": short, "field": "length" },
             { "name": "vertex out of range", "bytes": out_of_range, "field": "triangles" },
             { "name": "frame, not mesh", "bytes": good, "field": "magic" },
+        ],
+        "lipTint": {
+            "bytes": lips.encode(),
+            "vertexCount": 4,
+            "expected": lips.weights.iter().map(|&w| f64::from(f32::from(w) / 255.0)).collect::<Vec<_>>(),
+        },
+        "malformedLipTints": [
+            { "name": "short", "bytes": lips.encode()[..10].to_vec(), "field": "vertex count" },
+            { "name": "another mesh's", "bytes": LipTint { weights: vec![0; 5] }.encode(), "field": "vertex count" },
+            { "name": "mesh, not lips", "bytes": mesh, "field": "magic" },
         ],
     })
 }
