@@ -335,9 +335,15 @@ async fn check_the_page(browser: &Browser) {
         check_the_face_is_seen_when_its_voice_is_heard(browser, &url, Duration::from_secs(120)).await;
         return;
     }
+    // One check alone, for work on it: the lips or the element.
     if std::env::var_os("FACEWIRE_LIPS_ONLY").is_some() {
         let (_demo, url) = start_demo();
         check_the_lips_read(browser, &url, Duration::from_secs(120)).await;
+        return;
+    }
+    if std::env::var_os("FACEWIRE_ELEMENT_ONLY").is_some() {
+        let (_demo, url) = start_demo();
+        check_the_element_embeds(browser, &url, Duration::from_secs(120)).await;
         return;
     }
     check_failover_across_nodes(browser).await;
@@ -425,6 +431,7 @@ async fn check_the_page(browser: &Browser) {
 
     check_the_heat_map_scale(browser, &url, long).await;
     check_the_lips_read(browser, &url, long).await;
+    check_the_element_embeds(browser, &url, long).await;
     check_the_inner_mouth_close_up(browser, &url, long).await;
     check_a_stalled_stream(browser, &url, long).await;
     check_a_head_posted_with_no_fit(browser, &url, long).await;
@@ -1282,6 +1289,7 @@ async fn check_the_lips_read(browser: &Browser, url: &str, long: Duration) {
         browser
             .open(&format!("{url}?head={head}&stream=still&mouth=1&lips=region"))
             .await;
+        wait_ready(url, head, long).await;
         let mut producer = connect_producer(url, head, "still").await;
         produce_line(&mut producer, r#"{"seq":0,"t":0}"#.to_string()).await;
         browser
@@ -1356,4 +1364,168 @@ async fn check_the_lips_read(browser: &Browser, url: &str, long: Duration) {
         );
         drop(producer);
     }
+}
+
+/// Waits until the demo's head `head` is registered (a producer is refused before).
+async fn wait_ready(url: &str, head: &str, long: Duration) {
+    let started = Instant::now();
+    loop {
+        let info: Value = reqwest::get(format!("{url}v1/heads/{head}"))
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap();
+        if info["status"] == "ready" {
+            return;
+        }
+        assert!(
+            started.elapsed() < long,
+            "head {head} not ready in {long:?}: {info}"
+        );
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+}
+
+/// FNV-1a over the bytes of a view's current positions (a Float32Array), as a page script.
+const POSITIONS_DIGEST_JS: &str = "const digest = (a) => { \
+     const b = new Uint8Array(a.buffer, a.byteOffset, a.byteLength); let h = 0x811c9dc5; \
+     for (const x of b) { h ^= x; h = Math.imul(h, 0x01000193) >>> 0; } return h; };";
+
+/// A page that is not facewire's, on its own origin, embedding the head with two lines.
+async fn serve_a_foreign_page(facewire: &str, body: &str) -> (String, tokio::task::JoinHandle<()>) {
+    let html = format!(
+        "<!doctype html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>A speech therapy app</title></head>\
+         <body><h1>Say \"oh\"</h1>\n\
+         <script type=\"module\" src=\"{facewire}facewire-head.js\"></script>\n{body}\n</body></html>"
+    );
+    let app = axum::Router::new().route(
+        "/",
+        axum::routing::get(move || {
+            let html = html.clone();
+            async move { axum::response::Html(html) }
+        }),
+    );
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let address = listener.local_addr().unwrap();
+    let task = tokio::spawn(async move {
+        axum::serve(listener, app).await.unwrap();
+    });
+    (format!("http://{address}/"), task)
+}
+
+/// The `<facewire-head>` element in a page of another origin: the script and the element
+/// are all it takes; it goes live, shows the frames of a stream of the test's own (its
+/// `frame` event names each one's sequence number and what is said), its decoded
+/// positions are the facewire page's, bit for bit, for the same frame, a stream that ends
+/// raises `end` and an unknown head `error` with the close code.
+/// `FACEWIRE_SCREENSHOTS=DIR` keeps a picture of it (`DIR/element.png.base64`).
+async fn check_the_element_embeds(browser: &Browser, url: &str, long: Duration) {
+    let (foreign, _server) = serve_a_foreign_page(
+        url,
+        "<facewire-head head=\"ict\" stream=\"embed\" mouth style=\"width: 640px\"></facewire-head>",
+    )
+    .await;
+    assert_ne!(
+        reqwest::Url::parse(&foreign).unwrap().origin(),
+        reqwest::Url::parse(url).unwrap().origin()
+    );
+    wait_ready(url, "ict", long).await;
+    let mut producer = connect_producer(url, "ict", "embed").await;
+    produce_line(
+        &mut producer,
+        r#"{"seq":0,"t":0,"viseme":{"oculus":"aa"}}"#.to_string(),
+    )
+    .await;
+    browser.open(&foreign).await;
+    let element = "document.querySelector('facewire-head')";
+    browser
+        .wait_for(
+            "the element live",
+            &format!("return {element}.getAttribute('state') === 'live'"),
+            long,
+        )
+        .await;
+    browser
+        .js(&format!(
+            "window.seen = []; window.ended = null; window.failed = null; const e = {element}; \
+             e.addEventListener('frame', (ev) => window.seen.push([ev.detail.seq, ev.detail.said])); \
+             e.addEventListener('end', (ev) => {{ window.ended = ev.detail.message; }}); \
+             e.addEventListener('error', (ev) => {{ window.failed = ev.detail; }});"
+        ))
+        .await;
+    produce_line(
+        &mut producer,
+        r#"{"seq":1,"t":0.04,"viseme":{"oculus":"oh"}}"#.to_string(),
+    )
+    .await;
+    let seen = browser
+        .wait_for(
+            "the element's frame event for seq 1",
+            "return window.seen.some(([seq]) => seq === 1) && window.seen",
+            long,
+        )
+        .await;
+    assert!(
+        seen.as_array().unwrap().iter().any(|s| s[0] == 1 && s[1] == "oh"),
+        "the frame event names the frame and what it says: {seen}"
+    );
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let shot = browser.screenshot("facewire-head").await;
+    if let Some(dir) = std::env::var_os("FACEWIRE_SCREENSHOTS") {
+        std::fs::write(std::path::Path::new(&dir).join("element.png.base64"), &shot).unwrap();
+    }
+    let embedded = browser
+        .js(&format!(
+            "{POSITIONS_DIGEST_JS} return digest({element}.view.positions)"
+        ))
+        .await;
+
+    // The facewire page on the same stream: the server sends it the newest frame, seq 1.
+    browser.open(&format!("{url}?head=ict&stream=embed")).await;
+    browser
+        .wait_for(
+            "the page showing seq 1",
+            "return document.getElementById('syllable-0')?.textContent === 'oh'",
+            long,
+        )
+        .await;
+    let page = browser
+        .js(&format!(
+            "{POSITIONS_DIGEST_JS} return digest(window.facewireViews()[0].positions)"
+        ))
+        .await;
+    assert_eq!(
+        embedded, page,
+        "the element and the page decode the same frame to the same positions"
+    );
+
+    // The stream ends: `end`. An unknown head: `error` with close code 4404.
+    browser.open(&foreign).await;
+    browser
+        .wait_for(
+            "the element live again",
+            &format!("return {element}.getAttribute('state') === 'live'"),
+            long,
+        )
+        .await;
+    browser
+        .js(&format!(
+            "window.ended = null; window.failed = null; const e = {element}; \
+             e.addEventListener('end', (ev) => {{ window.ended = ev.detail.message; }}); \
+             e.addEventListener('error', (ev) => {{ window.failed = ev.detail; }});"
+        ))
+        .await;
+    drop(producer);
+    browser
+        .wait_for("the element's end event", "return window.ended", long)
+        .await;
+    browser
+        .js(&format!("{element}.setAttribute('head', 'nosuch')"))
+        .await;
+    let failed = browser
+        .wait_for("the element's error event", "return window.failed", long)
+        .await;
+    assert_eq!(failed["code"], 4404, "{failed}");
+    assert!(failed["message"].as_str().unwrap().contains("nosuch"), "{failed}");
 }

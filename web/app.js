@@ -89,6 +89,8 @@ window.facewireTalk = talk;
 let soundCodec = null;
 // For tests and the curious: each drawn frame's distance from its sound (sound.syncLog).
 window.facewireSound = sound;
+// For tests: each view's live head (head-view.js), as the <facewire-head> element has one.
+window.facewireViews = () => page.panels.map((panel) => panel.view);
 const chart = new LiveChart(byId("chart"));
 const meshes = new Map();
 /** Lip weights by URL, as `meshes`. */

@@ -1,34 +1,17 @@
-// panel.js: one view of the page: its algorithm picker and heat-map switch, a viewer
-// socket, the 3D head and the numbers under it (connection state, syllable, fps, latency
-// per hop, bytes per frame, lip roughness and folds). A live stream that stops sending
-// shows as stalled. Frames are kept raw as they arrive (only their fixed header is read,
-// for the numbers and the chart); the page decodes just the one it draws, so a slow
-// machine skips frames instead of falling behind. Given a list of nodes (nodes.js), each
-// reconnect after a lost connection goes to the next node, and the status line names it.
-// The view that carries the page's sound (sound.js) asks for audio and hands its chunks
-// over; while the sound plays, every view draws the frame whose `t` is being heard, keeping
-// frames until then, and shows how far each drawn frame was from its sound.
+// panel.js: one view of the page: its algorithm picker, heat-map switch and look, the
+// live head (head-view.js: the socket, the meshes, the frames, the drawing, shared with
+// the <facewire-head> element) and the numbers under it (connection state, syllable, fps,
+// latency per hop, bytes per frame, lip roughness and folds). A live stream that stops
+// sending shows as stalled. Given a list of nodes (nodes.js), each reconnect after a lost
+// connection goes to the next node, and the status line names it. The view that carries
+// the page's sound (sound.js) asks for audio and hands its chunks over; while the sound
+// plays, every view draws the frame whose `t` is being heard and shows how far each drawn
+// frame was from its sound.
 
-import { applyFrame, decodeAudio, decodeFrame, motionMatrix, readFrameHeader } from "./decode.js";
-import { HeadRenderer, LOOKS } from "./render.js";
 import { CLOSE } from "./codes.js";
+import { HeadView } from "./head-view.js";
+import { LOOKS } from "./render.js";
 import { quantile } from "./sound.js";
-import { VIEW_FORMAT, ViewerSocket } from "./stream.js";
-
-/** The Oculus names of the 15 MPEG-4 visemes, in their order (FWF2 `viseme`). */
-const VISEME_NAMES = ["sil", "PP", "FF", "TH", "DD", "kk", "CH", "SS", "nn", "RR", "aa", "E", "ih", "oh", "ou"];
-
-/** What a frame's viseme shows, for a frame without a label (a face derived from a voice). */
-function visemeName(viseme) {
-  return viseme ? VISEME_NAMES[viseme.blend >= 32 ? viseme.select1 : viseme.select2] : null;
-}
-
-/** Raw frames kept while waiting to be drawn; older ones are dropped. */
-const KEEP_FRAMES = 8;
-/** While the sound plays frames wait for their `t` to be heard: up to 3 s of 30 fps. */
-const KEEP_FRAMES_FOR_SOUND = 90;
-/** Frame intervals kept for frameIntervalS. */
-const INTERVALS = 15;
 /** Face roughness (mean 1 - n·n around a vertex) at the top of the heat-map ramp, unless
  * the view picks another. */
 export const DEFAULT_HEAT_MAX = 0.1;
@@ -66,19 +49,6 @@ function foldsText(folds) {
   return `${turnedOver60.toLocaleString("en")} ${triangles} over 60° (${turnedOver90.toLocaleString("en")} over 90°), ${sharpest}`;
 }
 
-/** The centre of the box around flat xyz positions. */
-function boxCentre(positions) {
-  const min = [Infinity, Infinity, Infinity];
-  const max = [-Infinity, -Infinity, -Infinity];
-  for (let i = 0; i < positions.length; i += 3) {
-    for (let k = 0; k < 3; k++) {
-      min[k] = Math.min(min[k], positions[i + k]);
-      max[k] = Math.max(max[k], positions[i + k]);
-    }
-  }
-  return min.map((m, k) => (m + max[k]) / 2);
-}
-
 export class Panel {
   /**
    * `index`: 0 or 1; `algorithms`: the /v1/algorithms list; `loadMesh(url)`: a promise of
@@ -95,11 +65,7 @@ export class Panel {
     this.sound = sound;
     this.audio = audio;
     this.nodes = nodes;
-    this.node = nodes.index;
     this.chart = chart;
-    this.loadMesh = loadMesh;
-    this.loadLipTint = loadLipTint;
-    this.onMesh = onMesh;
     const fragment = document.getElementById("view-template").content.cloneNode(true);
     this.parts = {};
     for (const element of fragment.querySelectorAll("[data-part]")) {
@@ -136,7 +102,6 @@ export class Panel {
     heatmax.addEventListener("change", () => {
       this.settings.heatMax = Number(heatmax.value);
       this.showHeatControls();
-      this.needsDraw = true;
       onSettings();
     });
     lookPicker.addEventListener("change", () => {
@@ -151,24 +116,35 @@ export class Panel {
     this.root = root;
     chart.setSeries(index, getComputedStyle(root).getPropertyValue("--accent").trim());
 
-    this.renderer = new HeadRenderer(canvas);
+    this.view = new HeadView({
+      canvas,
+      nodes,
+      loadMesh,
+      loadLipTint,
+      sound,
+      audio,
+      handlers: {
+        onState: (state, detail) => this.stateChanged(state, detail),
+        onSnapshot: (snapshot) => this.snapshotArrived(snapshot),
+        onMesh,
+        onParts: (parts, eyes) => this.partsListed(parts, eyes),
+        onPartsLoaded: () => this.partsLoaded(),
+        onLips: (status) => {
+          this.parts.view.dataset.lips = status;
+        },
+        onFrameHeader: (header, buffer, arrivalUs) => this.frameArrived(header, buffer, arrivalUs),
+        onSkipped: (count) => {
+          this.stats.skipped += count;
+        },
+        onAudio: (buffer) => {
+          this.stats.audioBytes += buffer.byteLength;
+        },
+        onShown: (frame, said) => this.shown(frame, said),
+        onProblem: (text) => this.showMessage(text),
+      },
+    });
     this.setLook(look ?? { mode: "front", cutDeg: 0 });
     this.setLips(lips);
-    this.socket = new ViewerSocket({
-      onSnapshot: (snapshot) => this.snapshotArrived(snapshot),
-      onFrame: (buffer, arrivalUs) => this.frameArrived(buffer, arrivalUs),
-      onAudio: (buffer) => this.audioArrived(buffer),
-      onState: (state, detail) => this.stateChanged(state, detail),
-    });
-    this.mesh = null;
-    this.meshUrl = null;
-    this.pending = [];
-    this.lastSeq = null;
-    this.lastT = null;
-    this.intervals = [];
-    this.lastArrival = -Infinity;
-    this.generation = 0;
-    this.needsDraw = true;
     this.resetStats();
   }
 
@@ -208,8 +184,7 @@ export class Panel {
     cutvalue.textContent = `${degrees}°`;
     cut.setAttribute("aria-valuetext", `${degrees} degrees from the midsagittal plane`);
     cutfield.hidden = this.look.mode !== "cutaway";
-    this.renderer.setLook(this.look);
-    this.needsDraw = true;
+    this.view?.setLook(this.look);
   }
 
   /** The known streams changed (the page re-reads the list): only the messages use them. */
@@ -223,7 +198,7 @@ export class Panel {
     kindfield.hidden = legend.hidden = !heat.checked;
     heatfield.hidden = !heat.checked || folds;
     legendmax.textContent = folds ? `${FOLDS_RAMP_TOP_DEG}° turned or more` : `${this.settings.heatMax} or more`;
-    this.renderer.setHeatScale(this.heatScale());
+    this.view.setHeatScale(this.heatScale());
   }
 
   /** The value at the top of the heat-map's ramp: degrees for folds, else the chosen roughness. */
@@ -232,280 +207,97 @@ export class Panel {
   }
 
   reconnect() {
-    const { head, stream, algorithm, heat, token } = this.settings;
-    const query = new URLSearchParams({ algo: algorithm, format: VIEW_FORMAT });
-    if (heat) {
-      query.set("heat", heat);
-    }
-    if (token) {
-      query.set("token", token);
-    }
-    if (this.audio) {
-      query.set("audio", this.audio);
-    }
-    const path = `/v1/heads/${encodeURIComponent(head)}/streams/${encodeURIComponent(stream)}/view`;
-    this.generation += 1;
-    this.pending = [];
-    this.socket.open((lost) => this.socketUrl(`${path}?${query}`, lost));
-  }
-
-  /**
-   * The URL of the socket's next attempt: after a lost connection, on the node after the
-   * one lost (unless the other view or a fetch moved on already), else the current one.
-   */
-  socketUrl(path, lost) {
-    if (lost) {
-      this.nodes.advance(this.node);
-    }
-    this.node = this.nodes.index;
-    return this.nodes.wsUrl(path);
+    this.view.connect(this.settings);
   }
 
   /** `text` for the status line, with the node in use when the page has a list of them. */
   statusText(text) {
-    const node = this.nodes.label(this.node);
+    const node = this.nodes.label(this.view.node);
     return node ? `${text} · node ${node}` : text;
   }
 
   destroy() {
-    this.generation += 1;
-    this.socket.close();
-    this.renderer.dispose();
+    this.view.destroy();
     this.chart.removeSeries(this.index);
     this.root.remove();
   }
 
   get state() {
-    return this.socket.state;
+    return this.view.state;
+  }
+
+  /** When the newest frame arrived (performance.now()), -Infinity before any. */
+  get lastArrival() {
+    return this.view.lastArrival;
   }
 
   snapshotArrived(snapshot) {
-    this.generation += 1;
-    this.pending = [];
     this.chart.breakLine(this.index, performance.now());
-    this.lastSeq = null;
     this.parts.algorithm.textContent = snapshot.algorithm;
     if (this.audio) {
       this.sound.reset();
       this.soundProblem =
         snapshot.audio === this.audio ? null : `this server sends no audio (asked for ${this.audio})`;
     }
-    if (snapshot.rest_mesh === this.meshUrl) {
-      return;
-    }
-    this.mesh = null;
-    this.meshUrl = snapshot.rest_mesh;
-    this.loadMesh(snapshot.rest_mesh).then(
-      (mesh) => {
-        if (snapshot.rest_mesh !== this.meshUrl) {
-          return; // another head was picked meanwhile
-        }
-        if (mesh.vertexCount !== snapshot.vertices) {
-          this.showMessage(`The rest mesh has ${mesh.vertexCount} vertices, the snapshot says ${snapshot.vertices}.`);
-          return;
-        }
-        this.mesh = mesh;
-        this.positions = new Float32Array(mesh.positions);
-        this.renderer.setMesh(mesh);
-        this.renderer.setCutCentre(snapshot.mouth ?? boxCentre(mesh.positions));
-        this.onMesh(snapshot.rest_mesh, mesh, snapshot.mouth);
-        this.needsDraw = true;
-        this.loadParts(snapshot);
-        this.loadLips(snapshot, mesh);
-      },
-      (error) => {
-        this.meshUrl = null;
-        this.showMessage(`Cannot load the rest mesh ${snapshot.rest_mesh}: ${error.message}`);
-      },
-    );
   }
 
   /**
-   * The snapshot's parts (teeth, gums, tongue) and eyes, drawn once their meshes arrive;
-   * the "Inner mouth" and "Eyes" lines name them (`data-loaded` is set once they are
-   * drawn).
+   * The "Inner mouth" and "Eyes" lines name the snapshot's parts and eyes (`data-loaded`
+   * is set once they are drawn).
    */
-  loadParts(snapshot) {
-    const parts = snapshot.parts ?? [];
-    const eyes = snapshot.eyes ?? [];
+  partsListed(parts, eyes) {
     const { inner, eyes: eyeLine } = this.parts;
     inner.textContent = parts.length > 0 ? parts.map((p) => `${p.name} (${p.role})`).join(", ") : "none";
     eyeLine.textContent = eyes.length > 0 ? eyes.map((e) => `${e.name} (${e.side})`).join(", ") : "none";
     delete inner.dataset.loaded;
     delete eyeLine.dataset.loaded;
-    Promise.all([...parts, ...eyes].map((p) => this.loadMesh(p.mesh))).then(
-      (meshes) => {
-        if (snapshot.rest_mesh !== this.meshUrl) {
-          return;
-        }
-        this.renderer.setParts(parts.map((p, i) => ({ name: p.name, role: p.role, mesh: meshes[i] })));
-        this.renderer.setEyes(eyes.map((eye, i) => ({ eye, mesh: meshes[parts.length + i] })));
-        inner.dataset.loaded = String(parts.length);
-        eyeLine.dataset.loaded = String(eyes.length);
-        this.needsDraw = true;
-      },
-      (error) => this.showMessage(`Cannot load the head's parts: ${error.message}`),
-    );
+    this.listed = { parts: parts.length, eyes: eyes.length };
   }
 
-  /**
-   * Where the head's lips are (the snapshot's `lip_tint`, absent from older servers), for
-   * drawing them in their own colour; the view's `data-lips` says `loaded` or `none`.
-   */
-  loadLips(snapshot, mesh) {
-    const { view } = this.parts;
-    delete view.dataset.lips;
-    if (!snapshot.lip_tint) {
-      view.dataset.lips = "none";
-      return;
-    }
-    this.loadLipTint(snapshot.lip_tint, mesh.vertexCount).then(
-      (weights) => {
-        if (snapshot.rest_mesh !== this.meshUrl) {
-          return;
-        }
-        this.renderer.setLipTint(weights);
-        view.dataset.lips = "loaded";
-        this.needsDraw = true;
-      },
-      (error) => {
-        view.dataset.lips = "none";
-        this.showMessage(`Cannot load where the lips are (${snapshot.lip_tint}): ${error.message}`);
-      },
-    );
+  partsLoaded() {
+    this.parts.inner.dataset.loaded = String(this.listed.parts);
+    this.parts.eyes.dataset.loaded = String(this.listed.eyes);
   }
 
   /** How the lips are drawn (render.js setLips): the page's choice, for every view. */
   setLips(lips) {
-    this.renderer.setLips(lips);
-    this.needsDraw = true;
+    this.view.setLips(lips);
   }
 
-  frameArrived(buffer, arrivalUs) {
-    let header;
-    try {
-      header = readFrameHeader(buffer);
-    } catch (error) {
-      this.showMessage(`Unreadable frame: ${error.message}`);
-      return;
-    }
+  /** A frame arrived (its header read): the numbers and the chart. */
+  frameArrived(header, buffer, arrivalUs) {
     const stats = this.stats;
     stats.received += 1;
     stats.bytes += buffer.byteLength;
     stats.serverUs += header.serverSendUs - header.serverReceiveUs;
     stats.deliveryUs += arrivalUs - header.serverSendUs;
-    if (this.lastSeq !== null && header.seq > this.lastSeq + 1) {
-      stats.skipped += header.seq - this.lastSeq - 1;
-    }
-    if (this.lastSeq !== null && header.seq <= this.lastSeq) {
-      this.pending = []; // a new producer started the stream over
-      if (this.audio) {
-        this.sound.reset(); // and its timeline
-      }
-    }
-    this.lastSeq = header.seq;
-    this.lastArrival = performance.now();
-    this.markStall(this.lastArrival);
+    this.markStall(this.view.lastArrival);
     this.lip = header.lip;
-    this.chart.push(this.index, this.lastArrival, header.lip.mean);
-    if (this.lastT !== null && header.producerTimeS > this.lastT) {
-      this.intervals.push(header.producerTimeS - this.lastT);
-      if (this.intervals.length > INTERVALS) {
-        this.intervals.shift();
-      }
-    }
-    this.lastT = header.producerTimeS;
-    const entry = { seq: header.seq, t: header.producerTimeS, buffer, decoded: null };
-    if (this.sound.playing) {
-      // Frames wait about the playout delay for their sound: decode them now, so that
-      // when one is due it is drawn at once, not after an inflate whose time varies.
-      entry.decoded = this.decode(buffer);
-    }
-    this.pending.push(entry);
-    if (this.pending.length > (this.sound.playing ? KEEP_FRAMES_FOR_SOUND : KEEP_FRAMES)) {
-      this.pending.shift();
-      stats.skipped += 1;
-    }
+    this.chart.push(this.index, this.view.lastArrival, header.lip.mean);
   }
 
   /** The stream's time between frames (median of the last few), seconds; 0 before two frames. */
   frameIntervalS() {
-    return quantile(this.intervals, 0.5) ?? 0;
-  }
-
-  /** An audio chunk for the page's sound. */
-  audioArrived(buffer) {
-    let chunk;
-    try {
-      chunk = decodeAudio(buffer);
-    } catch (error) {
-      this.showMessage(`Unreadable audio: ${error.message}`);
-      return;
-    }
-    this.stats.audioBytes += buffer.byteLength;
-    this.sound.push(chunk);
+    return this.view.frameIntervalS();
   }
 
   /** The newest sequence number received, for keeping two views on the same frame. */
   newestSeq() {
-    return this.lastSeq ?? -1;
+    return this.view.newestSeq();
   }
 
-  /**
-   * Decodes the newest waiting frame no newer than `target` (older ones are dropped and
-   * counted as skipped), or takes it as decoded on arrival while the sound plays: `{seq}`,
-   * a sequence number both views have, or `{t}`, the stream time being heard. A promise
-   * of the frame, or null when there is nothing to draw.
-   */
+  /** A promise of the frame to draw for `target`, or null (head-view.js prepare). */
   prepare(target) {
-    if (!this.mesh || this.pending.length === 0) {
-      return null;
-    }
-    const due = target.t === undefined ? (p) => p.seq <= target.seq : (p) => p.t <= target.t;
-    let i = this.pending.findLastIndex(due);
-    if (i < 0) {
-      if (this.pending.length < (target.t === undefined ? KEEP_FRAMES : KEEP_FRAMES_FOR_SOUND)) {
-        return null; // not due yet, or the other view has not caught up
-      }
-      i = 0;
-    }
-    const { buffer, decoded } = this.pending[i];
-    this.stats.skipped += i;
-    this.pending.splice(0, i + 1);
-    return decoded ?? this.decode(buffer);
+    return this.view.prepare(target);
   }
 
-  /** A promise of `buffer` decoded, or of null when it is unreadable or the view moved on. */
-  decode(buffer) {
-    const generation = this.generation;
-    return decodeFrame(buffer).then(
-      (frame) => (generation === this.generation ? frame : null),
-      (error) => {
-        this.showMessage(`Unreadable frame: ${error.message}`);
-        return null;
-      },
-    );
-  }
-
-  /** Shows a decoded frame: positions, the tongue's shape, the eyes, heat-map, syllable, lip folds. */
+  /** Shows a decoded frame (head-view.js show); the numbers follow through `shown`. */
   show(frame) {
-    if (frame.vertexCount !== this.mesh.vertexCount) {
-      this.showMessage(`A frame for ${frame.vertexCount} vertices arrived for a mesh of ${this.mesh.vertexCount}.`);
-      return;
-    }
-    applyFrame(this.mesh.positions, frame, this.positions);
-    this.renderer.setPositions(this.positions);
-    const problem = this.renderer.setTongue(frame.tongue, frame.tongue?.step);
-    if (problem) {
-      this.showMessage(problem);
-    }
-    this.renderer.setMotion(motionMatrix(frame.head), motionMatrix(frame.jaw));
-    const eyeProblem = this.renderer.setEyeMotions(frame.eyes);
-    if (eyeProblem) {
-      this.showMessage(eyeProblem);
-    }
-    this.renderer.setHeat(frame.face, this.heatScale());
-    const said = frame.label ?? visemeName(frame.viseme);
+    this.view.show(frame);
+  }
+
+  /** A frame is shown: its syllable, its lip folds, and how late it is for eye and ear. */
+  shown(frame, said) {
     this.parts.syllable.textContent = said ?? "–";
     this.parts.label.textContent = said ?? "";
     this.folds = frame.folds;
@@ -517,14 +309,10 @@ export class Panel {
       this.stats.offsets.push(offsetMs);
       this.sound.logSync(this.index, frame, offsetMs);
     }
-    this.needsDraw = true;
   }
 
   draw(camera, force) {
-    if (this.needsDraw || force || this.renderer.fitCanvas()) {
-      this.renderer.draw(camera);
-      this.needsDraw = false;
-    }
+    this.view.draw(camera, force);
   }
 
   stateChanged(state, detail) {
@@ -539,7 +327,7 @@ export class Panel {
       const missing = detail.code === CLOSE.unknown_head;
       this.showMessage(`${missing ? "Not found" : "Refused"}: ${detail.message}.${missing ? " Pick a registered head above." : ""}`);
     } else if (state === "reconnecting") {
-      const node = this.nodes.label(this.node);
+      const node = this.nodes.label(this.view.node);
       this.showMessage(`Connection lost (${detail.message}); trying again${node ? ` on node ${node}` : ""}.`);
     } else if (state === "ended") {
       this.showMessage(`The stream ended: ${detail.message}. Waiting for it to start again.`);
@@ -560,7 +348,7 @@ export class Panel {
     if (this.state !== "live") {
       return;
     }
-    const idle = now - this.lastArrival;
+    const idle = now - this.view.lastArrival;
     if (idle >= STALL_MS) {
       status.dataset.state = "stalled";
       status.textContent = this.statusText(`Stalled: no frame for ${Math.floor(idle / 1000)} s`);

@@ -12,7 +12,7 @@ const JS: &str = "text/javascript; charset=utf-8";
 
 /// `(path, content type, body)` of every embedded file. The `web/*.test.mjs` scripts and
 /// `web/package.json` are for the tests (`tests/service/web_decode.rs`), not served.
-const ASSETS: [(&str, &str, &str); 15] = [
+const ASSETS: [(&str, &str, &str); 17] = [
     ("/", HTML, include_str!("../../web/index.html")),
     ("/style.css", CSS, include_str!("../../web/style.css")),
     ("/app.js", JS, include_str!("../../web/app.js")),
@@ -20,7 +20,13 @@ const ASSETS: [(&str, &str, &str); 15] = [
     ("/chart.js", JS, include_str!("../../web/chart.js")),
     ("/codes.js", JS, include_str!("../../web/codes.js")),
     ("/decode.js", JS, include_str!("../../web/decode.js")),
+    (
+        "/facewire-head.js",
+        JS,
+        include_str!("../../web/facewire-head.js"),
+    ),
     ("/fit.js", JS, include_str!("../../web/fit.js")),
+    ("/head-view.js", JS, include_str!("../../web/head-view.js")),
     ("/nodes.js", JS, include_str!("../../web/nodes.js")),
     ("/panel.js", JS, include_str!("../../web/panel.js")),
     ("/render.js", JS, include_str!("../../web/render.js")),
