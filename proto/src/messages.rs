@@ -60,6 +60,9 @@ pub struct Snapshot {
     /// head without eyes and from servers before them.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub eyes: Vec<EyeInfo>,
+    /// A replay's recording (`.../recordings/{name}/view`); absent on a live stream.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub replay: Option<RecordingInfo>,
 }
 
 /// A section kind of a sectioned layout, as the snapshot lists it.
@@ -162,6 +165,18 @@ pub enum ServerMessage {
         /// The probability the tracker gave the viseme shown, 0 to 1.
         confidence: f32,
     },
+    /// Where a replay stands (`.../recordings/{name}/view`): after every control the
+    /// viewer sends, and when the replay stops at its last frame.
+    Replay {
+        /// The frame shown, an index into the recording (the frames' `seq`).
+        frame: u64,
+        playing: bool,
+        /// Playback speed, 1 the recording's own pace.
+        speed: f64,
+        /// The frames played over and over, first and last, inclusive; absent when none.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        r#loop: Option<[u64; 2]>,
+    },
     /// The stream ended (producer finished or gone, head deleted, server shutting down).
     /// A producer that sent `end` gets it back before its socket closes.
     End {
@@ -175,6 +190,59 @@ pub enum ServerMessage {
 pub struct DerivedViseme {
     /// The Oculus/Meta name (`sil`, `PP`, `FF`, ... `ou`).
     pub oculus: String,
+}
+
+/// What a replay's viewer may send (JSON text): each answered with a `replay` message.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ReplayControl {
+    /// Plays on from the frame shown, at `speed` (the recording's pace times this; the
+    /// last speed, 1 at first, when absent).
+    Play {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        speed: Option<f64>,
+    },
+    Pause,
+    /// Shows frame `frame` (an index into the recording), playing or paused as before.
+    Seek {
+        frame: u64,
+    },
+    /// Pauses and shows the frame `frames` after the one shown (before, when negative).
+    Step {
+        frames: i64,
+    },
+    /// Plays frames `first` to `last` over and over (from `first` if the frame shown is
+    /// outside them); without them, the loop is cleared.
+    Loop {
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        first: Option<u64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        last: Option<u64>,
+    },
+}
+
+/// A recording as `GET /v1/heads/{id}/recordings` lists it and a replay's snapshot names it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RecordingInfo {
+    pub name: String,
+    /// The stream it was recorded from.
+    pub stream: String,
+    pub frames: u64,
+    /// From the first frame's `t` to the last's, the producer's seconds.
+    pub duration_s: f64,
+    /// Whether the producer sent more frames than a recording holds (the rest were not kept).
+    pub cut: bool,
+    /// Each run of frames with the same label, in order.
+    pub labels: Vec<RecordingLabel>,
+}
+
+/// A run of a recording's frames that carry the same label.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RecordingLabel {
+    pub label: String,
+    /// First and last frame of the run (indices into the recording), inclusive.
+    pub first: u64,
+    pub last: u64,
 }
 
 /// Control messages a producer may send as JSON text besides frames.

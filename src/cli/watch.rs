@@ -106,7 +106,7 @@ pub fn run(args: Args) -> CliResult {
                     }
                     ServerMessage::Error { code, message, .. } => return Err(format!("server refused: {code}: {message}").into()),
                     ServerMessage::End { reason, .. } => ended = Some(reason.to_string()),
-                    ServerMessage::Ack { .. } | ServerMessage::Derived { .. } => {}
+                    ServerMessage::Ack { .. } | ServerMessage::Derived { .. } | ServerMessage::Replay { .. } => {}
                 },
                 Message::Binary(data) => {
                     let now = now_us();

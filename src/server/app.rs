@@ -19,7 +19,7 @@ use axum::Router;
 use tracing::Instrument;
 
 use super::error::{ApiError, REQUEST_ID};
-use super::{auth, batch, heads, ops, producer, view, web, AppState};
+use super::{auth, batch, heads, ops, producer, replay, view, web, AppState};
 
 pub fn app(state: AppState) -> Router {
     let viewer = || middleware::from_fn_with_state(state.clone(), auth::viewer);
@@ -61,6 +61,18 @@ pub fn app(state: AppState) -> Router {
         .route(
             "/v1/heads/{id}/fit.png",
             get(heads::fit_png).route_layer(viewer()),
+        )
+        .route(
+            "/v1/heads/{id}/recordings",
+            get(heads::list_recordings).route_layer(viewer()),
+        )
+        .route(
+            "/v1/heads/{id}/recordings/{name}",
+            delete(heads::delete_recording).route_layer(producer()),
+        )
+        .route(
+            "/v1/heads/{id}/recordings/{name}/view",
+            get(replay::view).route_layer(viewer()),
         )
         .route(
             "/v1/heads/{id}/streams/{stream}/produce",

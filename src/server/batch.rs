@@ -9,13 +9,14 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use axum::body::Bytes;
-use axum::extract::{FromRequest, Multipart, Path, Request, State};
+use axum::extract::{FromRequest, Multipart, Path, Query, Request, State};
 use axum::http::{header, StatusCode};
 use axum::Json;
 use serde::Serialize;
 
 use super::error::ApiError;
 use super::ogg_voice::decode_ogg_opus;
+use super::recordings::RecordQuery;
 use super::schedule::{self, Scheduled, ScheduledProducer};
 use super::stream::ProducerPermit;
 use super::AppState;
@@ -32,6 +33,9 @@ pub struct BatchAccepted {
     pub duration_s: f64,
     /// The voice's length, s (0 without one).
     pub audio_s: f64,
+    /// The recording the batch is kept as (`record=`), listed once it has played.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub recording: Option<String>,
 }
 
 /// The parts of a batch as they arrived, not yet read.
@@ -49,11 +53,13 @@ struct Upload {
 pub async fn batch(
     State(state): State<AppState>,
     Path((id, name)): Path<(String, String)>,
+    Query(record): Query<RecordQuery>,
     request: Request,
 ) -> Result<(StatusCode, Json<BatchAccepted>), ApiError> {
     let head = state.registry.head(&id)?;
     head.ready()?;
     let stream = head.stream(&name)?;
+    let recorder = record.recorder(&head, &name)?;
     let limit = state.config.limits.max_upload_bytes;
     let upload = read_upload(request, limit).await?;
     let limits = state.config.limits.clone();
@@ -81,7 +87,12 @@ pub async fn batch(
             limit_s: limits.max_batch_duration_s,
         });
     }
-    let permit = state.claim_producer(&head.id, &stream).await?;
+    let mut permit = state.claim_producer(&head.id, &stream).await?;
+    let recording = recorder.map(|recorder| {
+        let name = recorder.name().to_string();
+        permit.record(recorder);
+        name
+    });
     let session = state.sessions.token();
     tokio::spawn(async move {
         play(state, head.deleted.clone(), permit, items).await;
@@ -93,6 +104,7 @@ pub async fn batch(
             frames,
             duration_s,
             audio_s,
+            recording,
         }),
     ))
 }

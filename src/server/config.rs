@@ -120,6 +120,10 @@ pub struct Limits {
     pub max_batch_duration_s: f64,
     /// Most live streams per head.
     pub max_streams_per_head: usize,
+    /// Most recorded streams a head keeps for replay (`record=` on a producer).
+    pub max_recordings_per_head: usize,
+    /// Most frames a recording keeps; a producer that sends more goes on unrecorded.
+    pub max_recording_frames: usize,
     /// A stream with no producer and no viewer is dropped this long after its last
     /// frame, seconds.
     pub stream_linger_s: f64,
@@ -186,6 +190,8 @@ impl Default for Limits {
             max_batch_frames: 200_000,
             max_batch_duration_s: 3600.0,
             max_streams_per_head: 16,
+            max_recordings_per_head: 8,
+            max_recording_frames: 18_000,
             stream_linger_s: 30.0,
             max_bindings_per_head: 8,
             max_pipelines_per_stream: 8,
@@ -391,6 +397,8 @@ impl Limits {
             ("max_viewers", self.max_viewers),
             ("max_batch_frames", self.max_batch_frames),
             ("max_streams_per_head", self.max_streams_per_head),
+            ("max_recordings_per_head", self.max_recordings_per_head),
+            ("max_recording_frames", self.max_recording_frames),
             ("max_bindings_per_head", self.max_bindings_per_head),
             ("max_registrations", self.max_registrations),
             ("max_connections", self.max_connections),

@@ -5,6 +5,7 @@
 use std::time::Duration;
 
 use super::error::ApiError;
+use super::recordings::Recording;
 use super::schedule::{self, Scheduled, ScheduledProducer};
 use super::store::{HeadMeta, HeadRecord, PartRecord};
 use super::AppState;
@@ -93,18 +94,32 @@ pub async fn register_heads(state: &AppState) -> Result<(), ApiError> {
     Ok(())
 }
 
+/// The name of the recording of one round of the syllables each demo head holds.
+pub const SYLLABLES_RECORDING: &str = "syllables";
+
 /// The demo face's blinks and glances, over the syllables.
 const DEMO_EYES: IdleEyes = IdleEyes { seed: 1 };
 
 /// Plays the syllable stream and its voice on `stream` of every head in `heads`, forever
 /// (until shutdown), with sequence numbers and timestamps that keep increasing across
-/// loops, the eyes blinking and glancing ([`IdleEyes`]) as they do not in the file. Each round lasts the 27 syllables' slots; the last frame (at rest, as the
-/// first) is the next round's first.
+/// loops, the eyes blinking and glancing ([`IdleEyes`]) as they do not in the file. Each
+/// round lasts the 27 syllables' slots; the last frame (at rest, as the first) is the next
+/// round's first. Each head also keeps one round as its recording
+/// [`SYLLABLES_RECORDING`], for replay.
 pub async fn loop_syllables(state: AppState, heads: Vec<String>, stream: String) {
     let frames: Vec<Frame> = syllables::generate(syllables::SHIPPED_FPS).expect("the shipped fps is valid");
     let voice = syllable_voice().expect("the shipped voice reads");
     let period = syllables::SYLLABLE_S * syllables::SYLLABLES.len() as f64;
     let frames: Vec<Frame> = frames.into_iter().filter(|f| f.time_s < period - 1e-9).collect();
+    // One round, as each head's recording `syllables`, for replay.
+    let recorded: Vec<Frame> = frames
+        .iter()
+        .cloned()
+        .map(|mut frame| {
+            DEMO_EYES.add_to(frame.time_s, &mut frame.arkit);
+            frame
+        })
+        .collect();
     let round = schedule::merge(frames, voice.audio_chunks(0.0).collect());
     // Wait for registration, then hold the producer slot of each stream.
     let mut producers: Vec<ScheduledProducer> = Vec::new();
@@ -116,6 +131,12 @@ pub async fn loop_syllables(state: AppState, heads: Vec<String>, stream: String)
             _ = state.shutdown.cancelled() => return,
             ready = entry.wait_ready(Duration::MAX) => if ready.is_err() { continue },
         }
+        entry.recordings.insert(Recording {
+            name: SYLLABLES_RECORDING.into(),
+            stream: stream.clone(),
+            frames: recorded.clone(),
+            cut: false,
+        });
         if let Some(permit) = entry.stream(&stream).ok().and_then(|s| s.claim_producer()) {
             producers.push(ScheduledProducer::new(permit));
         }

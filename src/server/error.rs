@@ -134,9 +134,12 @@ impl ApiError {
     /// status is for HTTP. Whatever a client cannot fix by asking otherwise is "try later".
     pub fn close_code(&self) -> CloseCode {
         match self {
-            ApiError::UnknownHead(_) => CloseCode::UnknownHead,
+            // No such head, or no such recording of it (a replay).
+            ApiError::UnknownHead(_) | ApiError::NotFound(_) => CloseCode::UnknownHead,
             ApiError::RegistrationFailed { .. } => CloseCode::RegistrationFailed,
-            ApiError::BadAlgorithm(_) | ApiError::BadId { .. } => CloseCode::BadRequest,
+            ApiError::BadAlgorithm(_) | ApiError::BadId { .. } | ApiError::BadRequest(_) => {
+                CloseCode::BadRequest
+            }
             ApiError::ProducerBusy(_) => CloseCode::ProducerBusy,
             ApiError::ShuttingDown => CloseCode::GoingAway,
             _ => CloseCode::TryLater,

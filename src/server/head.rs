@@ -15,6 +15,7 @@ use super::auth::TokenDigest;
 use super::bindings::BindingCache;
 use super::error::ApiError;
 use super::ids::valid_id;
+use super::recordings::{RecordingLimits, Recordings};
 use super::store::HeadMeta;
 use super::stream::Stream;
 use crate::animate::AnimatedHead;
@@ -105,11 +106,12 @@ pub enum HeadStatus {
     Failed(String),
 }
 
-/// Per-head stream limits (from the configuration).
+/// Per-head stream and recording limits (from the configuration).
 #[derive(Debug, Clone, Copy)]
 pub struct StreamLimits {
     pub max_streams: usize,
     pub linger: Duration,
+    pub recordings: RecordingLimits,
 }
 
 pub struct HeadEntry {
@@ -118,6 +120,8 @@ pub struct HeadEntry {
     status: watch::Sender<HeadStatus>,
     streams: Mutex<HashMap<String, Arc<Stream>>>,
     limits: StreamLimits,
+    /// Its recorded streams, for replay.
+    pub recordings: Arc<Recordings>,
     /// Cancelled when the head is deleted.
     pub deleted: CancellationToken,
 }
@@ -130,6 +134,7 @@ impl HeadEntry {
             status: watch::Sender::new(status),
             streams: Mutex::new(HashMap::new()),
             limits,
+            recordings: Arc::new(Recordings::new(limits.recordings)),
             deleted: CancellationToken::new(),
         }
     }

@@ -22,7 +22,7 @@ use crate::deform::AlgoSpec;
 use crate::fit::AutomaticFitError;
 use crate::fit::FitReport;
 use crate::head::{check_part_names, PartRole};
-use facewire_proto::messages::HeadInfo;
+use facewire_proto::messages::{HeadInfo, RecordingInfo};
 
 /// How long a registration request waits for a free registration slot.
 const SLOT_WAIT: Duration = Duration::from_secs(10);
@@ -179,6 +179,23 @@ pub async fn mesh_bin(State(state): State<AppState>, Path(id): Path<String>) -> 
         ready.rest_bin.clone(),
     )
         .into_response())
+}
+
+/// `GET /v1/heads/{id}/recordings`: the head's recorded streams, by name.
+pub async fn list_recordings(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<Vec<RecordingInfo>>, ApiError> {
+    Ok(Json(state.registry.head(&id)?.recordings.list()))
+}
+
+/// `DELETE /v1/heads/{id}/recordings/{name}`; replays already playing it go on.
+pub async fn delete_recording(
+    State(state): State<AppState>,
+    Path((id, name)): Path<(String, String)>,
+) -> Result<StatusCode, ApiError> {
+    state.registry.head(&id)?.recordings.delete(&id, &name)?;
+    Ok(StatusCode::NO_CONTENT)
 }
 
 /// `GET /v1/heads/{id}/lips.bin`: where the rest mesh's lips are (`FWL1`).

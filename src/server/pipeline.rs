@@ -226,7 +226,7 @@ fn message_len(message: &Message) -> usize {
 
 /// One frame through the job's stages, each timed apart; `None` (logged and counted) when
 /// it cannot be shown. JSON frames carry no measures, so their pipelines measure nothing.
-fn process(
+pub(super) fn process(
     job: &mut FrameJob,
     format: FrameFormat,
     received: &ReceivedFrame,

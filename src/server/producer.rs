@@ -22,6 +22,7 @@ use super::error::ApiError;
 use super::head::HeadEntry;
 use super::ingest::{parse_audio, parse_binary, parse_text, Incoming, Refusal};
 use super::rate::ProducerGate;
+use super::recordings::{RecordQuery, Recorder};
 use super::socket::{close, close_for, error, refuse, text};
 use super::speech_producer::SpeechProducer;
 use super::stream::{ProducerPermit, Stream};
@@ -43,6 +44,8 @@ pub struct ProduceQuery {
     pub fps: Option<f64>,
     /// `1` or `true`: the producer is sent each derived frame (`{"type":"derived",...}`).
     pub derived: Option<String>,
+    /// Keep the frames as a recording of the head ([`RecordQuery`]).
+    pub record: Option<String>,
 }
 
 /// How a derived face is made: frames a second, and whether the producer hears of them.
@@ -97,6 +100,10 @@ pub async fn produce(
     let head = state.registry.head(&id)?;
     head.ready()?;
     let stream = head.stream(&name)?;
+    let recorder = RecordQuery {
+        record: query.record.clone(),
+    }
+    .recorder(&head, &name)?;
     let limit = state.config.limits.max_message_bytes;
     let session = state.sessions.token();
     Ok(ws
@@ -104,7 +111,7 @@ pub async fn produce(
         .max_frame_size(limit)
         .on_upgrade(move |socket| async move {
             let speech = derive.map(|d| SpeechProducer::new(state.speech_model.clone(), d.fps, d.report));
-            producer_session(socket, state, head, stream, speech).await;
+            producer_session(socket, state, head, stream, speech, recorder).await;
             drop(session);
         }))
 }
@@ -127,8 +134,9 @@ async fn producer_session(
     head: Arc<HeadEntry>,
     stream: Arc<Stream>,
     speech: Option<SpeechProducer>,
+    recorder: Option<Recorder>,
 ) {
-    let permit = match state.claim_producer(&head.id, &stream).await {
+    let mut permit = match state.claim_producer(&head.id, &stream).await {
         Ok(permit) => permit,
         Err(refused) => {
             let code = refused.code();
@@ -136,6 +144,9 @@ async fn producer_session(
             return refuse(&mut socket, code, refused.close_code(), refused.to_string()).await;
         }
     };
+    if let Some(recorder) = recorder {
+        permit.record(recorder);
+    }
     state.telemetry.producers.inc();
     tracing::info!(head = %head.id, stream = %stream.name, "producer connected");
     // The stream's voice in the other codec, once for every viewer that asks for it.

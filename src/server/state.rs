@@ -15,6 +15,7 @@ use super::config::{Bus, Config, ConfigError};
 use super::error::ApiError;
 use super::head::StreamLimits;
 use super::head_store::HeadStore;
+use super::recordings::RecordingLimits;
 use super::registry::{Registry, RegistryLimits};
 use super::store::{Store, StoreError};
 use super::stream::{ProducerPermit, Stream};
@@ -167,6 +168,10 @@ impl AppState {
                 streams: StreamLimits {
                     max_streams: limits.max_streams_per_head,
                     linger: Duration::from_secs_f64(limits.stream_linger_s),
+                    recordings: RecordingLimits {
+                        max_per_head: limits.max_recordings_per_head,
+                        max_frames: limits.max_recording_frames,
+                    },
                 },
             },
             shutdown.clone(),

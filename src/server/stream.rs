@@ -16,6 +16,7 @@ use tokio_util::sync::CancellationToken;
 
 use super::frames::{ParamTimeline, ReceivedFrame, RelayedAudio};
 use super::pipeline::{Encoded, Pipeline, PipelineKey};
+use super::recordings::Recorder;
 use super::timeline::Timeline;
 use crate::stream::Frame;
 use facewire_proto::audio_chunk::AudioBody;
@@ -106,6 +107,7 @@ impl Stream {
             cancel,
             ended: false,
             relay: None,
+            recorder: Mutex::new(None),
         })
     }
 
@@ -311,12 +313,17 @@ pub struct ProducerPermit {
     cancel: CancellationToken,
     ended: bool,
     relay: Option<Box<dyn Relay>>,
+    /// Keeps every frame published, when the producer asked for a recording.
+    recorder: Mutex<Option<Recorder>>,
 }
 
 impl ProducerPermit {
     /// Publishes a frame: viewers' pipelines deform the newest one, here and, with a
-    /// relay, on every other node.
+    /// relay, on every other node; a recording keeps it.
     pub fn publish(&self, frame: Frame, received_us: u64) {
+        if let Some(recorder) = self.recorder.lock().expect("recorder lock").as_mut() {
+            recorder.push(&frame);
+        }
         let frame = Arc::new(ReceivedFrame { frame, received_us });
         if let Some(relay) = &self.relay {
             relay.frame(&frame);
@@ -351,6 +358,12 @@ impl ProducerPermit {
             relay.end(reason);
         }
         self.stream.end(reason);
+    }
+
+    /// Keeps every frame this producer publishes in `recorder`'s recording, listed when
+    /// the producer is done.
+    pub fn record(&mut self, recorder: Recorder) {
+        *self.recorder.get_mut().expect("recorder lock") = Some(recorder);
     }
 
     /// Sends this producer's frames and end to `relay` too.

@@ -19,7 +19,7 @@ use tokio_util::sync::CancellationToken;
 
 use super::error::ApiError;
 use super::frames::RelayedAudio;
-use super::head::HeadEntry;
+use super::head::{HeadEntry, ReadyHead};
 use super::pipeline::{Encoded, FrameFormat, Pipeline, PipelineKey};
 use super::socket::{close, close_for, refuse, text};
 use super::timeline::{Step, Timeline};
@@ -48,7 +48,7 @@ pub struct ViewQuery {
 }
 
 impl ViewQuery {
-    fn format(&self) -> Result<FrameFormat, ApiError> {
+    pub(super) fn format(&self) -> Result<FrameFormat, ApiError> {
         match self.format.as_deref() {
             None | Some("" | "fwf1") => Ok(FrameFormat::Binary(FrameLayout::Fwf1)),
             Some("fwf2") => Ok(FrameFormat::Binary(FrameLayout::Fwf2)),
@@ -61,7 +61,7 @@ impl ViewQuery {
     }
 
     /// The audio codec asked for, if any.
-    fn audio(&self) -> Result<Option<&'static str>, ApiError> {
+    pub(super) fn audio(&self) -> Result<Option<&'static str>, ApiError> {
         match self.audio.as_deref() {
             None | Some("" | "none") => Ok(None),
             Some("pcm") => Ok(Some("pcm")),
@@ -74,7 +74,7 @@ impl ViewQuery {
     }
 
     /// The per-vertex values asked for: `heat` by name, else `face`.
-    fn heat(&self) -> Result<Heat, ApiError> {
+    pub(super) fn heat(&self) -> Result<Heat, ApiError> {
         match (self.heat.as_deref(), self.face.as_deref()) {
             (Some("roughness"), _) => Ok(Heat::Roughness),
             (Some("folds"), _) => Ok(Heat::Folds),
@@ -91,7 +91,7 @@ impl ViewQuery {
 
 /// The most a viewer may send in one message. Viewers only send control frames (pings and
 /// the close); anything larger closes the socket with 1009.
-const VIEWER_MESSAGE_LIMIT: usize = 4096;
+pub(super) const VIEWER_MESSAGE_LIMIT: usize = 4096;
 
 /// The read buffer of a viewer's socket. The WebSocket layer zeroes a whole buffer on each
 /// read attempt, made for every frame sent; its 128 KiB default cost a fifth of the
@@ -99,7 +99,7 @@ const VIEWER_MESSAGE_LIMIT: usize = 4096;
 const VIEWER_READ_BUFFER: usize = VIEWER_MESSAGE_LIMIT;
 
 /// How long a viewer waits for a head that is still registering.
-const REGISTRATION_WAIT: Duration = Duration::from_secs(120);
+pub(super) const REGISTRATION_WAIT: Duration = Duration::from_secs(120);
 
 /// `GET /v1/heads/{id}/streams/{stream}/view` (the token is checked by the route layer).
 /// Refusals come after the upgrade, as an `error` and a close code, because browsers do
@@ -181,11 +181,33 @@ async fn open_view(state: &AppState, id: &str, name: &str, query: &ViewQuery) ->
             Ok(Pipeline::start(job, format, params, trimmer, telemetry))
         })
         .await?;
+    let snapshot = snapshot(&ready, id, name, &spec, heat, format, audio_codec);
+    Ok(View {
+        _slot: slot,
+        _hold: hold,
+        audio: audio_codec.map(|codec| stream.subscribe_audio(codec)),
+        head,
+        snapshot,
+        frames,
+    })
+}
+
+/// What a viewer of `stream` of head `id` is told first: what to download, how the frames
+/// come, what may follow. A replay adds its recording.
+pub(super) fn snapshot(
+    ready: &ReadyHead,
+    id: &str,
+    stream: &str,
+    spec: &AlgoSpec,
+    heat: Heat,
+    format: FrameFormat,
+    audio_codec: Option<&'static str>,
+) -> Snapshot {
     let reg = &ready.animated.registration;
-    let snapshot = Snapshot {
+    Snapshot {
         protocol: facewire_proto::PROTOCOL_VERSION.into(),
         head: id.to_string(),
-        stream: name.to_string(),
+        stream: stream.to_string(),
         algorithm: spec.to_string(),
         vertices: reg.vertex_count() as u32,
         triangles: reg.head.triangles.len() as u32,
@@ -211,15 +233,8 @@ async fn open_view(state: &AppState, id: &str, name: &str, query: &ViewQuery) ->
             FrameFormat::Binary(FrameLayout::Fwf2) => SectionInfo::list(&viewer_frame::SECTIONS),
             _ => Vec::new(),
         },
-    };
-    Ok(View {
-        _slot: slot,
-        _hold: hold,
-        audio: audio_codec.map(|codec| stream.subscribe_audio(codec)),
-        head,
-        snapshot,
-        frames,
-    })
+        replay: None,
+    }
 }
 
 /// How a viewer's session ended.
@@ -404,7 +419,7 @@ async fn listen(
 
 impl AppState {
     /// The algorithm a viewer asks for, checked against the allow-list.
-    fn viewer_algorithm(&self, asked: Option<&str>) -> Result<AlgoSpec, ApiError> {
+    pub(super) fn viewer_algorithm(&self, asked: Option<&str>) -> Result<AlgoSpec, ApiError> {
         let spec = match asked.filter(|a| !a.is_empty()) {
             None => return Ok(self.default_spec),
             Some(text) => text

@@ -12,6 +12,7 @@ mod cli;
 mod load;
 mod parts;
 mod python_client;
+mod replay;
 mod routes;
 mod serve_process;
 mod server;

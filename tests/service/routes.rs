@@ -84,7 +84,7 @@ async fn every_endpoint_takes_exactly_the_tokens_of_the_table() {
     let admin = [false, false, false, false, false, true];
     let producer_plain = [false, false, false, true, false, true];
     let producer_own = [false, false, false, false, true, true];
-    let table: [(Method, &str, [bool; 6]); 22] = [
+    let table: [(Method, &str, [bool; 6]); 26] = [
         (Method::GET, "/healthz", open),
         (Method::GET, "/", open),
         (Method::GET, "/app.js", open),
@@ -98,6 +98,10 @@ async fn every_endpoint_takes_exactly_the_tokens_of_the_table() {
         (Method::GET, "/v1/heads/own/fit", viewer),
         (Method::GET, "/v1/heads/own/fit.png?view=side", viewer),
         (Method::GET, "/v1/heads/own/streams/s/view", viewer),
+        (Method::GET, "/v1/heads/own/recordings", viewer),
+        (Method::GET, "/v1/heads/own/recordings/r/view", viewer),
+        (Method::DELETE, "/v1/heads/own/recordings/r", producer_own),
+        (Method::DELETE, "/v1/heads/plain/recordings/r", producer_plain),
         (Method::POST, "/v1/heads", admin),
         (Method::DELETE, "/v1/heads/nosuch", admin),
         (Method::GET, "/v1/heads/own/streams/s/produce", producer_own),

@@ -1,0 +1,234 @@
+//! A head's recorded streams, for replay: a producer that asks (`record=1`, or a name)
+//! has the parameter frames it sends kept, in order, as a recording of the head, which
+//! viewers then play at their own pace (`super::replay`). Recordings live in memory with
+//! the head; each head holds at most `max_recordings_per_head`, each at most
+//! `max_recording_frames` frames (a producer that sends more goes on, unrecorded past the
+//! limit, and its recording says it was cut). A producer whose head holds the most is
+//! refused before it starts; a recording is listed once its producer ends, and deleted on
+//! request or with its head.
+
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex};
+
+use super::error::ApiError;
+use super::head::HeadEntry;
+use super::ids::valid_id;
+use crate::stream::Frame;
+use facewire_proto::messages::{RecordingInfo, RecordingLabel};
+
+/// `record=` on a producer socket or a batch: `1` or `true` records under the name
+/// `{stream}-{n}`, any other id under that name; absent, `0` or `false`, nothing is kept.
+#[derive(Debug, Default, serde::Deserialize)]
+pub struct RecordQuery {
+    pub record: Option<String>,
+}
+
+impl RecordQuery {
+    /// A recorder for a producer of `stream` on `head`, when one was asked for.
+    pub fn recorder(&self, head: &HeadEntry, stream: &str) -> Result<Option<Recorder>, ApiError> {
+        let name = match self.record.as_deref() {
+            None | Some("" | "0" | "false") => return Ok(None),
+            Some("1" | "true") => None,
+            Some(name) => Some(name),
+        };
+        head.recordings.recorder(&head.id, stream, name).map(Some)
+    }
+}
+
+/// The limits of a head's recordings (from the configuration).
+#[derive(Debug, Clone, Copy)]
+pub struct RecordingLimits {
+    pub max_per_head: usize,
+    pub max_frames: usize,
+}
+
+/// A finished recording: the frames as the producer sent them.
+#[derive(Debug)]
+pub struct Recording {
+    pub name: String,
+    /// The stream it was recorded from.
+    pub stream: String,
+    pub frames: Vec<Frame>,
+    /// Whether the producer sent more frames than a recording holds.
+    pub cut: bool,
+}
+
+impl Recording {
+    /// What the list and a replay's snapshot say about it: its frames, its length in the
+    /// producer's seconds, and each run of frames with the same label.
+    pub fn info(&self) -> RecordingInfo {
+        let mut labels: Vec<RecordingLabel> = Vec::new();
+        for (index, frame) in self.frames.iter().enumerate() {
+            let Some(label) = &frame.label else { continue };
+            match labels.last_mut() {
+                Some(run) if run.label == *label && run.last + 1 == index as u64 => run.last = index as u64,
+                _ => labels.push(RecordingLabel {
+                    label: label.clone(),
+                    first: index as u64,
+                    last: index as u64,
+                }),
+            }
+        }
+        let time = |f: Option<&Frame>| f.map_or(0.0, |f| f.time_s);
+        RecordingInfo {
+            name: self.name.clone(),
+            stream: self.stream.clone(),
+            frames: self.frames.len() as u64,
+            duration_s: time(self.frames.last()) - time(self.frames.first()),
+            cut: self.cut,
+            labels,
+        }
+    }
+}
+
+/// The recordings of one head, and the places taken by producers still recording.
+pub struct Recordings {
+    limits: RecordingLimits,
+    inner: Mutex<Inner>,
+}
+
+#[derive(Default)]
+struct Inner {
+    done: BTreeMap<String, Arc<Recording>>,
+    /// Names taken by producers still recording.
+    recording: Vec<String>,
+    /// Numbers the automatic names (`{stream}-{n}`) go on from.
+    next: u64,
+}
+
+impl Recordings {
+    pub fn new(limits: RecordingLimits) -> Recordings {
+        Recordings {
+            limits,
+            inner: Mutex::new(Inner::default()),
+        }
+    }
+
+    /// A recorder for a producer of `stream` on head `head`: named `name`, or
+    /// `{stream}-{n}` for `None`. Refused when the name is taken or not an id, or when the
+    /// head holds the most recordings.
+    pub fn recorder(
+        self: &Arc<Self>,
+        head: &str,
+        stream: &str,
+        name: Option<&str>,
+    ) -> Result<Recorder, ApiError> {
+        let mut inner = self.inner.lock().expect("recordings lock");
+        let held = inner.done.len() + inner.recording.len();
+        if held >= self.limits.max_per_head {
+            return Err(ApiError::LimitReached(format!(
+                "head {head:?} holds {held} recordings, the most it keeps; delete one \
+                 (DELETE /v1/heads/{head}/recordings/NAME) or produce without record="
+            )));
+        }
+        let name = match name {
+            Some(name) => {
+                if !valid_id(name) {
+                    return Err(ApiError::BadId {
+                        what: "recording name",
+                        id: name.to_string(),
+                    });
+                }
+                if inner.done.contains_key(name) || inner.recording.iter().any(|n| n == name) {
+                    return Err(ApiError::BadRequest(format!(
+                        "record={name}: head {head:?} has a recording of that name; delete it or choose another"
+                    )));
+                }
+                name.to_string()
+            }
+            None => loop {
+                inner.next += 1;
+                let name = format!("{stream}-{}", inner.next);
+                // A 64-character stream name leaves no room for the number.
+                let name = if valid_id(&name) {
+                    name
+                } else {
+                    format!("recording-{}", inner.next)
+                };
+                if !inner.done.contains_key(&name) && !inner.recording.contains(&name) {
+                    break name;
+                }
+            },
+        };
+        inner.recording.push(name.clone());
+        Ok(Recorder {
+            recordings: self.clone(),
+            recording: Some(Recording {
+                name,
+                stream: stream.to_string(),
+                frames: Vec::new(),
+                cut: false,
+            }),
+            max_frames: self.limits.max_frames,
+        })
+    }
+
+    /// Keeps a recording made elsewhere (the demo's syllable stream), replacing one of the
+    /// same name; it counts towards the limit like the others.
+    pub fn insert(&self, recording: Recording) {
+        let mut inner = self.inner.lock().expect("recordings lock");
+        inner.done.insert(recording.name.clone(), Arc::new(recording));
+    }
+
+    /// Every finished recording, by name.
+    pub fn list(&self) -> Vec<RecordingInfo> {
+        let inner = self.inner.lock().expect("recordings lock");
+        inner.done.values().map(|r| r.info()).collect()
+    }
+
+    pub fn get(&self, head: &str, name: &str) -> Result<Arc<Recording>, ApiError> {
+        let inner = self.inner.lock().expect("recordings lock");
+        inner
+            .done
+            .get(name)
+            .cloned()
+            .ok_or_else(|| ApiError::NotFound(format!("recording {name:?} of head {head:?}")))
+    }
+
+    pub fn delete(&self, head: &str, name: &str) -> Result<(), ApiError> {
+        let mut inner = self.inner.lock().expect("recordings lock");
+        inner
+            .done
+            .remove(name)
+            .map(drop)
+            .ok_or_else(|| ApiError::NotFound(format!("recording {name:?} of head {head:?}")))
+    }
+}
+
+/// A producer's recording in the making; kept (listed) when dropped, if it holds a frame.
+pub struct Recorder {
+    recordings: Arc<Recordings>,
+    recording: Option<Recording>,
+    max_frames: usize,
+}
+
+impl Recorder {
+    /// The recording's name.
+    pub fn name(&self) -> &str {
+        self.recording.as_ref().map_or("", |r| r.name.as_str())
+    }
+
+    /// Keeps `frame`, unless the recording is full.
+    pub fn push(&mut self, frame: &Frame) {
+        if let Some(recording) = &mut self.recording {
+            if recording.frames.len() < self.max_frames {
+                recording.frames.push(frame.clone());
+            } else {
+                recording.cut = true;
+            }
+        }
+    }
+}
+
+impl Drop for Recorder {
+    fn drop(&mut self) {
+        let Some(recording) = self.recording.take() else {
+            return;
+        };
+        let mut inner = self.recordings.inner.lock().expect("recordings lock");
+        inner.recording.retain(|n| *n != recording.name);
+        if !recording.frames.is_empty() {
+            inner.done.insert(recording.name.clone(), Arc::new(recording));
+        }
+    }
+}
