@@ -346,6 +346,11 @@ async fn check_the_page(browser: &Browser) {
         check_the_element_embeds(browser, &url, Duration::from_secs(120)).await;
         return;
     }
+    if std::env::var_os("FACEWIRE_REPLAY_ONLY").is_some() {
+        let (_demo, url) = start_demo();
+        check_the_replay(browser, &url, Duration::from_secs(120)).await;
+        return;
+    }
     check_failover_across_nodes(browser).await;
     let (_demo, url) = start_demo();
     let long = Duration::from_secs(120);
@@ -432,6 +437,7 @@ async fn check_the_page(browser: &Browser) {
     check_the_heat_map_scale(browser, &url, long).await;
     check_the_lips_read(browser, &url, long).await;
     check_the_element_embeds(browser, &url, long).await;
+    check_the_replay(browser, &url, long).await;
     check_the_inner_mouth_close_up(browser, &url, long).await;
     check_a_stalled_stream(browser, &url, long).await;
     check_a_head_posted_with_no_fit(browser, &url, long).await;
@@ -1528,4 +1534,136 @@ async fn check_the_element_embeds(browser: &Browser, url: &str, long: Duration) 
         .await;
     assert_eq!(failed["code"], 4404, "{failed}");
     assert!(failed["message"].as_str().unwrap().contains("nosuch"), "{failed}");
+}
+
+/// The seq of the frame view 1 shows now, or null before any.
+const SHOWN_SEQ_JS: &str = "return document.getElementById('view-0')?.dataset.seq ?? null";
+
+/// Replay of the demo's recording of the syllables (`?replay=syllables`): the transport
+/// bar pauses it, its scrubber seeks and its buttons step, each landing on the frame asked
+/// for exactly (the frame's `seq` is its index in the recording); a label looped at a
+/// quarter of the pace shows only that label's frames, the first and the last among them,
+/// about four times as far apart as recorded; and the URL keeps the replay.
+async fn check_the_replay(browser: &Browser, url: &str, long: Duration) {
+    wait_ready(url, "ict", long).await;
+    browser
+        .open(&format!("{url}?head=ict&replay=syllables&mouth=1"))
+        .await;
+    browser
+        .wait_for(
+            "the replay's first frames",
+            &format!(
+                "return !document.getElementById('replay-bar').hidden && ({}) !== null",
+                &SHOWN_SEQ_JS[7..]
+            ),
+            long,
+        )
+        .await;
+    browser.click("#replay-play").await;
+    browser
+        .wait_for(
+            "the replay paused",
+            "return document.getElementById('replay-play').textContent === 'Play'",
+            long,
+        )
+        .await;
+    let seek = |frame: u64| {
+        format!(
+            "const p = document.getElementById('replay-position'); p.value = '{frame}'; \
+             p.dispatchEvent(new Event('input'))"
+        )
+    };
+    browser.js(&seek(100)).await;
+    let shown = |frame: u64| format!("return document.getElementById('view-0').dataset.seq === '{frame}'");
+    browser.wait_for("frame 100 shown", &shown(100), long).await;
+    browser.click("#replay-forward").await;
+    browser.wait_for("frame 101 shown", &shown(101), long).await;
+    browser.click("#replay-back").await;
+    browser.wait_for("frame 100 shown again", &shown(100), long).await;
+    browser.click("#replay-back").await;
+    browser.wait_for("frame 99 shown", &shown(99), long).await;
+    // Paused: nothing else comes.
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    assert_eq!(browser.js(SHOWN_SEQ_JS).await, "99");
+
+    // "ta" looped at a quarter of the pace.
+    let range = browser
+        .js("const l = document.getElementById('replay-loop'); \
+             const o = [...l.options].find((o) => o.text.startsWith('ta ')); \
+             l.value = o.value; l.dispatchEvent(new Event('change')); \
+             const s = document.getElementById('replay-speed'); s.value = '0.25'; \
+             s.dispatchEvent(new Event('change')); return o.value")
+        .await;
+    let (first, last) = range
+        .as_str()
+        .and_then(|r| r.split_once('-'))
+        .map(|(a, b)| (a.parse::<u64>().unwrap(), b.parse::<u64>().unwrap()))
+        .unwrap_or_else(|| panic!("no loop option for ta: {range}"));
+    // Every frame's seq and when the server sent it, as the page receives them (reading
+    // them one by one over WebDriver would miss most; the page's own clock, busy drawing
+    // in software, reads them in bursts).
+    browser
+        .js(
+            "window.arrivals = null; import('/decode.js').then(({ readFrameHeader }) => { \
+               const v = window.facewireViews()[0]; window.arrivals = []; \
+               const received = v.frameArrived.bind(v); \
+               v.frameArrived = (buffer, us) => { received(buffer, us); \
+                 const h = readFrameHeader(buffer); window.arrivals.push([h.seq, h.serverSendUs / 1e6]); }; });",
+        )
+        .await;
+    browser
+        .wait_for("the arrivals recorded", "return window.arrivals !== null", long)
+        .await;
+    let lap = Duration::from_secs_f64((last - first + 1) as f64 / 30.0 * 4.0);
+    tokio::time::sleep(lap * 2 + Duration::from_secs(1)).await;
+    let arrivals: Vec<(u64, f64)> = browser
+        .js("return window.arrivals")
+        .await
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| (a[0].as_u64().unwrap(), a[1].as_f64().unwrap()))
+        .collect();
+    // Frames arriving before the loop took hold are left out: from the first in the range.
+    let from = arrivals.iter().position(|&(s, _)| s == first).unwrap_or(0);
+    let looped = &arrivals[from..];
+    assert!(
+        looped.iter().all(|&(s, _)| (first..=last).contains(&s)),
+        "frames outside {first}-{last} while looping: {:?}",
+        looped.iter().map(|&(s, _)| s).collect::<Vec<_>>()
+    );
+    for end in [first, last] {
+        assert!(
+            looped.iter().any(|&(s, _)| s == end),
+            "the loop's frame {end} never came"
+        );
+    }
+    // Every frame of the loop, in order: each the one after the last, or the first again.
+    for w in looped.windows(2) {
+        assert!(
+            w[1].0 == w[0].0 + 1 || (w[0].0 == last && w[1].0 == first),
+            "{} after {} in a loop over {first}-{last}",
+            w[1].0,
+            w[0].0
+        );
+    }
+    let mut gaps: Vec<f64> = looped
+        .windows(2)
+        .filter(|w| w[1].0 == w[0].0 + 1)
+        .map(|w| w[1].1 - w[0].1)
+        .collect();
+    gaps.sort_by(f64::total_cmp);
+    let median = gaps[gaps.len() / 2];
+    println!(
+        "replay: ta (frames {first}-{last}) looped at 0.25x, frames {median:.3} s apart (recorded 1/30 s)"
+    );
+    assert!(
+        (0.09..0.2).contains(&median),
+        "{median} s between frames at 0.25x"
+    );
+    let address = browser.js("return location.search").await;
+    assert!(
+        address.as_str().unwrap().contains("replay=syllables"),
+        "the URL keeps the replay: {address}"
+    );
 }

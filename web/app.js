@@ -1,6 +1,7 @@
-// app.js: the page. Reads ?head=&stream=&algo=&algo2=&heat=&heat2=&heatmax=&heatmax2=&view=&view2=&cut=&cut2=&mouth=&lips=&lipstrength=&token=&nodes=&audio=
-// (lips: tint, contrast, region or off, how both views draw the lips; lipstrength: the
-// tint's strength, 0 to 1)
+// app.js: the page. Reads ?head=&stream=&replay=&algo=&algo2=&heat=&heat2=&heatmax=&heatmax2=&view=&view2=&cut=&cut2=&mouth=&lips=&lipstrength=&token=&nodes=&audio=
+// (replay: a recording of the head, played by the server at the viewer's pace with the
+// transport bar, replay.js, instead of the live stream; lips: tint, contrast, region or
+// off, how both views draw the lips; lipstrength: the tint's strength, 0 to 1)
 // (heat=1 colours by roughness, heat=folds by folds; nodes: server base URLs to fail over
 // between, nodes.js; audio=opus|pcm|none: the voice's codec, by default Opus where the
 // browser decodes it; view: front, side, cutaway or see-through, cut: the cut-away's turn
@@ -20,6 +21,7 @@ import { parseLipTint, parseMesh } from "./decode.js";
 import { fitOutcome, fitPaths } from "./fit.js";
 import { Nodes } from "./nodes.js";
 import { DEFAULT_HEAT_MAX, Panel } from "./panel.js";
+import { ReplayBar } from "./replay.js";
 import { audioCodec, quantile, Sound } from "./sound.js";
 import { LIP_MODES } from "./render.js";
 import { Talk } from "./talk.js";
@@ -72,6 +74,9 @@ const page = {
   algorithms: [],
   head: params.get("head") || "scan",
   stream: params.get("stream") || "main",
+  /** The recording replayed instead of the stream, or null; `recordings`: the head's. */
+  replay: params.get("replay") || null,
+  recordings: [],
   token: params.get("token") || "",
   panels: [],
   /** How every view draws the lips (render.js setLips). */
@@ -92,6 +97,7 @@ window.facewireSound = sound;
 // For tests: each view's live head (head-view.js), as the <facewire-head> element has one.
 window.facewireViews = () => page.panels.map((panel) => panel.view);
 const chart = new LiveChart(byId("chart"));
+const replayBar = new ReplayBar((message) => page.panels.forEach((panel) => panel.control(message)));
 const meshes = new Map();
 /** Lip weights by URL, as `meshes`. */
 const lipTints = new Map();
@@ -191,6 +197,9 @@ function fillHeadPicker() {
   head.value = page.head;
 }
 
+/** The picker's value for a recording (the live streams' values are their names). */
+const REPLAY_PREFIX = "replay:";
+
 function fillStreamPicker() {
   const { stream } = controls;
   const known = streamsOf(page.head);
@@ -201,11 +210,42 @@ function fillStreamPicker() {
   if (!known.includes(page.stream)) {
     stream.add(new Option(`${page.stream} (no frames yet)`, page.stream));
   }
-  stream.value = page.stream;
+  const names = page.recordings.map((r) => r.name);
+  if (page.replay && !names.includes(page.replay)) {
+    names.push(page.replay);
+  }
+  if (names.length > 0) {
+    const group = document.createElement("optgroup");
+    group.label = "Recordings (replay)";
+    for (const name of names) {
+      group.append(new Option(`${name} (replay)`, `${REPLAY_PREFIX}${name}`));
+    }
+    stream.append(group);
+  }
+  stream.value = page.replay ? `${REPLAY_PREFIX}${page.replay}` : page.stream;
+}
+
+/** The chosen head's recordings (for the stream picker); a failed read keeps the last list. */
+async function loadRecordings() {
+  const head = page.head;
+  try {
+    const recordings = await fetchJson(`/v1/heads/${encodeURIComponent(head)}/recordings`);
+    if (head === page.head && JSON.stringify(recordings) !== JSON.stringify(page.recordings)) {
+      page.recordings = recordings;
+      if (document.activeElement !== controls.stream) {
+        fillStreamPicker();
+      }
+    }
+  } catch {
+    // An older server, or the head is gone: no recordings to offer.
+  }
 }
 
 function writeUrl() {
   const query = new URLSearchParams({ head: page.head, stream: page.stream });
+  if (page.replay) {
+    query.set("replay", page.replay);
+  }
   page.panels.forEach((panel, i) => {
     const suffix = i === 0 ? "" : "2";
     query.set(`algo${suffix}`, shortAlgorithm(panel.settings.algorithm));
@@ -349,6 +389,7 @@ function connectSettings({ algorithm, heat, heatMax }) {
   return {
     head: page.head,
     stream: page.stream,
+    replay: page.replay,
     algorithm,
     heat,
     heatMax,
@@ -444,6 +485,9 @@ function addPanel(algorithm, heat, heatMax) {
       }
     },
     onSettings: writeUrl,
+    // View 1 speaks for the replay: the bar shows where its replay stands.
+    onReplay: index === 0 ? (message) => replayBar.update(message) : undefined,
+    onRecording: index === 0 ? (recording) => replayBar.show(recording) : undefined,
     nodes,
     look: lookParam(index === 0 ? "" : "2"),
   });
@@ -622,12 +666,20 @@ async function start() {
     if (!known.includes(page.stream) && known.length > 0) {
       page.stream = known.includes("main") ? "main" : known[0];
     }
+    page.recordings = [];
     fillStreamPicker();
     reconnectAll();
     loadFit();
+    loadRecordings();
   });
   controls.stream.addEventListener("change", () => {
-    page.stream = controls.stream.value;
+    const value = controls.stream.value;
+    if (value.startsWith(REPLAY_PREFIX)) {
+      page.replay = value.slice(REPLAY_PREFIX.length);
+    } else {
+      page.replay = null;
+      page.stream = value;
+    }
     reconnectAll();
   });
 
@@ -644,6 +696,7 @@ async function start() {
   fillHeadPicker();
   fillStreamPicker();
   loadFit(); // before the 3D view: the report is worth showing even without WebGL
+  loadRecordings();
   try {
     addPanel(resolveAlgorithm(params.get("algo")), heatParam("heat"), heatMaxParam("heatmax"));
   } catch (error) {
@@ -670,6 +723,7 @@ async function refreshHeads() {
   const changed = JSON.stringify(heads) !== JSON.stringify(page.heads);
   page.heads = heads;
   refreshFit();
+  loadRecordings();
   if (!changed) {
     return;
   }

@@ -60,6 +60,7 @@ export class HeadView {
    * - `onFrameHeader(header, buffer, arrivalUs)`: a frame arrived (not yet decoded);
    * - `onSkipped(count)`: frames received that will not be drawn;
    * - `onAudio(buffer)`: an audio chunk, handed to the sound;
+   * - `onReplay(message)`: where a replay stands (`frame`, `playing`, `speed`, `loop`);
    * - `onShown(frame, said)`: a frame is shown (drawn with the next draw);
    * - `onProblem(text)`: something people should read (an unreadable frame, a mesh that
    *   does not match).
@@ -77,6 +78,7 @@ export class HeadView {
       onSnapshot: (snapshot) => this.snapshotArrived(snapshot),
       onFrame: (buffer, arrivalUs) => this.frameArrived(buffer, arrivalUs),
       onAudio: (buffer) => this.audioArrived(buffer),
+      onReplay: (message) => this.on.onReplay(message),
       onState: (state, detail) => this.on.onState(state, detail),
     });
     this.mesh = null;
@@ -102,11 +104,12 @@ export class HeadView {
   }
 
   /**
-   * Connects to `stream` of `head` with `algorithm` (a letter or spec; the server's default
-   * when empty), `heat` (null, "roughness" or "folds") and `token`, on the nodes' current
-   * node, moving to the next one after a lost connection.
+   * Connects to `stream` of `head`, or with `replay` to that recording of it, with
+   * `algorithm` (a letter or spec; the server's default when empty), `heat` (null,
+   * "roughness" or "folds") and `token`, on the nodes' current node, moving to the next
+   * one after a lost connection. A replay has no sound.
    */
-  connect({ head, stream, algorithm, heat = null, token = "" }) {
+  connect({ head, stream, replay = null, algorithm, heat = null, token = "" }) {
     const query = new URLSearchParams({ format: VIEW_FORMAT });
     if (algorithm) {
       query.set("algo", algorithm);
@@ -117,10 +120,12 @@ export class HeadView {
     if (token) {
       query.set("token", token);
     }
-    if (this.audio) {
+    if (this.audio && !replay) {
       query.set("audio", this.audio);
     }
-    const path = `/v1/heads/${encodeURIComponent(head)}/streams/${encodeURIComponent(stream)}/view`;
+    const path = replay
+      ? `/v1/heads/${encodeURIComponent(head)}/recordings/${encodeURIComponent(replay)}/view`
+      : `/v1/heads/${encodeURIComponent(head)}/streams/${encodeURIComponent(stream)}/view`;
     this.generation += 1;
     this.pending = [];
     this.socket.open((lost) => this.socketUrl(`${path}?${query}`, lost));
@@ -136,6 +141,11 @@ export class HeadView {
     }
     this.node = this.nodes.index;
     return this.nodes.wsUrl(path);
+  }
+
+  /** Steers a replay (proto/PROTOCOL.md, "Recordings and replay"); false when not sent. */
+  control(message) {
+    return this.socket.send(message);
   }
 
   /** Closes the socket and gives the GPU context back. */

@@ -55,17 +55,35 @@ export class Panel {
    * a parsed mesh; `loadLipTint(url, vertexCount)`: a promise of a head's lip weights
    * (decode.js parseLipTint); `lips`: how the lips are drawn (render.js setLips);
    * `onMesh(url, mesh)`: a mesh is shown; `onSettings()`: the user changed
-   * this view's algorithm or heat-map; `nodes`: the page's Nodes (nodes.js), shared by
+   * this view's algorithm or heat-map; `onReplay(message)`: where a replay stands;
+   * `onRecording(recording)`: the snapshot's `replay` (the recording replayed), or null; `nodes`: the page's Nodes (nodes.js), shared by
    * both views and the fetches; `sound`: the page's Sound (sound.js), whose clock the view
    * draws by, and `audio`: the codec this view asks for and feeds the sound with, or null
    * (the other view, or no sound).
    */
-  constructor({ index, container, algorithms, chart, loadMesh, loadLipTint, onMesh, onSettings, nodes, sound, audio, look, lips }) {
+  constructor({
+    index,
+    container,
+    algorithms,
+    chart,
+    loadMesh,
+    loadLipTint,
+    onMesh,
+    onSettings,
+    onReplay,
+    onRecording,
+    nodes,
+    sound,
+    audio,
+    look,
+    lips,
+  }) {
     this.index = index;
     this.sound = sound;
     this.audio = audio;
     this.nodes = nodes;
     this.chart = chart;
+    this.onRecording = onRecording ?? (() => {});
     const fragment = document.getElementById("view-template").content.cloneNode(true);
     this.parts = {};
     for (const element of fragment.querySelectorAll("[data-part]")) {
@@ -140,6 +158,7 @@ export class Panel {
           this.stats.audioBytes += buffer.byteLength;
         },
         onShown: (frame, said) => this.shown(frame, said),
+        onReplay,
         onProblem: (text) => this.showMessage(text),
       },
     });
@@ -232,12 +251,17 @@ export class Panel {
   }
 
   snapshotArrived(snapshot) {
+    this.onRecording(snapshot.replay ?? null);
     this.chart.breakLine(this.index, performance.now());
     this.parts.algorithm.textContent = snapshot.algorithm;
     if (this.audio) {
       this.sound.reset();
-      this.soundProblem =
-        snapshot.audio === this.audio ? null : `this server sends no audio (asked for ${this.audio})`;
+      if (snapshot.replay) {
+        this.soundProblem = "a replay has no voice";
+      } else {
+        this.soundProblem =
+          snapshot.audio === this.audio ? null : `this server sends no audio (asked for ${this.audio})`;
+      }
     }
   }
 
@@ -298,6 +322,7 @@ export class Panel {
 
   /** A frame is shown: its syllable, its lip folds, and how late it is for eye and ear. */
   shown(frame, said) {
+    this.parts.view.dataset.seq = String(frame.seq);
     this.parts.syllable.textContent = said ?? "–";
     this.parts.label.textContent = said ?? "";
     this.folds = frame.folds;
@@ -313,6 +338,11 @@ export class Panel {
 
   draw(camera, force) {
     this.view.draw(camera, force);
+  }
+
+  /** Steers this view's replay (head-view.js control). */
+  control(message) {
+    return this.view.control(message);
   }
 
   stateChanged(state, detail) {

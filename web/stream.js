@@ -37,7 +37,8 @@ function formatProblem({ format }) {
 export class ViewerSocket {
   /**
    * `handlers`: onSnapshot(snapshot), onFrame(ArrayBuffer, arrivalUs), onAudio(ArrayBuffer)
-   * for an audio chunk (asked for with `audio=`), and onState(state, detail) where detail
+   * for an audio chunk (asked for with `audio=`), onReplay(message) for a replay's state
+   * (proto/PROTOCOL.md, "Recordings and replay"), and onState(state, detail) where detail
    * is { message, code, retryMs } as far as known.
    */
   constructor(handlers) {
@@ -58,6 +59,15 @@ export class ViewerSocket {
     this.url = this.target(false);
     this.attempt = 0;
     this.connect();
+  }
+
+  /** Sends `message` as JSON text (a replay's control), if the socket is open; true if sent. */
+  send(message) {
+    if (this.socket?.readyState !== WebSocket.OPEN) {
+      return false;
+    }
+    this.socket.send(JSON.stringify(message));
+    return true;
   }
 
   close() {
@@ -112,6 +122,8 @@ export class ViewerSocket {
         this.attempt = 0;
         this.handlers.onSnapshot(message);
         this.setState("waiting");
+      } else if (message.type === "replay") {
+        this.handlers.onReplay?.(message);
       } else if (message.type === "end") {
         this.setState("ended", { message: END_REASONS[message.reason] || message.message || message.reason });
       } else if (message.type === "error") {

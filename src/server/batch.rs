@@ -59,7 +59,7 @@ pub async fn batch(
     let head = state.registry.head(&id)?;
     head.ready()?;
     let stream = head.stream(&name)?;
-    let recorder = record.recorder(&head, &name)?;
+    let recorder = record.recorder(&head.recordings, &head.id, &name)?;
     let limit = state.config.limits.max_upload_bytes;
     let upload = read_upload(request, limit).await?;
     let limits = state.config.limits.clone();

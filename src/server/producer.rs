@@ -103,7 +103,7 @@ pub async fn produce(
     let recorder = RecordQuery {
         record: query.record.clone(),
     }
-    .recorder(&head, &name)?;
+    .recorder(&head.recordings, &head.id, &name)?;
     let limit = state.config.limits.max_message_bytes;
     let session = state.sessions.token();
     Ok(ws

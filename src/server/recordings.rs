@@ -11,7 +11,6 @@ use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
 
 use super::error::ApiError;
-use super::head::HeadEntry;
 use super::ids::valid_id;
 use crate::stream::Frame;
 use facewire_proto::messages::{RecordingInfo, RecordingLabel};
@@ -24,14 +23,20 @@ pub struct RecordQuery {
 }
 
 impl RecordQuery {
-    /// A recorder for a producer of `stream` on `head`, when one was asked for.
-    pub fn recorder(&self, head: &HeadEntry, stream: &str) -> Result<Option<Recorder>, ApiError> {
+    /// A recorder for a producer of `stream` on head `head`, whose recordings are
+    /// `recordings`, when one was asked for.
+    pub fn recorder(
+        &self,
+        recordings: &Arc<Recordings>,
+        head: &str,
+        stream: &str,
+    ) -> Result<Option<Recorder>, ApiError> {
         let name = match self.record.as_deref() {
             None | Some("" | "0" | "false") => return Ok(None),
             Some("1" | "true") => None,
             Some(name) => Some(name),
         };
-        head.recordings.recorder(&head.id, stream, name).map(Some)
+        recordings.recorder(head, stream, name).map(Some)
     }
 }
 

@@ -12,7 +12,7 @@ const JS: &str = "text/javascript; charset=utf-8";
 
 /// `(path, content type, body)` of every embedded file. The `web/*.test.mjs` scripts and
 /// `web/package.json` are for the tests (`tests/service/web_decode.rs`), not served.
-const ASSETS: [(&str, &str, &str); 17] = [
+const ASSETS: [(&str, &str, &str); 18] = [
     ("/", HTML, include_str!("../../web/index.html")),
     ("/style.css", CSS, include_str!("../../web/style.css")),
     ("/app.js", JS, include_str!("../../web/app.js")),
@@ -30,6 +30,7 @@ const ASSETS: [(&str, &str, &str); 17] = [
     ("/nodes.js", JS, include_str!("../../web/nodes.js")),
     ("/panel.js", JS, include_str!("../../web/panel.js")),
     ("/render.js", JS, include_str!("../../web/render.js")),
+    ("/replay.js", JS, include_str!("../../web/replay.js")),
     ("/sound.js", JS, include_str!("../../web/sound.js")),
     ("/stream.js", JS, include_str!("../../web/stream.js")),
     ("/talk.js", JS, include_str!("../../web/talk.js")),
