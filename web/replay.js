@@ -55,10 +55,11 @@ export class ReplayBar {
     loop.replaceChildren(new Option("nothing", ""));
     marks.replaceChildren();
     const span = Math.max(1, recording.frames - 1);
-    for (const { label, first, last } of recording.labels) {
+    for (const [i, { label, first, last }] of recording.labels.entries()) {
       loop.add(new Option(`${label} (frames ${first}-${last})`, `${first}-${last}`));
       const mark = document.createElement("span");
       mark.textContent = label;
+      mark.classList.toggle("low", i % 2 === 1); // every other one a row down: they stay apart
       mark.style.left = `${(((first + last) / 2) * 100) / span}%`;
       marks.append(mark);
     }
