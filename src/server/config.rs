@@ -124,6 +124,9 @@ pub struct Limits {
     pub max_recordings_per_head: usize,
     /// Most frames a recording keeps; a producer that sends more goes on unrecorded.
     pub max_recording_frames: usize,
+    /// Most memory all recordings of the server take together, bytes; a recording that
+    /// would go past it is cut there.
+    pub max_recording_bytes: usize,
     /// A stream with no producer and no viewer is dropped this long after its last
     /// frame, seconds.
     pub stream_linger_s: f64,
@@ -192,6 +195,7 @@ impl Default for Limits {
             max_streams_per_head: 16,
             max_recordings_per_head: 8,
             max_recording_frames: 18_000,
+            max_recording_bytes: 256 << 20,
             stream_linger_s: 30.0,
             max_bindings_per_head: 8,
             max_pipelines_per_stream: 8,
@@ -399,6 +403,7 @@ impl Limits {
             ("max_streams_per_head", self.max_streams_per_head),
             ("max_recordings_per_head", self.max_recordings_per_head),
             ("max_recording_frames", self.max_recording_frames),
+            ("max_recording_bytes", self.max_recording_bytes),
             ("max_bindings_per_head", self.max_bindings_per_head),
             ("max_registrations", self.max_registrations),
             ("max_connections", self.max_connections),

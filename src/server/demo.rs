@@ -5,7 +5,6 @@
 use std::time::Duration;
 
 use super::error::ApiError;
-use super::recordings::Recording;
 use super::schedule::{self, Scheduled, ScheduledProducer};
 use super::store::{HeadMeta, HeadRecord, PartRecord};
 use super::AppState;
@@ -131,12 +130,9 @@ pub async fn loop_syllables(state: AppState, heads: Vec<String>, stream: String)
             _ = state.shutdown.cancelled() => return,
             ready = entry.wait_ready(Duration::MAX) => if ready.is_err() { continue },
         }
-        entry.recordings.insert(Recording {
-            name: SYLLABLES_RECORDING.into(),
-            stream: stream.clone(),
-            frames: recorded.clone(),
-            cut: false,
-        });
+        entry
+            .recordings
+            .keep(SYLLABLES_RECORDING, &stream, recorded.clone());
         if let Some(permit) = entry.stream(&stream).ok().and_then(|s| s.claim_producer()) {
             producers.push(ScheduledProducer::new(permit));
         }

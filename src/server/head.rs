@@ -107,7 +107,7 @@ pub enum HeadStatus {
 }
 
 /// Per-head stream and recording limits (from the configuration).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct StreamLimits {
     pub max_streams: usize,
     pub linger: Duration,
@@ -133,8 +133,8 @@ impl HeadEntry {
             meta,
             status: watch::Sender::new(status),
             streams: Mutex::new(HashMap::new()),
+            recordings: Arc::new(Recordings::new(limits.recordings.clone())),
             limits,
-            recordings: Arc::new(Recordings::new(limits.recordings)),
             deleted: CancellationToken::new(),
         }
     }

@@ -2,12 +2,14 @@
 //! has the parameter frames it sends kept, in order, as a recording of the head, which
 //! viewers then play at their own pace (`super::replay`). Recordings live in memory with
 //! the head; each head holds at most `max_recordings_per_head`, each at most
-//! `max_recording_frames` frames (a producer that sends more goes on, unrecorded past the
-//! limit, and its recording says it was cut). A producer whose head holds the most is
-//! refused before it starts; a recording is listed once its producer ends, and deleted on
-//! request or with its head.
+//! `max_recording_frames` frames, and all of the server's together at most
+//! `max_recording_bytes` (a producer that goes past either goes on, unrecorded past it,
+//! and its recording says it was cut). A producer whose head holds the most is refused
+//! before it starts; a recording is listed once its producer ends, and deleted on request
+//! or with its head (its memory is given back when the last replay of it ends).
 
 use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 use super::error::ApiError;
@@ -40,11 +42,60 @@ impl RecordQuery {
     }
 }
 
-/// The limits of a head's recordings (from the configuration).
-#[derive(Debug, Clone, Copy)]
+/// The limits of a head's recordings (from the configuration), and the memory all of the
+/// server's recordings share.
+#[derive(Debug, Clone)]
 pub struct RecordingLimits {
     pub max_per_head: usize,
     pub max_frames: usize,
+    pub budget: Arc<RecordingBudget>,
+}
+
+/// The memory every recording of a server takes together, bytes, and the most it may.
+#[derive(Debug)]
+pub struct RecordingBudget {
+    used: AtomicUsize,
+    max: usize,
+}
+
+impl RecordingBudget {
+    pub fn new(max_bytes: usize) -> Arc<RecordingBudget> {
+        Arc::new(RecordingBudget {
+            used: AtomicUsize::new(0),
+            max: max_bytes,
+        })
+    }
+
+    /// Takes `bytes` if they fit; false (nothing taken) if not.
+    fn take(&self, bytes: usize) -> bool {
+        self.used
+            .fetch_update(Ordering::AcqRel, Ordering::Acquire, |used| {
+                used.checked_add(bytes).filter(|&total| total <= self.max)
+            })
+            .is_ok()
+    }
+
+    fn give(&self, bytes: usize) {
+        self.used.fetch_sub(bytes, Ordering::AcqRel);
+    }
+
+    /// Bytes all recordings hold now.
+    pub fn used(&self) -> usize {
+        self.used.load(Ordering::Acquire)
+    }
+}
+
+/// What keeping `frame` costs in memory, bytes: the frame and what its vectors hold.
+fn frame_bytes(frame: &Frame) -> usize {
+    std::mem::size_of::<Frame>()
+        + frame.label.as_ref().map_or(0, String::len)
+        + frame.animation.len() * std::mem::size_of::<(u16, f32)>()
+        + frame.faps.len() * std::mem::size_of::<(u8, f32)>()
+        + frame.arkit.len() * std::mem::size_of::<(u8, f32)>()
+        + frame
+            .controls
+            .as_ref()
+            .map_or(0, |c| c.len() * std::mem::size_of::<[f32; 3]>())
 }
 
 /// A finished recording: the frames as the producer sent them.
@@ -56,6 +107,15 @@ pub struct Recording {
     pub frames: Vec<Frame>,
     /// Whether the producer sent more frames than a recording holds.
     pub cut: bool,
+    /// The memory its frames take, held in `budget` while it lives.
+    bytes: usize,
+    budget: Arc<RecordingBudget>,
+}
+
+impl Drop for Recording {
+    fn drop(&mut self) {
+        self.budget.give(self.bytes);
+    }
 }
 
 impl Recording {
@@ -163,14 +223,28 @@ impl Recordings {
                 stream: stream.to_string(),
                 frames: Vec::new(),
                 cut: false,
+                bytes: 0,
+                budget: self.limits.budget.clone(),
             }),
             max_frames: self.limits.max_frames,
         })
     }
 
-    /// Keeps a recording made elsewhere (the demo's syllable stream), replacing one of the
-    /// same name; it counts towards the limit like the others.
-    pub fn insert(&self, recording: Recording) {
+    /// Keeps `frames` of `stream` as recording `name`, made elsewhere (the demo's
+    /// syllable stream), replacing one of the same name; it counts towards the limits like
+    /// the others, but is kept even past them.
+    pub fn keep(&self, name: &str, stream: &str, frames: Vec<Frame>) {
+        let budget = self.limits.budget.clone();
+        let bytes = frames.iter().map(frame_bytes).sum();
+        budget.used.fetch_add(bytes, Ordering::AcqRel);
+        let recording = Recording {
+            name: name.to_string(),
+            stream: stream.to_string(),
+            frames,
+            cut: false,
+            bytes,
+            budget,
+        };
         let mut inner = self.inner.lock().expect("recordings lock");
         inner.done.insert(recording.name.clone(), Arc::new(recording));
     }
@@ -213,11 +287,14 @@ impl Recorder {
         self.recording.as_ref().map_or("", |r| r.name.as_str())
     }
 
-    /// Keeps `frame`, unless the recording is full.
+    /// Keeps `frame`, unless the recording is full or the server's recordings hold all
+    /// the memory they may.
     pub fn push(&mut self, frame: &Frame) {
         if let Some(recording) = &mut self.recording {
-            if recording.frames.len() < self.max_frames {
+            let bytes = frame_bytes(frame);
+            if recording.frames.len() < self.max_frames && recording.budget.take(bytes) {
                 recording.frames.push(frame.clone());
+                recording.bytes += bytes;
             } else {
                 recording.cut = true;
             }

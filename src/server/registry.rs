@@ -21,7 +21,7 @@ use crate::head::MeshBudget;
 use facewire_proto::codes::EndReason;
 
 /// Registry limits, from the configuration.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct RegistryLimits {
     /// Vertices and triangles of a head and its parts together.
     pub budget: MeshBudget,
@@ -158,7 +158,7 @@ impl Registry {
                 record.id.clone(),
                 record.meta.clone(),
                 HeadStatus::Registering { progress: 0.0 },
-                self.inner.limits.streams,
+                self.inner.limits.streams.clone(),
             ));
             heads.insert(entry.id.clone(), entry.clone());
             entry
@@ -276,7 +276,7 @@ impl Registry {
                         id.clone(),
                         HeadMeta::default(),
                         HeadStatus::Failed(format!("stored head cannot be loaded: {}", broken.problem)),
-                        self.inner.limits.streams,
+                        self.inner.limits.streams.clone(),
                     );
                     self.inner
                         .heads

@@ -15,7 +15,7 @@ use super::config::{Bus, Config, ConfigError};
 use super::error::ApiError;
 use super::head::StreamLimits;
 use super::head_store::HeadStore;
-use super::recordings::RecordingLimits;
+use super::recordings::{RecordingBudget, RecordingLimits};
 use super::registry::{Registry, RegistryLimits};
 use super::store::{Store, StoreError};
 use super::stream::{ProducerPermit, Stream};
@@ -171,6 +171,7 @@ impl AppState {
                     recordings: RecordingLimits {
                         max_per_head: limits.max_recordings_per_head,
                         max_frames: limits.max_recording_frames,
+                        budget: RecordingBudget::new(limits.max_recording_bytes),
                     },
                 },
             },

@@ -278,3 +278,31 @@ async fn recordings_keep_to_their_limits() {
     assert_eq!(status, 429, "the limit is checked first");
     server.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn all_recordings_together_keep_to_their_memory() {
+    // Room for two of the lesson's frames (each a frame, a 2-byte label, one unit weight).
+    let frame = std::mem::size_of::<facewire::stream::Frame>();
+    let mut config: Config = memory_config();
+    config.limits.max_recording_bytes = 2 * frame + 64;
+    let server = Server::start(config).await;
+    server.register("mh", "makehuman_head", "").await;
+    produce_lesson(&server, "first", 5).await;
+    let listed = recordings(&server).await;
+    assert_eq!((listed[0].frames, listed[0].cut), (2, true), "{listed:?}");
+    // Deleted, its memory is free again for the next.
+    let status = reqwest::Client::new()
+        .delete(server.http("/v1/heads/mh/recordings/first"))
+        .send()
+        .await
+        .unwrap()
+        .status();
+    assert_eq!(status, 204);
+    produce_lesson(&server, "second", 2).await;
+    let listed = recordings(&server).await;
+    assert_eq!(
+        (listed[0].name.as_str(), listed[0].frames, listed[0].cut),
+        ("second", 2, false)
+    );
+    server.stop().await;
+}
