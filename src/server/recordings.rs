@@ -232,8 +232,11 @@ impl Recordings {
 
     /// Keeps `frames` of `stream` as recording `name`, made elsewhere (the demo's
     /// syllable stream), replacing one of the same name; it counts towards the limits like
-    /// the others, but is kept even past them.
+    /// the others, but is kept even past them. Nothing is kept without frames.
     pub fn keep(&self, name: &str, stream: &str, frames: Vec<Frame>) {
+        if frames.is_empty() {
+            return; // a recording has at least one frame: a replay shows one at a time
+        }
         let budget = self.limits.budget.clone();
         let bytes = frames.iter().map(frame_bytes).sum();
         budget.used.fetch_add(bytes, Ordering::AcqRel);
