@@ -31,8 +31,13 @@ pub fn split_url(url: &str) -> (String, Option<UrlCredentials>) {
     (format!("{scheme}://{host}{path}"), Some(credentials))
 }
 
-/// `url` as it may be shown: a password or token in it replaced by `***`.
+/// `url` as it may be shown: a password or token in it (in each of a comma-separated
+/// list) replaced by `***`.
 pub fn redacted(url: &str) -> String {
+    url.split(',').map(redacted_one).collect::<Vec<_>>().join(",")
+}
+
+fn redacted_one(url: &str) -> String {
     let (bare, credentials) = split_url(url);
     let Some((scheme, rest)) = bare.split_once("://") else {
         return bare;
@@ -74,5 +79,10 @@ mod tests {
         );
         assert_eq!(redacted("nats://s3cret@h:1"), "nats://***@h:1");
         assert_eq!(redacted("nats://h:1"), "nats://h:1");
+        // A cluster's servers, the credentials in any of them.
+        assert_eq!(
+            redacted("nats://h:1,nats://u:s3cret@h:2,nats://h:3"),
+            "nats://h:1,nats://u:***@h:2,nats://h:3"
+        );
     }
 }

@@ -29,8 +29,12 @@ pub struct Config {
     /// default algorithm is always allowed.
     pub algorithms: Option<Vec<String>>,
     /// `"local"` (one node, no server needed) or a NATS URL (`nats://host:4222`, with
-    /// JetStream): the nodes sharing it share heads and streams (`src/server/cluster/`).
+    /// JetStream; the servers of a NATS cluster comma-separated): the nodes sharing it share heads and streams (`src/server/cluster/`).
     pub bus: String,
+    /// Copies JetStream keeps of each bucket the cluster makes (1-5; 3 on a
+    /// three-server NATS cluster, so that one server lost loses nothing). Buckets that
+    /// exist are used as they are.
+    pub bus_replicas: usize,
     /// This node's name on the bus; a random `node-...` when absent.
     pub node_name: Option<String>,
     pub limits: Limits,
@@ -171,6 +175,7 @@ impl Default for Config {
             default_algorithm: DEFAULT_ALGORITHM.into(),
             algorithms: None,
             bus: "local".into(),
+            bus_replicas: 1,
             node_name: None,
             limits: Limits::default(),
             auth: Auth::default(),
@@ -229,6 +234,8 @@ pub enum ConfigError {
     },
     #[error("bus = {0:?}: expected \"local\" or a NATS URL (nats://host:port or tls://host:port)")]
     Bus(String),
+    #[error("bus_replicas = {0}: JetStream keeps 1 to 5 copies")]
+    BusReplicas(usize),
     #[error("node_name = {0:?}: use 1-64 lowercase letters, digits, '-' or '_'")]
     NodeName(String),
     #[error("limits.{field} = {value}: {expected}")]
@@ -318,6 +325,9 @@ impl Config {
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.allowed_algorithms()?;
         self.bus()?;
+        if !(1..=5).contains(&self.bus_replicas) {
+            return Err(ConfigError::BusReplicas(self.bus_replicas));
+        }
         if let Some(name) = &self.node_name {
             if !super::ids::valid_id(name) {
                 return Err(ConfigError::NodeName(name.clone()));
@@ -332,9 +342,14 @@ impl Config {
         if bus == "local" {
             return Ok(Bus::Local);
         }
-        let url_ok = ["nats://", "tls://"]
-            .iter()
-            .any(|scheme| bus.strip_prefix(scheme).is_some_and(|rest| !rest.is_empty()));
+        // One server, or several of a NATS cluster, comma-separated.
+        let url_ok = bus.split(',').all(|url| {
+            ["nats://", "tls://"].iter().any(|scheme| {
+                url.trim()
+                    .strip_prefix(scheme)
+                    .is_some_and(|rest| !rest.is_empty())
+            })
+        });
         match url_ok {
             true => Ok(Bus::Nats(bus.to_string())),
             false => Err(ConfigError::Bus(super::bus_url::redacted(&self.bus))),
@@ -467,6 +482,15 @@ mod tests {
         assert!(err.starts_with("bus = \"redis://x\""), "{err}");
         config.bus = "nats://127.0.0.1:4222".into();
         assert_eq!(config.bus().unwrap(), Bus::Nats("nats://127.0.0.1:4222".into()));
+        config.bus = "nats://127.0.0.1:4222,nats://127.0.0.1:4223".into();
+        config.validate().unwrap();
+        config.bus = "nats://127.0.0.1:4222,".into();
+        assert!(config.validate().is_err());
+        config.bus = "nats://127.0.0.1:4222".into();
+        config.bus_replicas = 0;
+        let err = config.validate().unwrap_err().to_string();
+        assert!(err.starts_with("bus_replicas = 0"), "{err}");
+        config.bus_replicas = 3;
         config.node_name = Some("Node 1".into());
         assert!(config.validate().is_err());
         config.node_name = Some("node-1".into());

@@ -1,8 +1,10 @@
 //! This node follows the cluster: what the bus adapter ([`super::cluster`]) reports is
 //! applied to this node's registry here, and only here, so neither imports the other.
 //!
-//! - Heads put and deleted in the shared registry are registered or dropped here
-//!   ([`follow_heads`]).
+//! - Heads put and deleted in the shared registry are registered or dropped here, and
+//!   kept in (or removed from) the node's data directory ([`follow_heads`]).
+//! - What the shared registry loses (a bucket deleted, a record removed or overwritten by
+//!   someone without the cluster key) is put back from those copies ([`keep_store`]).
 //! - Other nodes' frames, voices and ends go into this node's copy of their stream,
 //!   held to the rules a producer's socket is ([`deliver`]).
 //! - Streams relayed from a node that vanished end ([`end_orphans`]).
@@ -12,8 +14,9 @@ use std::time::Duration;
 
 use tokio_util::sync::CancellationToken;
 
-use super::cluster::{Cluster, ClusterError, ClusterHeads, HeadChange, Remote, RemoteBody};
+use super::cluster::{Cluster, ClusterError, ClusterHeads, HeadChange, Remote, RemoteBody, Republished};
 use super::registry::Registry;
+use super::store::{HeadRecord, Store};
 use super::telemetry::Telemetry;
 use crate::mask::Mask;
 use facewire_proto::codes::EndReason;
@@ -31,7 +34,12 @@ pub async fn start(
         .start(mask, telemetry, move |message| deliver(&relayed, &hops, message))
         .await?;
     tokio::spawn(end_orphans(registry.clone(), cluster.clone(), shutdown.clone()));
-    tokio::spawn(follow_heads(cluster.heads.clone(), registry, shutdown));
+    tokio::spawn(follow_heads(
+        cluster.heads.clone(),
+        registry.clone(),
+        shutdown.clone(),
+    ));
+    tokio::spawn(keep_store(cluster.clone(), registry, shutdown));
     Ok(())
 }
 
@@ -72,9 +80,18 @@ async fn follow_heads(heads: ClusterHeads, registry: Registry, shutdown: Cancell
     while let Some(change) = changes.recv().await {
         let (id, shared) = match change {
             HeadChange::Deleted { id } => {
-                if registry.get(&id).is_some() {
+                if registry.drop_local(&id) {
                     tracing::info!(head = %id, "head deleted on another node");
-                    registry.drop_local(&id);
+                }
+                if let Err(e) = registry.store().forget_copy(&id).await {
+                    tracing::warn!(head = %id, error = %e, "local copy of a deleted head not removed");
+                }
+                continue;
+            }
+            HeadChange::Unproven { id, why } => {
+                tracing::warn!(head = %id, %why, "cluster registry entry changed without the cluster key");
+                if let Some(local) = registry.store().local_copies() {
+                    put_back(&heads, local, &id).await;
                 }
                 continue;
             }
@@ -98,11 +115,87 @@ async fn follow_heads(heads: ClusterHeads, registry: Registry, shutdown: Cancell
                 continue;
             }
         };
+        let record = match registry.store().copy_from_cluster(record).await {
+            Ok(record) => record,
+            Err(e) => {
+                tracing::warn!(head = %id, error = %e, "cluster head not kept on this node's disk");
+                continue;
+            }
+        };
         let Ok(slot) = registry.registration_slot(Duration::MAX).await else {
             continue;
         };
         if let Err(e) = registry.register(record, false, slot).await {
             tracing::warn!(head = %id, error = %e, "cluster head not registered here");
+        }
+    }
+}
+
+/// How often the buckets are checked.
+const STORE_CHECK: Duration = Duration::from_secs(2);
+
+/// Keeps the shared registry whole until `shutdown`: at start, and whenever a bucket had
+/// to be made again, every head this node keeps a copy of goes back into the buckets
+/// where they lack it (a key another node wrote since, or a tombstone, wins: the copy is
+/// then out of date, and following the bucket replaces or removes it).
+async fn keep_store(cluster: Arc<Cluster>, registry: Registry, shutdown: CancellationToken) {
+    let mut ticks = tokio::time::interval(STORE_CHECK);
+    let mut republish = true;
+    loop {
+        tokio::select! {
+            _ = shutdown.cancelled() => return,
+            _ = ticks.tick() => {}
+        }
+        match cluster.ensure_store().await {
+            Ok(made) => republish |= made,
+            Err(e) => {
+                tracing::warn!(error = %e, "cluster buckets cannot be used");
+                continue;
+            }
+        }
+        let Some(local) = registry.store().local_copies().cloned() else {
+            continue;
+        };
+        if !std::mem::take(&mut republish) {
+            continue;
+        }
+        let found = match tokio::task::spawn_blocking(move || local.load_all()).await {
+            Ok(Ok(found)) => found,
+            other => {
+                tracing::warn!(?other, "local copies of the cluster's heads not read");
+                republish = true;
+                continue;
+            }
+        };
+        for record in found.records {
+            republish |= !republish_one(&cluster.heads, &record).await;
+        }
+    }
+}
+
+/// Puts this node's copy of head `id` back into the buckets, if it keeps one.
+async fn put_back(heads: &ClusterHeads, local: &Store, id: &str) {
+    let (local, owned_id) = (local.clone(), id.to_string());
+    match tokio::task::spawn_blocking(move || local.load(&owned_id)).await {
+        Ok(Ok(record)) => {
+            // Tried again when the next unproven change or bucket check comes.
+            republish_one(heads, &record).await;
+        }
+        _ => tracing::info!(head = %id, "no local copy to put back"),
+    }
+}
+
+/// Puts `record` back into the buckets where they lack it; false when the bus failed.
+async fn republish_one(heads: &ClusterHeads, record: &HeadRecord) -> bool {
+    match heads.republish(record).await {
+        Ok(Republished::Restored) => {
+            tracing::warn!(head = %record.id, "head put back into the cluster registry from this node's copy");
+            true
+        }
+        Ok(Republished::Held | Republished::Superseded) => true,
+        Err(e) => {
+            tracing::warn!(head = %record.id, error = %e, "head not put back");
+            false
         }
     }
 }

@@ -28,7 +28,12 @@ pub async fn healthz(State(state): State<AppState>) -> impl IntoResponse {
         "viewers": state.config.limits.max_viewers - state.viewer_slots.available_permits(),
         "stored_problems": state.registry.problems(),
         "bus": match &state.cluster {
-            Some(cluster) => json!({"kind": "nats", "node": cluster.node, "connected": cluster.connected()}),
+            Some(cluster) => json!({
+                "kind": "nats",
+                "node": cluster.node,
+                "connected": cluster.connected(),
+                "store_problem": cluster.store_problem(),
+            }),
             None => json!({"kind": "local"}),
         },
         "uptime_s": state.started.elapsed().as_secs_f64(),

@@ -61,6 +61,11 @@ impl Registry {
         }
     }
 
+    /// Where heads are kept beyond this process.
+    pub fn store(&self) -> &HeadStore {
+        &self.inner.store
+    }
+
     pub fn get(&self, id: &str) -> Option<Arc<HeadEntry>> {
         self.inner.heads.lock().expect("heads lock").get(id).cloned()
     }
@@ -142,7 +147,7 @@ impl Registry {
             });
         }
         if persist {
-            if let HeadStore::Cluster(_) = self.inner.store {
+            if let HeadStore::Cluster { .. } = self.inner.store {
                 record.meta.registration_tag = Some(super::ids::unique_name("reg"));
             }
         }

@@ -10,7 +10,7 @@ use tokio_util::sync::CancellationToken;
 use tokio_util::task::TaskTracker;
 
 use super::auth::Tokens;
-use super::cluster::{Cluster, ClusterError, LeaseError};
+use super::cluster::{BucketSettings, Cluster, ClusterError, LeaseError};
 use super::config::{Bus, Config, ConfigError};
 use super::error::ApiError;
 use super::head::StreamLimits;
@@ -109,9 +109,28 @@ impl AppState {
             .unwrap_or_else(|| super::ids::unique_name("node"));
         let telemetry = Arc::new(Telemetry::default());
         let mask = Arc::new(Mask::candide3());
-        let cluster =
-            Arc::new(Cluster::connect(&url, &config.bus_auth, &node, mask.clone(), telemetry.clone()).await?);
-        let store = HeadStore::Cluster(Box::new(cluster.heads.clone()));
+        let settings = BucketSettings {
+            replicas: config.bus_replicas,
+        };
+        let cluster = Arc::new(
+            Cluster::connect(
+                &url,
+                &config.bus_auth,
+                &node,
+                mask.clone(),
+                telemetry.clone(),
+                settings,
+                config.limits.max_upload_bytes,
+            )
+            .await?,
+        );
+        // The node keeps every head of the cluster in its data directory too, to put back
+        // what the buckets lose.
+        let local = config.data_dir.as_deref().map(Store::open).transpose()?;
+        let store = HeadStore::Cluster {
+            heads: Box::new(cluster.heads.clone()),
+            local,
+        };
         let state = AppState::build(config, store, Some(cluster.clone()), mask, telemetry)?;
         super::follow::start(
             &cluster,

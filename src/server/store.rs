@@ -244,7 +244,8 @@ impl Store {
         Ok(found)
     }
 
-    fn load(&self, id: &str) -> Result<HeadRecord, StoreError> {
+    /// Head `id` as stored.
+    pub fn load(&self, id: &str) -> Result<HeadRecord, StoreError> {
         let dir = self.dir(id);
         let meta_path = dir.join("head.json");
         let meta_text = std::fs::read(&meta_path).map_err(io(&meta_path))?;

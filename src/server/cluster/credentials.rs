@@ -31,13 +31,20 @@ pub enum CredentialError {
     Invalid { field: &'static str, message: String },
 }
 
-/// The connect options `auth` and `url` ask for, and the URL to connect to (its user
-/// part moved into the options).
+/// The connect options `auth` and `url` ask for, and the URLs to connect to: `url` may
+/// list several servers of a NATS cluster, comma-separated; a user part in one of them
+/// moves into the options.
 pub async fn connect_options(
     auth: &BusAuth,
     url: &str,
-) -> Result<(async_nats::ConnectOptions, String), CredentialError> {
-    let (bare, from_url) = split_url(url);
+) -> Result<(async_nats::ConnectOptions, Vec<String>), CredentialError> {
+    let mut bare = Vec::new();
+    let mut from_url = None;
+    for entry in url.split(',') {
+        let (entry, credentials) = split_url(entry.trim());
+        bare.push(entry);
+        from_url = from_url.or(credentials);
+    }
     let mut methods = Vec::new();
     if auth.user.is_some() || auth.password.is_some() {
         methods.push("user and password");
@@ -184,9 +191,13 @@ mod tests {
                 .contains("tls_ca = \"/nowhere/ca.pem\": no such file"),
             "{error}"
         );
-        let (_, url) = connect_options(&BusAuth::default(), "nats://u:p@h:1")
+        let (_, urls) = connect_options(&BusAuth::default(), "nats://u:p@h:1")
             .await
             .unwrap();
-        assert_eq!(url, "nats://h:1");
+        assert_eq!(urls, ["nats://h:1"]);
+        let (_, urls) = connect_options(&BusAuth::default(), "nats://h:1, nats://u:p@h:2")
+            .await
+            .unwrap();
+        assert_eq!(urls, ["nats://h:1", "nats://h:2"]);
     }
 }

@@ -5,17 +5,31 @@
 //! written before the key and removed after it, so a node that sees a key finds its
 //! meshes. Every node follows the bucket from its start (the current value of every key
 //! first, then changes) and registers or drops heads to match; bindings stay local.
+//!
+//! Nothing read from the buckets is believed without proof. Each value is sealed with the
+//! cluster key ([`Seal`]) for its key, and names the size and SHA-256 of every object it
+//! uses, so a mesh is checked against the record before it is used and refused past the
+//! upload limit before it is read. A head is deleted by a sealed tombstone
+//! (`{"deleted": tag}`) in place of its record: a key removed, or a value put, by anyone
+//! without the key is reported as [`HeadChange::Unproven`] and the nodes that keep the
+//! head put it back ([`ClusterHeads::republish`]).
 
+use std::collections::BTreeMap;
+use std::sync::Arc;
 use std::time::Duration;
 
 use async_nats::jetstream::{self, kv, object_store};
 use bytes::Bytes;
 use futures_util::StreamExt;
 use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
 use tokio::io::AsyncReadExt;
 use tokio::sync::mpsc;
 use tokio_util::sync::CancellationToken;
 
+use super::seal::Seal;
+use super::stream_exists;
+use crate::server::ids::valid_id;
 use crate::server::store::{HeadMeta, HeadRecord, PartRecord};
 
 const HEADS_BUCKET: &str = "facewire_heads";
@@ -25,6 +39,24 @@ const REWATCH: Duration = Duration::from_secs(1);
 /// Changes read from the bucket and not yet applied: the watch waits beyond this.
 const CHANGES_WAITING: usize = 64;
 
+/// An object's size and content, as the record naming it says.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectDigest {
+    bytes: u64,
+    /// Lowercase hex.
+    sha256: String,
+}
+
+impl ObjectDigest {
+    fn of(bytes: &[u8]) -> ObjectDigest {
+        ObjectDigest {
+            bytes: bytes.len() as u64,
+            sha256: hex(&Sha256::digest(bytes)),
+        }
+    }
+}
+
 /// The value under a head's id.
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -33,42 +65,97 @@ pub struct SharedHead {
     fit_toml: String,
     /// Lists the parts; their meshes are objects.
     meta: HeadMeta,
+    /// Every object the head uses, by its name under `<id>/<tag>/` (`head.obj`,
+    /// `parts/<name>.obj`).
+    objects: BTreeMap<String, ObjectDigest>,
+}
+
+/// The value under a deleted head's id: the tag of the registration deleted.
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Tombstone {
+    deleted: String,
+}
+
+/// A value in the heads bucket.
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum SharedValue {
+    Head(SharedHead),
+    Deleted(Tombstone),
+}
+
+/// What a key of the heads bucket holds, once its proof is checked.
+enum Held {
+    /// Nothing, or a key removed (at `revision`) by someone who proved nothing.
+    Nothing {
+        revision: Option<u64>,
+    },
+    Head {
+        head: SharedHead,
+        revision: u64,
+    },
+    Deleted {
+        revision: u64,
+    },
+    /// A value without a valid proof, or that is no head.
+    Unproven {
+        revision: u64,
+        why: String,
+    },
+}
+
+impl Held {
+    fn revision(&self) -> Option<u64> {
+        match self {
+            Held::Nothing { revision } => *revision,
+            Held::Head { revision, .. } | Held::Deleted { revision } | Held::Unproven { revision, .. } => {
+                Some(*revision)
+            }
+        }
+    }
 }
 
 /// A change to the shared registry, as [`ClusterHeads::changes`] reports it.
 #[derive(Debug)]
 pub enum HeadChange {
     /// `id` was registered (again) somewhere; [`ClusterHeads::load`] reads its meshes.
-    Put {
-        id: String,
-        head: SharedHead,
-    },
-    Deleted {
-        id: String,
-    },
-}
-
-impl HeadChange {
-    /// The change a bucket entry makes; `None` for a value that is not a head.
-    fn of(entry: kv::Entry) -> Option<HeadChange> {
-        let id = entry.key;
-        if entry.operation != kv::Operation::Put {
-            return Some(HeadChange::Deleted { id });
-        }
-        match serde_json::from_slice(&entry.value) {
-            Ok(head) => Some(HeadChange::Put { id, head }),
-            Err(e) => {
-                tracing::warn!(head = %id, error = %e, "cluster registry entry skipped");
-                None
-            }
-        }
-    }
+    Put { id: String, head: SharedHead },
+    /// `id` was deleted by a node of the cluster.
+    Deleted { id: String },
+    /// `id`'s value was changed or removed without proof: a node that keeps the head
+    /// puts it back.
+    Unproven { id: String, why: String },
 }
 
 impl SharedHead {
     /// Tells registrations of the same id apart.
     pub fn tag(&self) -> &str {
         &self.tag
+    }
+
+    /// Whether the record names only what a registration may: its tag and part names
+    /// are ids (they become folder and file names on each node), and it names the
+    /// objects of exactly its mesh and parts.
+    fn check(&self) -> Result<(), String> {
+        if !valid_id(&self.tag) {
+            return Err(format!("tag {:?} is not an id", self.tag));
+        }
+        let mut expected = vec!["head.obj".to_string()];
+        for (part, _) in self.meta.listed_parts() {
+            if !valid_id(part) {
+                return Err(format!("part name {part:?} is not an id"));
+            }
+            expected.push(format!("parts/{part}.obj"));
+        }
+        expected.sort();
+        let named: Vec<&String> = self.objects.keys().collect();
+        if named != expected.iter().collect::<Vec<_>>() {
+            return Err(format!(
+                "names the objects {named:?}, its mesh and parts are {expected:?}"
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -78,19 +165,45 @@ pub enum SharedHeadError {
     Exists(String),
     #[error("cluster registry: {0}")]
     Bus(String),
+    #[error("cluster registry: head {id:?}: {message}")]
+    Refused { id: String, message: String },
 }
 
 fn bus(e: impl std::fmt::Display) -> SharedHeadError {
     SharedHeadError::Bus(e.to_string())
 }
 
+/// How the buckets are made when a node finds them missing.
+#[derive(Debug, Clone, Copy)]
+pub struct BucketSettings {
+    /// Copies JetStream keeps of each bucket (1, or 3 on a three-server NATS cluster).
+    pub replicas: usize,
+}
+
+/// What [`ClusterHeads::republish`] found.
+#[derive(Debug, PartialEq, Eq)]
+pub enum Republished {
+    /// The bucket already held this registration.
+    Held,
+    /// It was missing (or its value unproven) and is back.
+    Restored,
+    /// The bucket holds another registration of the id, or its tombstone: the copy kept
+    /// is out of date.
+    Superseded,
+}
+
 /// The shared registry's buckets; cloning is cheap.
 #[derive(Clone)]
 pub struct ClusterHeads {
+    js: jetstream::Context,
     kv: kv::Store,
     objects: object_store::ObjectStore,
     /// To refuse at once, rather than after a timeout, while NATS is away.
     client: async_nats::Client,
+    seal: Arc<Seal>,
+    settings: BucketSettings,
+    /// The largest object read from the bus (the HTTP upload limit).
+    max_object_bytes: u64,
 }
 
 fn mesh_name(id: &str, tag: &str) -> String {
@@ -101,40 +214,94 @@ fn part_name(id: &str, tag: &str, part: &str) -> String {
     format!("{id}/{tag}/parts/{part}.obj")
 }
 
+fn place(id: &str) -> String {
+    format!("kv/{HEADS_BUCKET}/{id}")
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+async fn heads_bucket(js: &jetstream::Context, settings: BucketSettings) -> Result<kv::Store, String> {
+    if let Ok(kv) = js.get_key_value(HEADS_BUCKET).await {
+        return Ok(kv);
+    }
+    js.create_key_value(kv::Config {
+        bucket: HEADS_BUCKET.into(),
+        description: "facewire: registered heads (metadata and fit)".into(),
+        history: 1,
+        storage: jetstream::stream::StorageType::File,
+        num_replicas: settings.replicas,
+        ..Default::default()
+    })
+    .await
+    .map_err(|e| e.to_string())
+}
+
+async fn meshes_bucket(
+    js: &jetstream::Context,
+    settings: BucketSettings,
+) -> Result<object_store::ObjectStore, String> {
+    if let Ok(objects) = js.get_object_store(MESHES_BUCKET).await {
+        return Ok(objects);
+    }
+    js.create_object_store(object_store::Config {
+        bucket: MESHES_BUCKET.into(),
+        description: Some("facewire: head and part meshes (OBJ)".into()),
+        storage: jetstream::stream::StorageType::File,
+        num_replicas: settings.replicas,
+        ..Default::default()
+    })
+    .await
+    .map_err(|e| e.to_string())
+}
+
 impl ClusterHeads {
-    /// Opens the buckets, making them (one replica) if this is the cluster's first node;
-    /// buckets an operator made first, with more replicas, are used as they are. The error
-    /// names the bucket.
+    /// Opens the buckets, making them (with `settings.replicas`) if this is the cluster's
+    /// first node; buckets an operator made first are used as they are. The error names
+    /// the bucket.
     pub async fn open(
         js: &jetstream::Context,
         client: async_nats::Client,
+        seal: Arc<Seal>,
+        settings: BucketSettings,
+        max_object_bytes: usize,
     ) -> Result<ClusterHeads, (&'static str, String)> {
-        let kv = match js.get_key_value(HEADS_BUCKET).await {
-            Ok(kv) => kv,
-            Err(_) => js
-                .create_key_value(kv::Config {
-                    bucket: HEADS_BUCKET.into(),
-                    description: "facewire: registered heads (metadata and fit)".into(),
-                    history: 1,
-                    storage: jetstream::stream::StorageType::File,
-                    ..Default::default()
-                })
-                .await
-                .map_err(|e| (HEADS_BUCKET, e.to_string()))?,
-        };
-        let objects = match js.get_object_store(MESHES_BUCKET).await {
-            Ok(objects) => objects,
-            Err(_) => js
-                .create_object_store(object_store::Config {
-                    bucket: MESHES_BUCKET.into(),
-                    description: Some("facewire: head and part meshes (OBJ)".into()),
-                    storage: jetstream::stream::StorageType::File,
-                    ..Default::default()
-                })
-                .await
-                .map_err(|e| (MESHES_BUCKET, e.to_string()))?,
-        };
-        Ok(ClusterHeads { kv, objects, client })
+        let kv = heads_bucket(js, settings).await.map_err(|e| (HEADS_BUCKET, e))?;
+        let objects = meshes_bucket(js, settings)
+            .await
+            .map_err(|e| (MESHES_BUCKET, e))?;
+        Ok(ClusterHeads {
+            js: js.clone(),
+            kv,
+            objects,
+            client,
+            seal,
+            settings,
+            max_object_bytes: max_object_bytes as u64,
+        })
+    }
+
+    /// Makes the buckets again if they are gone (an operator or a stranger deleted them);
+    /// true when one was made. The handles stay valid: buckets are found by name.
+    pub async fn ensure_buckets(&self) -> Result<bool, String> {
+        let mut made = false;
+        for (bucket, stream) in [
+            (HEADS_BUCKET, format!("KV_{HEADS_BUCKET}")),
+            (MESHES_BUCKET, format!("OBJ_{MESHES_BUCKET}")),
+        ] {
+            if stream_exists(&self.js, &stream).await? {
+                continue;
+            }
+            let made_now = match bucket {
+                HEADS_BUCKET => heads_bucket(&self.js, self.settings).await.map(drop),
+                _ => meshes_bucket(&self.js, self.settings).await.map(drop),
+            };
+            made_now.map_err(|e| format!("bucket {bucket:?}: {e}"))?;
+            tracing::warn!(bucket, "cluster registry bucket was gone; made it again");
+            made = true;
+        }
+        Ok(made)
     }
 
     /// Stores a new head for every node; `record.meta.registration_tag` must be set.
@@ -142,51 +309,119 @@ impl ClusterHeads {
     pub async fn save(&self, record: &HeadRecord) -> Result<(), SharedHeadError> {
         self.check_connected()?;
         let id = record.id.as_str();
-        let tag = record.meta.registration_tag.clone().unwrap_or_default();
-        if self.current(id).await?.is_some() {
+        let held = self.held(id).await?;
+        if matches!(held, Held::Head { .. }) {
             return Err(SharedHeadError::Exists(id.to_string()));
         }
-        let mut objects = vec![(mesh_name(id, &tag), &record.obj)];
-        for part in &record.parts {
-            objects.push((part_name(id, &tag, &part.name), &part.obj));
-        }
-        for (name, bytes) in &objects {
-            self.objects
-                .put(name.as_str(), &mut bytes.as_slice())
-                .await
-                .map_err(bus)?;
-        }
-        let value = SharedHead {
-            tag: tag.clone(),
-            fit_toml: record.fit_toml.clone(),
-            meta: record.meta.listing(&record.parts),
-        };
-        let value = Bytes::from(serde_json::to_vec(&value).expect("head metadata serializes"));
-        match self.kv.create(id, value).await {
-            Ok(_) => Ok(()),
+        let names = self.put_objects(record).await?;
+        match self.write_record(record, held.revision()).await {
+            Ok(()) => Ok(()),
             Err(e) => {
-                self.remove_objects(objects.iter().map(|(name, _)| name.clone()))
-                    .await;
-                match e.kind() {
-                    kv::CreateErrorKind::AlreadyExists => Err(SharedHeadError::Exists(id.to_string())),
-                    _ => Err(bus(e)),
-                }
+                self.remove_objects(names.into_iter()).await;
+                Err(e)
             }
         }
     }
 
-    /// Removes a head for every node; false when the cluster has no such head.
+    /// Puts a head this node keeps back into the bucket when its key holds nothing, or
+    /// holds what nobody of the cluster wrote there.
+    pub async fn republish(&self, record: &HeadRecord) -> Result<Republished, SharedHeadError> {
+        self.check_connected()?;
+        let tag = record.meta.registration_tag.as_deref().unwrap_or_default();
+        let held = self.held(&record.id).await?;
+        match &held {
+            Held::Head { head, .. } if head.tag == tag => return Ok(Republished::Held),
+            Held::Head { .. } | Held::Deleted { .. } => return Ok(Republished::Superseded),
+            Held::Nothing { .. } | Held::Unproven { .. } => {}
+        }
+        self.put_objects(record).await?;
+        match self.write_record(record, held.revision()).await {
+            Ok(()) => Ok(Republished::Restored),
+            // Another node put it back first.
+            Err(SharedHeadError::Exists(_)) => Ok(Republished::Held),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// Writes each of `record`'s meshes as an object; their names.
+    async fn put_objects(&self, record: &HeadRecord) -> Result<Vec<String>, SharedHeadError> {
+        let (id, tag) = (
+            record.id.as_str(),
+            record.meta.registration_tag.as_deref().unwrap_or_default(),
+        );
+        let mut objects = vec![(mesh_name(id, tag), &record.obj)];
+        for part in &record.parts {
+            objects.push((part_name(id, tag, &part.name), &part.obj));
+        }
+        let mut names = Vec::with_capacity(objects.len());
+        for (name, bytes) in objects {
+            if let Err(e) = self.objects.put(name.as_str(), &mut bytes.as_slice()).await {
+                self.remove_objects(names.into_iter()).await;
+                return Err(bus(e));
+            }
+            names.push(name);
+        }
+        Ok(names)
+    }
+
+    /// Writes `record`'s sealed value: created when the key has never held anything
+    /// (`revision` `None`), else in place of what it held at `revision`.
+    async fn write_record(&self, record: &HeadRecord, revision: Option<u64>) -> Result<(), SharedHeadError> {
+        let id = record.id.as_str();
+        let tag = record.meta.registration_tag.clone().unwrap_or_default();
+        let mut objects = BTreeMap::from([("head.obj".to_string(), ObjectDigest::of(&record.obj))]);
+        for part in &record.parts {
+            objects.insert(format!("parts/{}.obj", part.name), ObjectDigest::of(&part.obj));
+        }
+        let value = SharedHead {
+            tag,
+            fit_toml: record.fit_toml.clone(),
+            meta: record.meta.listing(&record.parts),
+            objects,
+        };
+        let value = serde_json::to_vec(&value).expect("head metadata serializes");
+        self.write(id, &value, revision).await
+    }
+
+    async fn write(&self, id: &str, value: &[u8], revision: Option<u64>) -> Result<(), SharedHeadError> {
+        let sealed = Bytes::from(self.seal.seal(&place(id), value));
+        let exists = || SharedHeadError::Exists(id.to_string());
+        match revision {
+            None => match self.kv.create(id, sealed).await {
+                Ok(_) => Ok(()),
+                Err(e) if e.kind() == kv::CreateErrorKind::AlreadyExists => Err(exists()),
+                Err(e) => Err(bus(e)),
+            },
+            Some(revision) => match self.kv.update(id, sealed, revision).await {
+                Ok(_) => Ok(()),
+                Err(e) if e.kind() == kv::UpdateErrorKind::WrongLastRevision => Err(exists()),
+                Err(e) => Err(bus(e)),
+            },
+        }
+    }
+
+    /// Removes a head for every node (a sealed tombstone in place of its record, then its
+    /// objects); false when the cluster has no such head.
     pub async fn delete(&self, id: &str) -> Result<bool, SharedHeadError> {
         self.check_connected()?;
-        let Some(shared) = self.current(id).await? else {
+        let Held::Head { head, revision } = self.held(id).await? else {
             return Ok(false);
         };
-        self.kv.delete(id).await.map_err(bus)?;
-        let mut names = vec![mesh_name(id, &shared.tag)];
-        for (part, _) in shared.meta.listed_parts() {
-            names.push(part_name(id, &shared.tag, part));
+        let tombstone = serde_json::to_vec(&Tombstone {
+            deleted: head.tag.clone(),
+        })
+        .expect("a tombstone serializes");
+        match self.write(id, &tombstone, Some(revision)).await {
+            Ok(()) => {}
+            // Registered again or deleted meanwhile: what is there now stays.
+            Err(SharedHeadError::Exists(_)) => return Ok(true),
+            Err(e) => return Err(e),
         }
-        self.remove_objects(names.into_iter()).await;
+        let names = head
+            .objects
+            .keys()
+            .map(|name| format!("{id}/{}/{name}", head.tag));
+        self.remove_objects(names).await;
         Ok(true)
     }
 
@@ -197,12 +432,39 @@ impl ClusterHeads {
         }
     }
 
-    async fn current(&self, id: &str) -> Result<Option<SharedHead>, SharedHeadError> {
-        match self.kv.entry(id).await.map_err(bus)? {
-            Some(entry) if entry.operation == kv::Operation::Put => {
-                serde_json::from_slice(&entry.value).map(Some).map_err(bus)
+    async fn held(&self, id: &str) -> Result<Held, SharedHeadError> {
+        Ok(match self.kv.entry(id).await.map_err(bus)? {
+            None => Held::Nothing { revision: None },
+            Some(entry) => self.classify(&entry),
+        })
+    }
+
+    /// What `entry` holds, its proof checked.
+    fn classify(&self, entry: &kv::Entry) -> Held {
+        let revision = entry.revision;
+        if entry.operation != kv::Operation::Put {
+            // A removal carries no proof: believed only when nothing is sealed.
+            return match self.seal.is_keyed() {
+                true => Held::Nothing {
+                    revision: Some(revision),
+                },
+                false => Held::Deleted { revision },
+            };
+        }
+        let unproven = |why: String| Held::Unproven { revision, why };
+        let Some(value) = self.seal.open(&place(&entry.key), &entry.value) else {
+            return unproven("its value carries no valid proof of the cluster key".into());
+        };
+        match serde_json::from_slice(value) {
+            Ok(SharedValue::Head(head)) => match head.check() {
+                Ok(()) => Held::Head { head, revision },
+                Err(why) => unproven(why),
+            },
+            Ok(SharedValue::Deleted(tombstone)) if valid_id(&tombstone.deleted) => Held::Deleted { revision },
+            Ok(SharedValue::Deleted(tombstone)) => {
+                unproven(format!("a tombstone of tag {:?}", tombstone.deleted))
             }
-            _ => Ok(None),
+            Err(e) => unproven(format!("not a head record: {e}")),
         }
     }
 
@@ -214,28 +476,63 @@ impl ClusterHeads {
         }
     }
 
-    async fn read_object(&self, name: &str) -> Result<Vec<u8>, SharedHeadError> {
-        let mut object = self
+    /// Object `name`, if it is what `digest` says: its size is checked before it is read.
+    async fn read_object(
+        &self,
+        name: &str,
+        digest: Option<&ObjectDigest>,
+    ) -> Result<Vec<u8>, SharedHeadError> {
+        let refused = |message: String| SharedHeadError::Bus(format!("object {name:?}: {message}"));
+        let info = self
             .objects
-            .get(name)
+            .info(name)
             .await
-            .map_err(|e| SharedHeadError::Bus(format!("{name}: {e}")))?;
-        let mut bytes = Vec::new();
+            .map_err(|e| refused(e.to_string()))?;
+        let size = info.size as u64;
+        if size > self.max_object_bytes {
+            return Err(refused(format!(
+                "{size} bytes, past max_upload_bytes ({})",
+                self.max_object_bytes
+            )));
+        }
+        if let Some(digest) = digest.filter(|d| d.bytes != size) {
+            return Err(refused(format!(
+                "{size} bytes where its record says {}",
+                digest.bytes
+            )));
+        }
+        let object = self.objects.get(name).await.map_err(|e| refused(e.to_string()))?;
+        let mut bytes = Vec::with_capacity(size as usize);
         object
+            .take(self.max_object_bytes + 1)
             .read_to_end(&mut bytes)
             .await
-            .map_err(|e| SharedHeadError::Bus(format!("{name}: {e}")))?;
+            .map_err(|e| refused(e.to_string()))?;
+        if let Some(digest) = digest {
+            if ObjectDigest::of(&bytes) != *digest {
+                return Err(refused("its content is not what its record names".into()));
+            }
+        } else if bytes.len() as u64 > self.max_object_bytes {
+            return Err(refused("grew past max_upload_bytes while read".into()));
+        }
         Ok(bytes)
     }
 
+    /// Reads the meshes of `shared`, checked against it.
     pub async fn load(&self, id: &str, shared: SharedHead) -> Result<HeadRecord, SharedHeadError> {
-        let obj = self.read_object(&mesh_name(id, &shared.tag)).await?;
+        let digest = |name: &str| shared.objects.get(name);
+        let obj = self
+            .read_object(&mesh_name(id, &shared.tag), digest("head.obj"))
+            .await?;
         let mut parts = Vec::new();
         for (name, role) in shared.meta.listed_parts() {
+            let object = format!("parts/{name}.obj");
             parts.push(PartRecord {
                 name: name.to_string(),
                 role,
-                obj: self.read_object(&part_name(id, &shared.tag, name)).await?,
+                obj: self
+                    .read_object(&part_name(id, &shared.tag, name), digest(&object))
+                    .await?,
             });
         }
         Ok(HeadRecord {
@@ -250,7 +547,7 @@ impl ClusterHeads {
     /// Follows the bucket until `shutdown` or until the receiver is dropped: the current
     /// value of every key first, then each change, as [`HeadChange`]s in order. Watches
     /// again (from each key's current value, which is idempotent) when the watch fails, as
-    /// it does while NATS restarts.
+    /// it does while NATS restarts or when the bucket is made again.
     pub fn changes(self, shutdown: CancellationToken) -> mpsc::Receiver<HeadChange> {
         let (tx, rx) = mpsc::channel(CHANGES_WAITING);
         tokio::spawn(async move {
@@ -263,7 +560,7 @@ impl ClusterHeads {
                         };
                         match change {
                             Some(Ok(entry)) => {
-                                let Some(change) = HeadChange::of(entry) else {
+                                let Some(change) = self.change(entry) else {
                                     continue;
                                 };
                                 if tx.send(change).await.is_err() {
@@ -286,5 +583,24 @@ impl ClusterHeads {
             }
         });
         rx
+    }
+
+    /// The change a bucket entry makes; `None` for a key that is no head id.
+    fn change(&self, entry: kv::Entry) -> Option<HeadChange> {
+        if !valid_id(&entry.key) {
+            tracing::warn!(key = %entry.key, "cluster registry key is no head id; skipped");
+            return None;
+        }
+        let held = self.classify(&entry);
+        let id = entry.key;
+        Some(match held {
+            Held::Head { head, .. } => HeadChange::Put { id, head },
+            Held::Deleted { .. } => HeadChange::Deleted { id },
+            Held::Nothing { .. } => HeadChange::Unproven {
+                id,
+                why: "removed without proof".into(),
+            },
+            Held::Unproven { why, .. } => HeadChange::Unproven { id, why },
+        })
     }
 }

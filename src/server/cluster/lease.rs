@@ -4,12 +4,19 @@
 //! update every [`REFRESH`], released by a delete at the revision it holds. The bucket's
 //! age limit ([`TTL`]) frees a lease whose node vanished without releasing it; sooner than
 //! that, a claim that finds a lease asks its holder whether it is alive
-//! (`facewire.node.<name>.alive`) and takes the lease over when nobody answers, so a
-//! producer whose node died can reconnect elsewhere at once.
+//! (`facewire.node.<name>.alive`) whether it holds that lease, and takes the lease over
+//! when no proven answer says so, so a producer whose node died can reconnect elsewhere
+//! at once.
+//!
+//! With a cluster key, lease values and liveness answers are sealed ([`Seal`]): a value
+//! nobody of the cluster wrote is no lease (a claim takes it over, its holder takes it
+//! back), and an answer must carry the proof over the question's nonce, so neither a
+//! forged lease nor a stranger answering for a node keeps a stream from its producer.
 
+use std::collections::HashSet;
 use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use async_nats::jetstream::{self, kv};
@@ -17,7 +24,10 @@ use bytes::Bytes;
 use futures_util::StreamExt;
 use tokio_util::sync::CancellationToken;
 
-use super::{ClusterError, PREFIX};
+use super::heads::BucketSettings;
+use super::seal::Seal;
+use super::{stream_exists, ClusterError, PREFIX};
+use crate::server::ids::valid_id;
 
 pub const BUCKET: &str = "facewire_producers";
 /// A lease nobody refreshes for this long is gone.
@@ -26,6 +36,11 @@ const TTL: Duration = Duration::from_secs(6);
 const REFRESH: Duration = Duration::from_secs(2);
 /// A holder that does not answer a liveness check within this is taken for dead.
 const LIVENESS_TIMEOUT: Duration = Duration::from_secs(1);
+/// A liveness question longer than this (bytes) is not answered.
+const MAX_QUESTION_BYTES: usize = 256;
+/// What a liveness answer says.
+const HELD: &[u8] = b"held";
+const FREE: &[u8] = b"free";
 
 #[derive(Debug, thiserror::Error)]
 pub enum LeaseError {
@@ -40,13 +55,47 @@ pub enum LeaseError {
 }
 
 pub struct Leases {
+    js: jetstream::Context,
     kv: kv::Store,
     client: async_nats::Client,
     node: String,
+    seal: Arc<Seal>,
+    settings: BucketSettings,
+    /// Keys of the leases this node holds now: what its liveness answers say.
+    held: Arc<Mutex<HashSet<String>>>,
+    /// Makes every liveness question's nonce new.
+    questions: AtomicU64,
 }
 
 fn alive_subject(node: &str) -> String {
     format!("{PREFIX}.node.{node}.alive")
+}
+
+fn place(key: &str) -> String {
+    format!("kv/{BUCKET}/{key}")
+}
+
+/// Where the answer to liveness question `question` asked of `node` is sealed.
+fn answer_place(node: &str, question: &[u8]) -> String {
+    format!("alive/{node}/{}", String::from_utf8_lossy(question))
+}
+
+async fn bucket(js: &jetstream::Context, settings: BucketSettings) -> Result<kv::Store, String> {
+    // Made by the cluster's first node; one an operator made first is used as it is.
+    if let Ok(kv) = js.get_key_value(BUCKET).await {
+        return Ok(kv);
+    }
+    js.create_key_value(kv::Config {
+        bucket: BUCKET.into(),
+        description: "facewire: which node holds each stream's producer".into(),
+        history: 1,
+        max_age: TTL,
+        storage: jetstream::stream::StorageType::File,
+        num_replicas: settings.replicas,
+        ..Default::default()
+    })
+    .await
+    .map_err(|e| e.to_string())
 }
 
 impl Leases {
@@ -54,30 +103,35 @@ impl Leases {
         js: &jetstream::Context,
         client: async_nats::Client,
         node: &str,
-    ) -> Result<Leases, jetstream::context::CreateKeyValueError> {
-        // Made by the cluster's first node; one an operator made first is used as it is.
-        let kv = match js.get_key_value(BUCKET).await {
-            Ok(kv) => kv,
-            Err(_) => {
-                js.create_key_value(kv::Config {
-                    bucket: BUCKET.into(),
-                    description: "facewire: which node holds each stream's producer".into(),
-                    history: 1,
-                    max_age: TTL,
-                    storage: jetstream::stream::StorageType::File,
-                    ..Default::default()
-                })
-                .await?
-            }
-        };
+        seal: Arc<Seal>,
+        settings: BucketSettings,
+    ) -> Result<Leases, String> {
         Ok(Leases {
-            kv,
+            js: js.clone(),
+            kv: bucket(js, settings).await?,
             client,
             node: node.to_string(),
+            seal,
+            settings,
+            held: Arc::default(),
+            questions: AtomicU64::new(0),
         })
     }
 
-    /// Answers liveness checks for this node until the connection closes.
+    /// Makes the bucket again if it is gone; true when it was made.
+    pub async fn ensure_bucket(&self) -> Result<bool, String> {
+        if stream_exists(&self.js, &format!("KV_{BUCKET}")).await? {
+            return Ok(false);
+        }
+        bucket(&self.js, self.settings)
+            .await
+            .map_err(|e| format!("bucket {BUCKET:?}: {e}"))?;
+        tracing::warn!(bucket = BUCKET, "producer lease bucket was gone; made it again");
+        Ok(true)
+    }
+
+    /// Answers liveness checks for this node until the connection closes: a question
+    /// names a nonce and a lease key, the sealed answer says whether this node holds it.
     pub async fn answer_liveness(
         &self,
         client: &async_nats::Client,
@@ -87,14 +141,44 @@ impl Leases {
             .subscribe(subject.clone())
             .await
             .map_err(|source| ClusterError::Subscribe { subject, source })?;
-        let client = client.clone();
+        let (client, held, seal, node) = (
+            client.clone(),
+            self.held.clone(),
+            self.seal.clone(),
+            self.node.clone(),
+        );
         Ok(async move {
             while let Some(check) = checks.next().await {
-                if let Some(reply) = check.reply {
-                    let _ = client.publish(reply, Bytes::new()).await;
+                let Some(reply) = check.reply else { continue };
+                if check.payload.len() > MAX_QUESTION_BYTES {
+                    continue;
                 }
+                let key = check
+                    .payload
+                    .split(|&b| b == b'\n')
+                    .nth(1)
+                    .map(String::from_utf8_lossy);
+                let holds = key.is_some_and(|key| held.lock().expect("held lock").contains(key.as_ref()));
+                let answer = seal.seal(
+                    &answer_place(&node, &check.payload),
+                    if holds { HELD } else { FREE },
+                );
+                let _ = client.publish(reply, answer.into()).await;
             }
         })
+    }
+
+    /// The node a lease's value names, if a node of the cluster wrote it.
+    fn holder(&self, key: &str, entry: &kv::Entry) -> Option<String> {
+        if entry.operation != kv::Operation::Put {
+            return None;
+        }
+        let node = std::str::from_utf8(self.seal.open(&place(key), &entry.value)?).ok()?;
+        valid_id(node).then(|| node.to_string())
+    }
+
+    fn value(&self, key: &str) -> Bytes {
+        self.seal.seal(&place(key), self.node.as_bytes()).into()
     }
 
     /// Claims the lease of `head`'s `stream` for this node. `cancel_producer` is
@@ -110,7 +194,7 @@ impl Leases {
         let unavailable = |e: &dyn std::fmt::Display| LeaseError::Unavailable(e.to_string());
         // A lease can change hands between reading it and taking it; a few tries settle it.
         for _ in 0..3 {
-            match self.kv.create(&key, self.node.clone().into()).await {
+            match self.kv.create(&key, self.value(&key)).await {
                 Ok(revision) => return Ok(self.hold(key, revision, cancel_producer)),
                 Err(e) if e.kind() == kv::CreateErrorKind::AlreadyExists => {}
                 Err(e) => return Err(unavailable(&e)),
@@ -118,25 +202,22 @@ impl Leases {
             let Some(entry) = self.kv.entry(&key).await.map_err(|e| unavailable(&e))? else {
                 continue;
             };
-            if entry.operation != kv::Operation::Put {
-                continue;
+            // A value nobody of the cluster wrote holds nothing: it is taken over.
+            let holder = self.holder(&key, &entry);
+            if let Some(holder) = &holder {
+                // This node's own lease is one its last producer has not released yet:
+                // the local producer slot already says nobody else produces here.
+                if *holder != self.node && self.holds(holder, &key).await {
+                    return Err(LeaseError::Busy {
+                        head: head.to_string(),
+                        stream: stream.to_string(),
+                        node: holder.clone(),
+                    });
+                }
             }
-            let holder = String::from_utf8_lossy(&entry.value).into_owned();
-            // This node's own lease is one its last producer has not released yet: the
-            // local producer slot already says nobody else produces here.
-            if holder != self.node && self.alive(&holder).await {
-                return Err(LeaseError::Busy {
-                    head: head.to_string(),
-                    stream: stream.to_string(),
-                    node: holder,
-                });
-            }
-            if let Ok(revision) = self
-                .kv
-                .update(&key, self.node.clone().into(), entry.revision)
-                .await
-            {
-                tracing::info!(%key, from = %holder, "producer lease taken over");
+            if let Ok(revision) = self.kv.update(&key, self.value(&key), entry.revision).await {
+                let from = holder.as_deref().unwrap_or("a value without proof");
+                tracing::info!(%key, %from, "producer lease taken over");
                 return Ok(self.hold(key, revision, cancel_producer));
             }
         }
@@ -155,18 +236,33 @@ impl Leases {
         Ok(entry.is_some_and(|e| e.operation == kv::Operation::Put))
     }
 
-    async fn alive(&self, node: &str) -> bool {
-        let check = self.client.request(alive_subject(node), Bytes::new());
-        matches!(tokio::time::timeout(LIVENESS_TIMEOUT, check).await, Ok(Ok(_)))
+    /// Whether `node` answers, with proof, that it holds lease `key`.
+    async fn holds(&self, node: &str, key: &str) -> bool {
+        let nonce = self.questions.fetch_add(1, Ordering::Relaxed);
+        let question = format!("{}-{}-{nonce}\n{key}", self.node, crate::server::now_us());
+        let check = self
+            .client
+            .request(alive_subject(node), Bytes::from(question.clone()));
+        match tokio::time::timeout(LIVENESS_TIMEOUT, check).await {
+            Ok(Ok(answer)) => {
+                self.seal
+                    .open(&answer_place(node, question.as_bytes()), &answer.payload)
+                    == Some(HELD)
+            }
+            _ => false,
+        }
     }
 
     fn hold(&self, key: String, revision: u64, cancel_producer: CancellationToken) -> Lease {
         let released = CancellationToken::new();
         let fence = Arc::new(AtomicU64::new(revision));
+        self.held.lock().expect("held lock").insert(key.clone());
         tokio::spawn(keep(
             Held {
                 kv: self.kv.clone(),
-                node: self.node.clone(),
+                value: self.value(&key),
+                seal: self.seal.clone(),
+                held: self.held.clone(),
                 key,
                 revision,
                 fence: fence.clone(),
@@ -196,7 +292,11 @@ impl Lease {
 /// What [`keep`] holds.
 struct Held {
     kv: kv::Store,
-    node: String,
+    /// This node's sealed value for the key.
+    value: Bytes,
+    seal: Arc<Seal>,
+    /// The node's held keys, to take `key` out of when done.
+    held: Arc<Mutex<HashSet<String>>>,
     key: String,
     revision: u64,
     fence: Arc<AtomicU64>,
@@ -213,7 +313,9 @@ impl Drop for Lease {
 async fn keep(held: Held, released: CancellationToken, cancel_producer: CancellationToken) {
     let Held {
         kv,
-        node,
+        value,
+        seal,
+        held,
         key,
         mut revision,
         fence,
@@ -224,18 +326,21 @@ async fn keep(held: Held, released: CancellationToken, cancel_producer: Cancella
             _ = released.cancelled() => break,
             _ = ticks.tick() => {}
         }
-        match kv.update(&key, node.clone().into(), revision).await {
+        match kv.update(&key, value.clone(), revision).await {
             Ok(next) => revision = next,
             Err(e) if e.kind() == kv::UpdateErrorKind::WrongLastRevision => {
-                // Expired while NATS was away, or taken over: take it back if it is free.
-                match kv.create(&key, node.clone().into()).await {
-                    Ok(next) => {
+                // Expired while NATS was away, taken over, or overwritten or removed by
+                // someone without the cluster key: take it back unless a node holds it.
+                match take_back(&kv, &seal, &key, &value).await {
+                    Some(next) => {
+                        tracing::info!(%key, "producer lease expired, or changed without proof; taken back");
                         revision = next;
                         fence.store(next, Ordering::Release);
                     }
-                    Err(_) => {
+                    None => {
                         tracing::warn!(%key, "producer lease lost to another node; closing this producer");
                         cancel_producer.cancel();
+                        held.lock().expect("held lock").remove(&key);
                         return;
                     }
                 }
@@ -244,7 +349,26 @@ async fn keep(held: Held, released: CancellationToken, cancel_producer: Cancella
             Err(e) => tracing::debug!(%key, error = %e, "producer lease not refreshed"),
         }
     }
+    held.lock().expect("held lock").remove(&key);
     if let Err(e) = kv.delete_expect_revision(&key, Some(revision)).await {
         tracing::debug!(%key, error = %e, "producer lease not released; it expires by itself");
+    }
+}
+
+/// Writes `value` back under `key` when no node of the cluster holds it (the key is gone,
+/// or holds a value without proof); the new revision, or `None` when another node holds it.
+async fn take_back(kv: &kv::Store, seal: &Seal, key: &str, value: &Bytes) -> Option<u64> {
+    let entry = kv.entry(key).await.ok()?;
+    match entry {
+        None => kv.create(key, value.clone()).await.ok(),
+        Some(entry) => {
+            let proven =
+                entry.operation == kv::Operation::Put && seal.open(&place(key), &entry.value).is_some();
+            // This node's own value (written again by anyone) is still this node's.
+            match proven && entry.value != *value {
+                true => None,
+                false => kv.update(key, value.clone(), entry.revision).await.ok(),
+            }
+        }
     }
 }

@@ -20,7 +20,7 @@ mod lease;
 mod relay;
 mod seal;
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use async_nats::jetstream;
@@ -30,7 +30,7 @@ use super::config::BusAuth;
 use super::telemetry::Telemetry;
 use crate::mask::Mask;
 pub use credentials::CredentialError;
-pub use heads::{ClusterHeads, HeadChange, SharedHeadError};
+pub use heads::{BucketSettings, ClusterHeads, HeadChange, Republished, SharedHeadError};
 pub use lease::LeaseError;
 pub use relay::{Remote, RemoteBody};
 
@@ -39,6 +39,24 @@ const PREFIX: &str = "facewire";
 /// How long a JetStream request (a lease, a registry entry, a mesh chunk) may take before
 /// the operation is refused as `bus_unavailable`.
 const JETSTREAM_TIMEOUT: Duration = Duration::from_secs(3);
+
+/// Whether JetStream stream `stream` (a bucket's: `KV_<bucket>`, `OBJ_<bucket>`) exists:
+/// `Ok(false)` only when JetStream says it does not, an error when it cannot say (NATS
+/// away, a leader being elected), so that no bucket is made again on a doubt.
+async fn stream_exists(js: &jetstream::Context, stream: &str) -> Result<bool, String> {
+    use jetstream::context::GetStreamErrorKind;
+    match js.get_stream(stream).await {
+        Ok(_) => Ok(true),
+        Err(e) => match e.kind() {
+            GetStreamErrorKind::JetStream(error)
+                if error.error_code() == jetstream::ErrorCode::STREAM_NOT_FOUND =>
+            {
+                Ok(false)
+            }
+            _ => Err(format!("stream {stream:?}: {e}")),
+        },
+    }
+}
 
 #[derive(Debug, thiserror::Error)]
 pub enum ClusterError {
@@ -57,6 +75,8 @@ pub enum ClusterError {
         bucket: &'static str,
         message: String,
     },
+    #[error("bus {url:?}: {message}")]
+    Url { url: String, message: String },
     #[error("bus: cannot subscribe to {subject:?}: {source}")]
     Subscribe {
         subject: String,
@@ -73,20 +93,26 @@ pub struct Cluster {
     leases: Arc<lease::Leases>,
     outbox: relay::Outbox,
     seal: Arc<seal::Seal>,
+    /// Why the buckets cannot be used now, as the last check found; `None` when they can.
+    store_problem: Mutex<Option<String>>,
 }
 
 impl Cluster {
-    /// Connects to NATS at `url` as `node` and opens (or creates) the buckets. Fails when
-    /// the server cannot be reached now; once connected, the client reconnects by itself
-    /// for as long as the node runs.
+    /// Connects to NATS at `url` (one server, or several of a NATS cluster,
+    /// comma-separated) as `node` and opens (or creates, with `settings`) the buckets; no
+    /// mesh larger than `max_object_bytes` is read from them. Fails when no server can be
+    /// reached now; once connected, the client reconnects by itself (to any server of the
+    /// NATS cluster) for as long as the node runs.
     pub async fn connect(
         url: &str,
         auth: &BusAuth,
         node: &str,
         mask: Arc<Mask>,
         telemetry: Arc<Telemetry>,
+        settings: BucketSettings,
+        max_object_bytes: usize,
     ) -> Result<Cluster, ClusterError> {
-        let (options, bare_url) = credentials::connect_options(auth, url).await?;
+        let (options, bare_urls) = credentials::connect_options(auth, url).await?;
         let seal = Arc::new(seal::Seal::new(auth.cluster_key.as_ref())?);
         if !seal.is_keyed() {
             tracing::warn!(
@@ -94,6 +120,14 @@ impl Cluster {
             );
         }
         let url = &redacted(url);
+        let servers = bare_urls
+            .iter()
+            .map(|u| u.parse::<async_nats::ServerAddr>())
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| ClusterError::Url {
+                url: url.to_string(),
+                message: e.to_string(),
+            })?;
         let client = options
             .name(format!("facewire {node}"))
             // A node never needs its own messages back: its viewers read its producers
@@ -108,7 +142,7 @@ impl Cluster {
                     other => tracing::info!(event = %other, "bus event"),
                 }
             })
-            .connect(bare_url)
+            .connect(servers)
             .await
             .map_err(|source| ClusterError::Connect {
                 url: url.to_string(),
@@ -123,10 +157,10 @@ impl Cluster {
                 message: e.to_string(),
             }
         };
-        let heads = ClusterHeads::open(&js, client.clone())
+        let heads = ClusterHeads::open(&js, client.clone(), seal.clone(), settings, max_object_bytes)
             .await
             .map_err(|(bucket, e)| bucket_error(bucket)(&e))?;
-        let leases = lease::Leases::open(&js, client.clone(), node)
+        let leases = lease::Leases::open(&js, client.clone(), node, seal.clone(), settings)
             .await
             .map_err(|e| bucket_error(lease::BUCKET)(&e))?;
         let outbox = relay::Outbox::start(client.clone(), seal.clone(), mask, telemetry);
@@ -137,7 +171,28 @@ impl Cluster {
             leases: Arc::new(leases),
             outbox,
             seal,
+            store_problem: Mutex::new(None),
         })
+    }
+
+    /// Makes the buckets again if any is gone; true when one was made (the heads this node
+    /// keeps are then to be published again). The error is why they cannot be used, also
+    /// kept for [`Cluster::store_problem`].
+    pub async fn ensure_store(&self) -> Result<bool, String> {
+        let checked = match self.connected() {
+            false => Err("not connected to NATS".to_string()),
+            true => match self.heads.ensure_buckets().await {
+                Ok(made) => self.leases.ensure_bucket().await.map(|leases| made || leases),
+                Err(e) => Err(e),
+            },
+        };
+        *self.store_problem.lock().expect("store lock") = checked.as_ref().err().cloned();
+        checked
+    }
+
+    /// Why the cluster's buckets cannot be used, as last checked; `None` when they can.
+    pub fn store_problem(&self) -> Option<String> {
+        self.store_problem.lock().expect("store lock").clone()
     }
 
     /// Starts what the node does for the bus: answering liveness checks, and handing

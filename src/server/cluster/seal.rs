@@ -4,6 +4,11 @@
 //! header (sorted by name) and the payload. A node with the key drops what does not carry
 //! a valid one, so a client on the bus without the key changes nothing a viewer sees.
 //! Without a key every message is taken as it comes (a warning says so at start).
+//!
+//! What the buckets hold (head records, tombstones, producer leases) and the answers to
+//! liveness checks are sealed the same way, the proof in the value itself ([`Seal::seal`]:
+//! a first line `mac:<hex>`, then the value) over the value and where it is kept (bucket
+//! and key), so a value cannot be moved to another key nor changed in place.
 
 use async_nats::HeaderMap;
 use hmac::{Hmac, Mac};
@@ -14,6 +19,8 @@ use crate::server::config::Secret;
 
 /// The header holding the proof, lowercase hex.
 pub const MAC_HEADER: &str = "Facewire-Mac";
+/// The first line of a sealed value starts with this; the proof follows, in hex.
+const VALUE_MAC: &[u8] = b"mac:";
 /// Shortest cluster key accepted, bytes.
 const MIN_KEY_BYTES: usize = 16;
 
@@ -67,6 +74,40 @@ impl Seal {
         mac.verify_slice(&given).is_ok()
     }
 
+    /// `value` as kept at `place` (e.g. `kv/facewire_heads/<id>`): with a key, a first line
+    /// holding the proof of both, then the value; without, the value as it is.
+    pub fn seal(&self, place: &str, value: &[u8]) -> Vec<u8> {
+        let Some(key) = &self.key else {
+            return value.to_vec();
+        };
+        let mut mac = key.clone();
+        feed_value(&mut mac, place, value);
+        let mut sealed = VALUE_MAC.to_vec();
+        sealed.extend_from_slice(hex(&mac.finalize().into_bytes()).as_bytes());
+        sealed.push(b'\n');
+        sealed.extend_from_slice(value);
+        sealed
+    }
+
+    /// The value [`Seal::seal`] sealed for `place`, or `None` when its proof is missing or
+    /// wrong. Without a key every value is taken (a proof line, if any, is skipped).
+    pub fn open<'a>(&self, place: &str, sealed: &'a [u8]) -> Option<&'a [u8]> {
+        let proof_and_value = sealed.strip_prefix(VALUE_MAC).and_then(|rest| {
+            let newline = rest.iter().position(|&b| b == b'\n')?;
+            Some((
+                unhex(std::str::from_utf8(&rest[..newline]).ok()?)?,
+                &rest[newline + 1..],
+            ))
+        });
+        let Some(key) = &self.key else {
+            return Some(proof_and_value.map_or(sealed, |(_, value)| value));
+        };
+        let (proof, value) = proof_and_value?;
+        let mut mac = key.clone();
+        feed_value(&mut mac, place, value);
+        mac.verify_slice(&proof).is_ok().then_some(value)
+    }
+
     fn mac(&self, subject: &str, headers: &HeaderMap, payload: &[u8]) -> Option<Vec<u8>> {
         let mut mac = self.key.clone()?;
         feed(&mut mac, subject, headers, payload);
@@ -99,6 +140,14 @@ fn feed(mac: &mut Hmac<Sha256>, subject: &str, headers: &HeaderMap, payload: &[u
         part(value.as_bytes());
     }
     part(payload);
+}
+
+/// A stored value's place and bytes, told apart from a message's by a leading tag.
+fn feed_value(mac: &mut Hmac<Sha256>, place: &str, value: &[u8]) {
+    for part in [b"value".as_slice(), place.as_bytes(), value] {
+        mac.update(&(part.len() as u64).to_le_bytes());
+        mac.update(part);
+    }
 }
 
 fn hex(bytes: &[u8]) -> String {
@@ -154,5 +203,29 @@ mod tests {
             error.to_string().starts_with("bus_auth.cluster_key: 5 bytes"),
             "{error}"
         );
+    }
+
+    #[test]
+    fn a_sealed_value_opens_only_where_it_was_sealed_and_unchanged() {
+        let seal = Seal::new(Some(&Secret::from("0123456789abcdef0123"))).unwrap();
+        let sealed = seal.seal("kv/facewire_heads/mh", b"{\"tag\":\"a\"}");
+        assert!(sealed.starts_with(b"mac:"));
+        assert_eq!(
+            seal.open("kv/facewire_heads/mh", &sealed),
+            Some(&b"{\"tag\":\"a\"}"[..])
+        );
+        // Moved to another key, changed, unsealed, or sealed under another key: refused.
+        assert_eq!(seal.open("kv/facewire_heads/other", &sealed), None);
+        let mut changed = sealed.clone();
+        *changed.last_mut().unwrap() = b']';
+        assert_eq!(seal.open("kv/facewire_heads/mh", &changed), None);
+        assert_eq!(seal.open("kv/facewire_heads/mh", b"{\"tag\":\"a\"}"), None);
+        let other = Seal::new(Some(&Secret::from("another key, long enough"))).unwrap();
+        assert_eq!(other.open("kv/facewire_heads/mh", &sealed), None);
+        // Without a key: values are kept as they are, and any value is taken.
+        let open = Seal::new(None).unwrap();
+        assert_eq!(open.seal("p", b"v"), b"v");
+        assert_eq!(open.open("p", b"v"), Some(&b"v"[..]));
+        assert_eq!(open.open("p", &sealed), Some(&b"{\"tag\":\"a\"}"[..]));
     }
 }
