@@ -343,3 +343,25 @@ async fn three_nats_servers_one_killed_during_a_stream_lose_nothing() {
     .await;
     n1.wait_ready_in_cluster("second", Duration::from_secs(30)).await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_head_from_the_bus_obeys_the_upload_limit() {
+    // The MakeHuman head's mesh is 244,356 bytes: n2 takes no upload that large, and
+    // takes none from the bus either (its size is read before the mesh).
+    let nats = NatsServer::start();
+    let plain = |name: &str, limits: &str| {
+        format!(
+            "bus = \"{}\"\nnode_name = \"{name}\"\n[limits]\nproducer_idle_s = 60.0\n{limits}",
+            nats.url()
+        )
+    };
+    let n1 = Server::spawn(&plain("n1", "")).await;
+    let n2 = Server::spawn(&plain("n2", "max_upload_bytes = 200000\n")).await;
+    n1.register(HEAD, "makehuman_head", "").await;
+    let n3 = Server::spawn(&plain("n3", "")).await;
+    n3.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
+    assert!(
+        info(&n2, HEAD).await.is_none(),
+        "n2 took a mesh past its upload limit"
+    );
+}
