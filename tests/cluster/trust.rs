@@ -149,8 +149,13 @@ async fn with_a_cluster_key_a_client_on_the_bus_changes_nothing_in_the_registry(
         assert!(ready(node, HEAD).await, "{}", node.addr);
     }
 
-    // Every bucket deleted: the nodes make them again and put their heads back, new
+    // Every bucket deleted under a live stream: the nodes make them again and put their
+    // heads back, the producer takes its lease back in the new bucket and its frames go
+    // on reaching the other node (the new lease's token is above the old one's), new
     // registrations and producers work, and a node started afterwards has every head.
+    let mut watcher = viewer(&n2).await;
+    let mut owner = producer_with(&n1, "owner").await.unwrap();
+    produce(&mut owner, 0).await;
     js.delete_key_value("facewire_heads").await.unwrap();
     js.delete_object_store("facewire_meshes").await.unwrap();
     js.delete_key_value("facewire_producers").await.unwrap();
@@ -173,8 +178,22 @@ async fn with_a_cluster_key_a_client_on_the_bus_changes_nothing_in_the_registry(
     })
     .await;
     n1.wait_ready_in_cluster("second", Duration::from_secs(30)).await;
-    let mut owner = producer_with(&n1, "owner").await.unwrap();
-    produce(&mut owner, 0).await;
+    // Past two lease refreshes (2 s each) in the new bucket.
+    for seq in 1..=150 {
+        produce(&mut owner, seq).await;
+        tokio::time::sleep(Duration::from_millis(30)).await;
+    }
+    let mut last = None;
+    while let Some(seq) = next_seq(&mut watcher, Duration::from_millis(500)).await {
+        last = Some(seq);
+    }
+    assert_eq!(
+        last,
+        Some(150),
+        "frames under the new bucket's lease did not cross"
+    );
+    let leases = js.get_key_value("facewire_producers").await.unwrap();
+    assert!(value(&leases, &format!("{HEAD}.{STREAM}")).await.is_some());
     for node in [&n1, &n2] {
         let health = node.healthz().await;
         assert_eq!(

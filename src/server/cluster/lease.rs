@@ -38,6 +38,12 @@ const REFRESH: Duration = Duration::from_secs(2);
 const LIVENESS_TIMEOUT: Duration = Duration::from_secs(1);
 /// A liveness question longer than this (bytes) is not answered.
 const MAX_QUESTION_BYTES: usize = 256;
+/// A fencing token's low bits hold the lease's revision; the bits above, the seconds
+/// from [`FENCE_EPOCH_S`] to when the lease bucket was made, so that a bucket made again
+/// (its revisions starting over at 1) still gives larger tokens than the one before.
+const FENCE_REVISION_BITS: u32 = 36;
+/// 2020-01-01 UTC, s since the Unix epoch.
+const FENCE_EPOCH_S: i64 = 1_577_836_800;
 /// What a liveness answer says.
 const HELD: &[u8] = b"held";
 const FREE: &[u8] = b"free";
@@ -78,6 +84,22 @@ fn place(key: &str) -> String {
 /// Where the answer to liveness question `question` asked of `node` is sealed.
 fn answer_place(node: &str, question: &[u8]) -> String {
     format!("alive/{node}/{}", String::from_utf8_lossy(question))
+}
+
+/// The fencing token of revision `revision` of the bucket made at `made_s` (s since the
+/// Unix epoch).
+fn fence_token(made_s: i64, revision: u64) -> u64 {
+    let made = (made_s - FENCE_EPOCH_S).max(0) as u64;
+    (made << FENCE_REVISION_BITS) | (revision & ((1 << FENCE_REVISION_BITS) - 1))
+}
+
+/// When the lease bucket now in JetStream was made, s since the Unix epoch.
+async fn bucket_made_s(js: &jetstream::Context) -> Result<i64, String> {
+    let stream = js
+        .get_stream(format!("KV_{BUCKET}"))
+        .await
+        .map_err(|e| e.to_string())?;
+    Ok(stream.cached_info().created.unix_timestamp())
 }
 
 async fn bucket(js: &jetstream::Context, settings: BucketSettings) -> Result<kv::Store, String> {
@@ -192,10 +214,11 @@ impl Leases {
     ) -> Result<Lease, LeaseError> {
         let key = format!("{head}.{stream}");
         let unavailable = |e: &dyn std::fmt::Display| LeaseError::Unavailable(e.to_string());
+        let made_s = bucket_made_s(&self.js).await.map_err(|e| unavailable(&e))?;
         // A lease can change hands between reading it and taking it; a few tries settle it.
         for _ in 0..3 {
             match self.kv.create(&key, self.value(&key)).await {
-                Ok(revision) => return Ok(self.hold(key, revision, cancel_producer)),
+                Ok(revision) => return Ok(self.hold(key, (made_s, revision), cancel_producer)),
                 Err(e) if e.kind() == kv::CreateErrorKind::AlreadyExists => {}
                 Err(e) => return Err(unavailable(&e)),
             }
@@ -218,7 +241,7 @@ impl Leases {
             if let Ok(revision) = self.kv.update(&key, self.value(&key), entry.revision).await {
                 let from = holder.as_deref().unwrap_or("a value without proof");
                 tracing::info!(%key, %from, "producer lease taken over");
-                return Ok(self.hold(key, revision, cancel_producer));
+                return Ok(self.hold(key, (made_s, revision), cancel_producer));
             }
         }
         Err(LeaseError::Unavailable(format!(
@@ -253,12 +276,14 @@ impl Leases {
         }
     }
 
-    fn hold(&self, key: String, revision: u64, cancel_producer: CancellationToken) -> Lease {
+    /// Holds lease `key`, claimed at `revision` of the bucket made at `made_s`.
+    fn hold(&self, key: String, (made_s, revision): (i64, u64), cancel_producer: CancellationToken) -> Lease {
         let released = CancellationToken::new();
-        let fence = Arc::new(AtomicU64::new(revision));
+        let fence = Arc::new(AtomicU64::new(fence_token(made_s, revision)));
         self.held.lock().expect("held lock").insert(key.clone());
         tokio::spawn(keep(
             Held {
+                js: self.js.clone(),
                 kv: self.kv.clone(),
                 value: self.value(&key),
                 seal: self.seal.clone(),
@@ -277,8 +302,9 @@ impl Leases {
 /// A held lease; dropping it releases the lease.
 pub struct Lease {
     released: CancellationToken,
-    /// The revision the lease was claimed at: its fencing token. A later holder's is
-    /// larger (revisions only grow), so other nodes drop what an earlier holder still
+    /// The lease's fencing token (the revision it was claimed at, above it when the bucket
+    /// was made). A later holder's is larger (revisions only grow, and a bucket made again
+    /// is made later), so other nodes drop what an earlier holder still
     /// relays after losing it.
     fence: Arc<AtomicU64>,
 }
@@ -291,6 +317,7 @@ impl Lease {
 
 /// What [`keep`] holds.
 struct Held {
+    js: jetstream::Context,
     kv: kv::Store,
     /// This node's sealed value for the key.
     value: Bytes,
@@ -312,6 +339,7 @@ impl Drop for Lease {
 /// (then cancels the producer).
 async fn keep(held: Held, released: CancellationToken, cancel_producer: CancellationToken) {
     let Held {
+        js,
         kv,
         value,
         seal,
@@ -335,7 +363,11 @@ async fn keep(held: Held, released: CancellationToken, cancel_producer: Cancella
                     Some(next) => {
                         tracing::info!(%key, "producer lease expired, or changed without proof; taken back");
                         revision = next;
-                        fence.store(next, Ordering::Release);
+                        // The bucket may have been made again meanwhile: the token then
+                        // starts from its making.
+                        if let Ok(made_s) = bucket_made_s(&js).await {
+                            fence.store(fence_token(made_s, next), Ordering::Release);
+                        }
                     }
                     None => {
                         tracing::warn!(%key, "producer lease lost to another node; closing this producer");
@@ -370,5 +402,19 @@ async fn take_back(kv: &kv::Store, seal: &Seal, key: &str, value: &Bytes) -> Opt
                 false => kv.update(key, value.clone(), entry.revision).await.ok(),
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_bucket_made_again_gives_larger_fencing_tokens() {
+        let made = 1_780_000_000;
+        assert!(fence_token(made, 2) > fence_token(made, 1));
+        // Made a second later, its first revision is above any the earlier one reached.
+        assert!(fence_token(made + 1, 1) > fence_token(made, (1 << FENCE_REVISION_BITS) - 1));
+        assert_eq!(fence_token(FENCE_EPOCH_S, 7), 7);
     }
 }
