@@ -27,8 +27,8 @@ use tokio::io::AsyncReadExt;
 use tokio::sync::mpsc;
 use tokio_util::sync::CancellationToken;
 
-use super::seal::Seal;
-use super::stream_exists;
+use super::seal::{hex, Seal};
+use super::{open_key_value, stream_exists};
 use crate::server::ids::valid_id;
 use crate::server::store::{HeadMeta, HeadRecord, PartRecord};
 
@@ -218,24 +218,19 @@ fn place(id: &str) -> String {
     format!("kv/{HEADS_BUCKET}/{id}")
 }
 
-fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02x}")).collect()
-}
-
 async fn heads_bucket(js: &jetstream::Context, settings: BucketSettings) -> Result<kv::Store, String> {
-    if let Ok(kv) = js.get_key_value(HEADS_BUCKET).await {
-        return Ok(kv);
-    }
-    js.create_key_value(kv::Config {
-        bucket: HEADS_BUCKET.into(),
-        description: "facewire: registered heads (metadata and fit)".into(),
-        history: 1,
-        storage: jetstream::stream::StorageType::File,
-        num_replicas: settings.replicas,
-        ..Default::default()
-    })
+    open_key_value(
+        js,
+        kv::Config {
+            bucket: HEADS_BUCKET.into(),
+            description: "facewire: registered heads (metadata and fit)".into(),
+            history: 1,
+            storage: jetstream::stream::StorageType::File,
+            num_replicas: settings.replicas,
+            ..Default::default()
+        },
+    )
     .await
-    .map_err(|e| e.to_string())
 }
 
 async fn meshes_bucket(

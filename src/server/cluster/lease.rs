@@ -26,7 +26,7 @@ use tokio_util::sync::CancellationToken;
 
 use super::heads::BucketSettings;
 use super::seal::Seal;
-use super::{stream_exists, ClusterError, PREFIX};
+use super::{open_key_value, stream_exists, ClusterError, PREFIX};
 use crate::server::ids::valid_id;
 
 pub const BUCKET: &str = "facewire_producers";
@@ -103,21 +103,19 @@ async fn bucket_made_s(js: &jetstream::Context) -> Result<i64, String> {
 }
 
 async fn bucket(js: &jetstream::Context, settings: BucketSettings) -> Result<kv::Store, String> {
-    // Made by the cluster's first node; one an operator made first is used as it is.
-    if let Ok(kv) = js.get_key_value(BUCKET).await {
-        return Ok(kv);
-    }
-    js.create_key_value(kv::Config {
-        bucket: BUCKET.into(),
-        description: "facewire: which node holds each stream's producer".into(),
-        history: 1,
-        max_age: TTL,
-        storage: jetstream::stream::StorageType::File,
-        num_replicas: settings.replicas,
-        ..Default::default()
-    })
+    open_key_value(
+        js,
+        kv::Config {
+            bucket: BUCKET.into(),
+            description: "facewire: which node holds each stream's producer".into(),
+            history: 1,
+            max_age: TTL,
+            storage: jetstream::stream::StorageType::File,
+            num_replicas: settings.replicas,
+            ..Default::default()
+        },
+    )
     .await
-    .map_err(|e| e.to_string())
 }
 
 impl Leases {

@@ -58,6 +58,18 @@ async fn stream_exists(js: &jetstream::Context, stream: &str) -> Result<bool, St
     }
 }
 
+/// The key-value bucket `config` names, made with `config` when it does not exist (by the
+/// cluster's first node); one an operator made first is used as it is.
+async fn open_key_value(
+    js: &jetstream::Context,
+    config: jetstream::kv::Config,
+) -> Result<jetstream::kv::Store, String> {
+    if let Ok(kv) = js.get_key_value(config.bucket.as_str()).await {
+        return Ok(kv);
+    }
+    js.create_key_value(config).await.map_err(|e| e.to_string())
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum ClusterError {
     #[error(transparent)]

@@ -150,7 +150,8 @@ fn feed_value(mac: &mut Hmac<Sha256>, place: &str, value: &[u8]) {
     }
 }
 
-fn hex(bytes: &[u8]) -> String {
+/// Lowercase hex of `bytes`.
+pub(super) fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
