@@ -134,9 +134,35 @@ impl DepthMap {
         let cell = extent / cells as f32;
         let columns = (((high.x - low.x) / cell) as usize + 1).min(cells + 1);
         let rows = (((high.y - low.y) / cell) as usize + 1).min(cells + 1);
+        Self::render_grid(positions, triangles, view, (low, cell), (columns, rows), winding)
+    }
+
+    /// Like [`DepthMap::render`] on a square window of the view: `cells` by `cells` cells of
+    /// `side / cells` (head units) from `low` (the window's lower-left corner, lateral and
+    /// up). Cell (column, row) covers the window's point `low + (column, row) * cell`.
+    pub fn render_window(
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+        view: View,
+        (low, side): (Vec2, f32),
+        cells: usize,
+        winding: f32,
+    ) -> DepthMap {
+        let cell = side.max(f32::MIN_POSITIVE) / cells as f32;
+        Self::render_grid(positions, triangles, view, (low, cell), (cells, cells), winding)
+    }
+
+    fn render_grid(
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+        view: View,
+        (origin, cell): (Vec2, f32),
+        (columns, rows): (usize, usize),
+        winding: f32,
+    ) -> DepthMap {
         let mut map = DepthMap {
             view,
-            origin: low,
+            origin,
             cell,
             columns,
             rows,
@@ -188,7 +214,13 @@ impl DepthMap {
         self.at(cell.x as isize, cell.y as isize)
     }
 
-    fn at(&self, column: isize, row: isize) -> Option<f32> {
+    /// The grid's size, columns and rows.
+    pub fn cells(&self) -> (usize, usize) {
+        (self.columns, self.rows)
+    }
+
+    /// The depth at cell (column, row) (row 0 at the bottom), if a surface covers it.
+    pub fn at(&self, column: isize, row: isize) -> Option<f32> {
         if column < 0 || row < 0 || column as usize >= self.columns || row as usize >= self.rows {
             return None;
         }

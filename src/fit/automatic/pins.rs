@@ -6,6 +6,7 @@
 use glam::DVec3;
 
 use super::closest_points::Pin;
+use super::learned_reading::LearnedFace;
 use super::mirror_plane::MirrorPlane;
 use super::{eyes, fissure, front_image, profile, FoundFeatures, MouthCorners};
 use crate::fit::umeyama::Similarity;
@@ -281,4 +282,48 @@ mod tests {
         assert_eq!(corners, MouthCorners::NotFound);
         assert!(x.is_empty());
     }
+}
+
+/// CANDIDE-3 vertices and the MediaPipe face-mesh points that mark the same place: for each
+/// of the ten points the shipped heads' landmark files mark (eye corners, nose tip, alar
+/// wings, mouth corners, chin), the mirror pair of mesh points that lay nearest the marked
+/// vertices on the three shipped heads, on average (docs/FITTING.md, "The learned reading").
+const LEARNED_MARKS: [(u32, usize); 10] = [
+    (MASK_LEFT_EYE_CORNERS[1], 359),
+    (MASK_RIGHT_EYE_CORNERS[1], 130),
+    (MASK_LEFT_EYE_CORNERS[0], 362),
+    (MASK_RIGHT_EYE_CORNERS[0], 133),
+    (MASK_NOSE_TIP, 4),
+    (26, 439),
+    (59, 219),
+    (MASK_MOUTH_CORNERS[0], 291),
+    (MASK_MOUTH_CORNERS[1], 61),
+    (MASK_CHIN, 175),
+];
+
+/// Pins for the marks the learned reading found on the surface.
+pub(super) fn learned_pins(face: &LearnedFace) -> Vec<Pin> {
+    LEARNED_MARKS
+        .iter()
+        .filter_map(|&(vertex, point)| face.point(point).map(|p| Pin::at(vertex, p)))
+        .collect()
+}
+
+/// The rule-read `pins`, except that a vertex whose rule pins disagree with its learned pin
+/// by more than `tolerance` (head units, along each rule pin's direction) is pinned where
+/// the learned reading put it.
+pub(super) fn agreeing_pins(pins: &[Pin], learned: &[Pin], tolerance: f64) -> Vec<Pin> {
+    let disagrees = |l: &Pin| {
+        pins.iter().filter(|p| p.vertex == l.vertex).any(|p| {
+            let off = l.point - p.point;
+            let along = p.along.map_or(off.length(), |d| off.dot(d).abs());
+            along > tolerance
+        })
+    };
+    let replaced: Vec<&Pin> = learned.iter().filter(|l| disagrees(l)).collect();
+    pins.iter()
+        .filter(|p| !replaced.iter().any(|l| l.vertex == p.vertex))
+        .copied()
+        .chain(replaced.iter().copied().copied())
+        .collect()
 }

@@ -12,7 +12,7 @@ use crate::mask::Mask;
 
 /// Cells along the longer side of the range image the face's features are read on (about
 /// 0.5 mm on a head of the usual size: closed lids step 1-2 mm).
-const FRONT_IMAGE_CELLS: usize = 512;
+pub(super) const FRONT_IMAGE_CELLS: usize = 512;
 /// The face's features are read in front of the first fit, then again in front of the mask
 /// laid on them.
 const FEATURE_READINGS: usize = 2;
