@@ -8,12 +8,11 @@
 use facewire::mask::Mask;
 use facewire::population::{self, Maker};
 
-/// The sample's figures as measured when the population arrived (27 members; see
-/// docs/FITTING.md): 5 refused, 2 fits more than 5 mm (mean) from the reference, the
-/// median of the means 2.27 mm. The goals (no refusal, none over 3 mm) are not met yet.
-const MAX_REFUSED: usize = 5;
-const MAX_OVER_5_MM: usize = 2;
-const MAX_MEDIAN_MM: f32 = 2.4;
+/// The sample's figures as measured (27 members; see docs/FITTING.md): none refused and
+/// none more than 5 mm (mean) from the reference since the learned reading reads the face
+/// (5 and 2 with the rules alone), the median of the means 2.54 mm (2.27 with the rules
+/// alone, over the 22 they did not refuse). The goal of none over 3 mm is not met yet.
+const MAX_MEDIAN_MM: f32 = 2.6;
 
 #[test]
 fn the_population_sample_is_fitted_as_measured() {
@@ -53,8 +52,8 @@ fn the_population_sample_is_fitted_as_measured() {
         "{refused} refused of {}, {over_5} over 5 mm, median {median:.2} mm",
         outcomes.len()
     );
-    assert!(refused <= MAX_REFUSED, "{refused} refused");
-    assert!(over_5 <= MAX_OVER_5_MM, "{over_5} over 5 mm");
+    assert_eq!(refused, 0, "refused");
+    assert_eq!(over_5, 0, "over 5 mm");
     assert!(median <= MAX_MEDIAN_MM, "median {median} mm");
     // The heads the method was first built on stay within the 3 mm goal.
     for o in outcomes

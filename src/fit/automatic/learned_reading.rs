@@ -3,7 +3,10 @@
 //! places MediaPipe's 468 face-mesh points on the picture, and each point is carried back
 //! onto the surface it was seen on. The picture is framed as MediaPipe frames its own
 //! tracking crops: a square 1.5 times the points' extent, turned so the eyes are level,
-//! read again until the frame holds still.
+//! read again until the frame holds still. The last picture is read again mirrored, and
+//! each point that has a mirror image on the face is placed halfway between its two
+//! readings: the network's own lean to one side cancels, and a symmetric face is read
+//! symmetric.
 //!
 //! Positions are head units; the picture's x runs along the view's lateral (the face's
 //! left), its y down the view's up.
@@ -11,7 +14,7 @@
 use glam::{DVec3, Vec2, Vec3};
 
 use super::depth_map::{DepthMap, View};
-use super::face_model::{read_face, FaceMesh, FaceModelError, CROP_PIXELS, MESH_POINTS};
+use super::face_model::{read_face, FaceMesh, FaceModelError, CROP_PIXELS, MESH_POINTS, MIRROR_PAIRS};
 use crate::head::Head;
 
 /// MediaPipe frames a face 1.5 times as wide as its points reach (its
@@ -110,17 +113,23 @@ pub fn read_learned_face(
         let moved = (next_frame.low - frame.low).length() / frame.side
             + (next_frame.side / frame.side - 1.0).abs()
             + next_view.lateral.distance(view.lateral);
-        last = Some((mesh, map, view, frame));
+        last = Some((mesh, picture, map, view, frame));
         view = next_view;
         frame = next_frame;
         if moved < STILL_FRAME {
             break;
         }
     }
-    let Some((mesh, map, view, frame)) = last else {
+    let Some((mesh, picture, map, view, frame)) = last else {
         return Ok(None);
     };
-    Ok(Some(on_the_surface(&mesh, &map, view, frame)))
+    let mirrored = read_face(&mirrored_picture(&picture))?;
+    Ok(Some(on_the_surface(
+        &symmetric_reading(mesh, &mirrored),
+        &map,
+        view,
+        frame,
+    )))
 }
 
 /// The view turned about its forward axis so that the eyes' outer corners (`seen`, in the
@@ -175,6 +184,31 @@ fn shaded_picture(map: &DepthMap, cell: f32) -> Option<Vec<f32>> {
         }
     }
     any.then_some(picture)
+}
+
+/// The picture turned left for right.
+fn mirrored_picture(picture: &[f32]) -> Vec<f32> {
+    picture
+        .chunks_exact(CROP_PIXELS)
+        .flat_map(|row| row.iter().rev().copied())
+        .collect()
+}
+
+/// `mesh` with each point of [`MIRROR_PAIRS`] halfway between where it was read and where
+/// its mirror image was read in the mirrored picture (turned back), and the lesser of the
+/// two readings' face logits.
+fn symmetric_reading(mut mesh: FaceMesh, mirrored: &FaceMesh) -> FaceMesh {
+    let turned_back = |k: usize| {
+        let p = mirrored.points[k];
+        Vec3::new(CROP_PIXELS as f32 - p.x, p.y, p.z)
+    };
+    for (right, left) in MIRROR_PAIRS {
+        let (read_right, read_left) = (mesh.points[right], mesh.points[left]);
+        mesh.points[right] = (read_right + turned_back(left)) / 2.0;
+        mesh.points[left] = (read_left + turned_back(right)) / 2.0;
+    }
+    mesh.face_logit = mesh.face_logit.min(mirrored.face_logit);
+    mesh
 }
 
 /// Each face-mesh point carried onto the surface drawn at its pixel (the nearest covered
@@ -279,6 +313,41 @@ mod tests {
             .collect();
         let face = read_learned_face(&head, 1.0, behind, &marks).unwrap().unwrap();
         assert!(face.face_probability < 0.5, "{}", face.face_probability);
+    }
+
+    /// Reading a picture and its mirror image gives, for every mirror pair, the mirror
+    /// image of reading them the other way round: the symmetric reading has no side.
+    #[test]
+    fn the_symmetric_reading_is_its_own_mirror_image() {
+        let mesh = |seed: f32| FaceMesh {
+            points: (0..MESH_POINTS)
+                .map(|k| Vec3::new((k as f32 * seed).sin() * 90.0 + 96.0, k as f32 * 0.4, seed))
+                .collect(),
+            face_logit: seed,
+        };
+        let (a, b) = (mesh(1.3), mesh(2.9));
+        let ab = symmetric_reading(a.clone(), &b);
+        let ba = symmetric_reading(b, &a);
+        for (right, left) in MIRROR_PAIRS {
+            for (k, partner) in [(right, left), (left, right)] {
+                let p = ab.points[k];
+                let q = ba.points[partner];
+                assert!(
+                    (p.x - (CROP_PIXELS as f32 - q.x)).abs() < 1e-4,
+                    "point {k}: {p} and {q}"
+                );
+                assert!((p.y - q.y).abs() < 1e-4, "point {k}: {p} and {q}");
+            }
+        }
+        assert_eq!(ab.face_logit, 1.3);
+        let ramp: Vec<f32> = (0..CROP_PIXELS * CROP_PIXELS)
+            .map(|k| (k % CROP_PIXELS) as f32)
+            .collect();
+        let mirrored = mirrored_picture(&ramp);
+        assert_eq!(
+            (mirrored[0], mirrored[CROP_PIXELS - 1], mirrored[CROP_PIXELS]),
+            (191.0, 0.0, 191.0)
+        );
     }
 
     #[test]

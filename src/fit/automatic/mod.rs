@@ -233,7 +233,13 @@ pub fn fit_automatically_unless(
             read_features(head, mask, &surface, &used, &midline, marked.clone(), winding)
                 .map_err(solve_error)?
         {
-            let merged = pins::agreeing_pins(&rule_pins, &marks, PIN_TOLERANCE * seen_from.similarity.scale);
+            let merged = pins::agreeing_pins(
+                mask,
+                &rule_pins,
+                &found,
+                &marks,
+                PIN_TOLERANCE * seen_from.similarity.scale,
+            );
             let laid = lay_mask(
                 &surface,
                 mask,
