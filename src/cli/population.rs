@@ -147,25 +147,27 @@ type Keep = fn(&Outcome) -> bool;
 /// The table, then a summary per source and for the held-out members.
 pub fn table(outcomes: &[Outcome]) -> String {
     let mut out = String::new();
-    out.push_str("| head | held out | vertices | refused | landmark vertices mean / max (mm) | scale error | mask to surface (mm) | time (s) |\n");
-    out.push_str("|---|---|---|---|---|---|---|---|\n");
+    out.push_str("| head | held out | vertices | refused | landmark vertices mean / max (mm) | scale error | mask to surface (mm) | face seen | off the marks (mm) | time (s) |\n");
+    out.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
     for o in outcomes {
         let held = if o.held_out { "yes" } else { "" };
         let _ = match &o.result {
             Ok(m) => writeln!(
                 out,
-                "| {} | {held} | {} | | {:.2} / {:.1} | {:+.1} % | {:.2} | {:.2} |",
+                "| {} | {held} | {} | | {:.2} / {:.1} | {:+.1} % | {:.2} | {:.2} | {:.2} | {:.2} |",
                 o.member,
                 o.vertices,
                 m.landmark_mean_mm,
                 m.landmark_max_mm,
                 100.0 * m.scale_error,
                 m.surface_mm,
+                m.face_probability,
+                m.marks_mean_mm,
                 o.seconds
             ),
             Err(e) => writeln!(
                 out,
-                "| {} | {held} | {} | {} | | | | {:.2} |",
+                "| {} | {held} | {} | {} | | | | | | {:.2} |",
                 o.member,
                 o.vertices,
                 e.replace('|', "/"),

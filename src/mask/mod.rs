@@ -238,6 +238,20 @@ impl Mask {
         used
     }
 
+    /// The vertex that mirrors `vertex` across the mask's midline (x = 0, mask units): the
+    /// left side's for the right's and back, itself on the midline.
+    pub fn mirror_partner(&self, vertex: u32) -> u32 {
+        let p = self.vertices[vertex as usize];
+        let mirrored = Vec3::new(-p.x, p.y, p.z);
+        let (nearest, _) = self
+            .vertices
+            .iter()
+            .enumerate()
+            .map(|(j, q)| (j, q.distance_squared(mirrored)))
+            .fold((0, f32::INFINITY), |best, c| if c.1 < best.1 { c } else { best });
+        nearest as u32
+    }
+
     /// Whether `vertex` lies at one of the face's openings, the eyes or the lips: a mesh's
     /// edge near it can be the opening's rim rather than the end of the face.
     pub fn at_an_opening(&self, vertex: usize) -> bool {
@@ -318,6 +332,19 @@ fn find_unit(units: &[Unit], name: &str, what: &'static str) -> Result<usize, Un
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn mirror_partners_swap_the_sides_and_keep_the_midline() {
+        let mask = Mask::candide3();
+        // Eye corners and mouth corners, left (FP 3.7, 3.11, 8.3) and right (3.12, 3.8, 8.4).
+        for (left, right) in [(20, 53), (23, 56), (31, 64)] {
+            assert_eq!(mask.mirror_partner(left), right);
+            assert_eq!(mask.mirror_partner(right), left);
+        }
+        // Nose tip and chin lie on the midline.
+        assert_eq!(mask.mirror_partner(5), 5);
+        assert_eq!(mask.mirror_partner(10), 10);
+    }
 
     #[test]
     fn masks_too_small_for_the_named_vertices_are_refused() {

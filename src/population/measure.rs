@@ -4,8 +4,6 @@
 
 use std::time::Instant;
 
-use glam::Vec3;
-
 use super::Member;
 use crate::fit::{fit_automatically, FittedMask};
 use crate::mask::Mask;
@@ -35,6 +33,10 @@ pub struct Measures {
     pub scale_error: f32,
     /// The fit's own score: the mask's mean capped distance to the surface, mm (true scale).
     pub surface_mm: f32,
+    /// How sure the learned model was that it saw a face, and how far the fit's marked
+    /// vertices lie from its marks on average (mm, true scale): the fit's own confidence.
+    pub face_probability: f32,
+    pub marks_mean_mm: f32,
 }
 
 /// Fits `member` automatically (scale guessed) and compares it with its reference.
@@ -46,13 +48,14 @@ pub fn measure(member: &Member, mask: &Mask) -> Outcome {
         let scale = automatic.fit.pose.scale.x;
         let score = automatic.score;
         let guessed_mm = automatic.fit.mm_per_unit;
+        let reading = automatic.reading;
         let neutral = FittedMask::new(mask.clone(), automatic.fit).neutral;
         let distances: Vec<f32> = member
             .reference
             .iter()
             .map(|&(vertex, reference)| {
                 let vertex = if member.mirrored {
-                    mirror_partner(mask, vertex)
+                    mask.mirror_partner(vertex)
                 } else {
                     vertex
                 };
@@ -68,6 +71,8 @@ pub fn measure(member: &Member, mask: &Mask) -> Outcome {
             worst_vertex: member.reference.get(worst).map_or(0, |&(vertex, _)| vertex),
             scale_error: guessed_mm / member.mm_per_unit - 1.0,
             surface_mm: score as f32 * scale * member.mm_per_unit,
+            face_probability: reading.face_probability,
+            marks_mean_mm: reading.marks_mean_mm / guessed_mm * member.mm_per_unit,
         }
     });
     Outcome {
@@ -77,36 +82,5 @@ pub fn measure(member: &Member, mask: &Mask) -> Outcome {
         vertices: member.head.positions.len(),
         seconds,
         result,
-    }
-}
-
-/// The mask vertex that mirrors `vertex` across the mask's midline (x = 0, mask units).
-pub fn mirror_partner(mask: &Mask, vertex: u32) -> u32 {
-    let p = mask.vertices[vertex as usize];
-    let mirrored = Vec3::new(-p.x, p.y, p.z);
-    let (nearest, _) = mask
-        .vertices
-        .iter()
-        .enumerate()
-        .map(|(j, q)| (j, q.distance_squared(mirrored)))
-        .fold((0, f32::INFINITY), |best, c| if c.1 < best.1 { c } else { best });
-    nearest as u32
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn mirror_partners_swap_the_sides_and_keep_the_midline() {
-        let mask = Mask::candide3();
-        // Eye corners and mouth corners, left (FP 3.7, 3.11, 8.3) and right (3.12, 3.8, 8.4).
-        for (left, right) in [(20, 53), (23, 56), (31, 64)] {
-            assert_eq!(mirror_partner(&mask, left), right);
-            assert_eq!(mirror_partner(&mask, right), left);
-        }
-        // Nose tip and chin lie on the midline.
-        assert_eq!(mirror_partner(&mask, 5), 5);
-        assert_eq!(mirror_partner(&mask, 10), 10);
     }
 }

@@ -36,7 +36,7 @@ mod starts;
 use glam::{DVec3, Vec3};
 
 use super::limits::{check_head_extent, in_range, RangeError, MM_PER_UNIT_RANGE};
-use super::{Fit, SolveError};
+use super::{Fit, FittedMask, SolveError};
 use crate::cancel::Cancel;
 use crate::head::{raster_cost, Head, RasterCostError};
 use crate::mask::Mask;
@@ -111,6 +111,20 @@ pub struct AutomaticFit {
     pub mm_per_unit_from_pupils: bool,
     /// What the face showed in front of the fit (its second reading), and so what was pinned.
     pub found: FoundFeatures,
+    /// How the fit agrees with the learned reading of the face.
+    pub reading: FaceReading,
+}
+
+/// The learned reading the fit was checked against: how sure the model was that it saw a
+/// face, and how far the fitted mask's marked vertices lie from its marks (mm at the fit's
+/// scale). Not a confidence yet: on the population neither ranks the fits by their error
+/// (docs/FITTING.md, "On a population").
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct FaceReading {
+    pub face_probability: f32,
+    pub marks_mean_mm: f32,
+    pub worst_mark_vertex: u32,
+    pub worst_mark_mm: f32,
 }
 
 /// The features the automatic fit found and pinned the mask to, besides the nose tip and
@@ -219,13 +233,17 @@ pub fn fit_automatically_unless(
     // marks' own.
     let model_error = |source| AutomaticFitError::FaceModel { head: name(), source };
     let mut chosen = None;
-    for (laid, view, candidate) in starts {
+    for (laid, _, candidate) in starts {
         go_on()?;
-        let Some((marked, marked_from, marks)) =
-            read_learned(head, mask, &surface, &used, &midline, laid, winding).map_err(|e| match e {
-                LearnedError::Model(source) => model_error(source),
-                LearnedError::Solve(source) => solve_error(source),
-            })?
+        let Some(LearnedRead {
+            laid: marked,
+            seen_from: marked_from,
+            marks,
+            face_probability,
+        }) = read_learned(head, mask, &surface, &used, &midline, laid, winding).map_err(|e| match e {
+            LearnedError::Model(source) => model_error(source),
+            LearnedError::Solve(source) => solve_error(source),
+        })?
         else {
             continue;
         };
@@ -249,7 +267,8 @@ pub fn fit_automatically_unless(
             )
             .map_err(solve_error)?;
             if marks_disagreement(mask, &laid.solution, &marks) <= MAX_MARKS_DISAGREEMENT {
-                chosen = Some(((laid, seen_from, image, merged, found), view, candidate));
+                let reading = (marks, face_probability);
+                chosen = Some(((laid, seen_from, image, merged, found), reading, candidate));
                 break;
             }
         }
@@ -261,10 +280,12 @@ pub fn fit_automatically_unless(
             outer_eye_corners_on_skin: false,
             mouth_corners: MouthCorners::AtBothEnds,
         };
-        chosen = Some(((marked, marked_from, image, marks, found), view, candidate));
+        let reading = (marks.clone(), face_probability);
+        chosen = Some(((marked, marked_from, image, marks, found), reading, candidate));
         break;
     }
-    let Some(((mut best, seen_from, image, mut pins, mut found), _, nose)) = chosen else {
+    let Some(((mut best, seen_from, image, mut pins, mut found), (marks, face_probability), nose)) = chosen
+    else {
         return Err(AutomaticFitError::NoMouth {
             head: name(),
             nose_tip: nose.tip,
@@ -319,6 +340,7 @@ pub fn fit_automatically_unless(
         mm_per_unit,
     };
     fit.check_ranges().map_err(range)?;
+    let reading = face_reading(mask, &fit, &marks, face_probability);
     Ok(AutomaticFit {
         fit,
         forward: (best.solution.similarity.rotation * DVec3::Z).as_vec3(),
@@ -326,12 +348,23 @@ pub fn fit_automatically_unless(
         score: best.score,
         mm_per_unit_from_pupils: from_pupils,
         found,
+        reading,
     })
 }
 
 enum LearnedError {
     Model(FaceModelError),
     Solve(crate::fit::SolveError),
+}
+
+/// A start laid again on the learned model's marks.
+struct LearnedRead {
+    /// The mask laid with the marks pinned.
+    laid: Laid,
+    /// The fit the face was seen from.
+    seen_from: crate::fit::FitSolution,
+    marks: Vec<Pin>,
+    face_probability: f32,
 }
 
 /// The face read by the learned model in front of a laid start, the mask pinned to its
@@ -344,7 +377,7 @@ fn read_learned(
     midline: &[Pin],
     mut laid: Laid,
     winding: f32,
-) -> Result<Option<(Laid, crate::fit::FitSolution, Vec<Pin>)>, LearnedError> {
+) -> Result<Option<LearnedRead>, LearnedError> {
     let mut last = None;
     for _ in 0..2 {
         let seen_from = laid.solution.clone();
@@ -375,9 +408,37 @@ fn read_learned(
             &with_midline(&pins, midline),
         )
         .map_err(LearnedError::Solve)?;
-        last = Some((seen_from, pins));
+        last = Some((seen_from, pins, face.face_probability));
     }
-    Ok(last.map(|(seen_from, pins)| (laid, seen_from, pins)))
+    Ok(last.map(|(seen_from, marks, face_probability)| LearnedRead {
+        laid,
+        seen_from,
+        marks,
+        face_probability,
+    }))
+}
+
+/// How far `fit`'s marked vertices lie from the learned `marks` (mm at the fit's scale).
+fn face_reading(mask: &Mask, fit: &Fit, marks: &[Pin], face_probability: f32) -> FaceReading {
+    let neutral = FittedMask::new(mask.clone(), fit.clone()).neutral;
+    let distances: Vec<(u32, f32)> = marks
+        .iter()
+        .map(|pin| {
+            let at = neutral[pin.vertex as usize].as_dvec3();
+            (pin.vertex, (at.distance(pin.point) as f32) * fit.mm_per_unit)
+        })
+        .collect();
+    let (worst_mark_vertex, worst_mark_mm) = distances
+        .iter()
+        .copied()
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or((0, 0.0));
+    FaceReading {
+        face_probability,
+        marks_mean_mm: distances.iter().map(|d| d.1).sum::<f32>() / distances.len().max(1) as f32,
+        worst_mark_vertex,
+        worst_mark_mm,
+    }
 }
 
 /// The mean distance (mask units) of the fitted mask's vertices from the learned marks'

@@ -282,7 +282,7 @@ pub(super) fn agreeing_pins(
         })
     };
     let replaced = |vertex: u32| {
-        guessed.contains(&vertex) || disagrees(vertex) && mirror_image(mask, vertex).is_none_or(disagrees)
+        guessed.contains(&vertex) || disagrees(vertex) && disagrees(mask.mirror_partner(vertex))
     };
     pins.iter()
         .filter(|p| !(learned.iter().any(|l| l.vertex == p.vertex) && replaced(p.vertex)))
@@ -304,17 +304,6 @@ fn guessed_vertices(found: &FoundFeatures) -> Vec<u32> {
         guessed.extend(MASK_RIGHT_EYE_CORNERS);
     }
     guessed
-}
-
-/// The mask vertex at `vertex`'s mirror image across CANDIDE's midline (x = 0), if any
-/// other.
-fn mirror_image(mask: &Mask, vertex: u32) -> Option<u32> {
-    let at = *mask.vertices.get(vertex as usize)?;
-    let mirrored = at * glam::Vec3::new(-1.0, 1.0, 1.0);
-    (at.x != 0.0)
-        .then(|| mask.vertices.iter().position(|v| v.distance(mirrored) < 1e-6))
-        .flatten()
-        .map(|j| j as u32)
 }
 
 #[cfg(test)]
