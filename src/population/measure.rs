@@ -34,7 +34,8 @@ pub struct Measures {
     /// The fit's own score: the mask's mean capped distance to the surface, mm (true scale).
     pub surface_mm: f32,
     /// How sure the learned model was that it saw a face, and how far the fit's marked
-    /// vertices lie from its marks on average (mm, true scale): the fit's own confidence.
+    /// vertices lie from its marks on average (mm, true scale); not a confidence: neither ranks
+    /// the fits by their error (docs/FITTING.md, "On a population").
     pub face_probability: f32,
     pub marks_mean_mm: f32,
 }

@@ -123,8 +123,6 @@ pub struct AutomaticFit {
 pub struct FaceReading {
     pub face_probability: f32,
     pub marks_mean_mm: f32,
-    pub worst_mark_vertex: u32,
-    pub worst_mark_mm: f32,
 }
 
 /// The features the automatic fit found and pinned the mask to, besides the nose tip and
@@ -421,23 +419,13 @@ fn read_learned(
 /// How far `fit`'s marked vertices lie from the learned `marks` (mm at the fit's scale).
 fn face_reading(mask: &Mask, fit: &Fit, marks: &[Pin], face_probability: f32) -> FaceReading {
     let neutral = FittedMask::new(mask.clone(), fit.clone()).neutral;
-    let distances: Vec<(u32, f32)> = marks
+    let total_mm: f32 = marks
         .iter()
-        .map(|pin| {
-            let at = neutral[pin.vertex as usize].as_dvec3();
-            (pin.vertex, (at.distance(pin.point) as f32) * fit.mm_per_unit)
-        })
-        .collect();
-    let (worst_mark_vertex, worst_mark_mm) = distances
-        .iter()
-        .copied()
-        .max_by(|a, b| a.1.total_cmp(&b.1))
-        .unwrap_or((0, 0.0));
+        .map(|pin| neutral[pin.vertex as usize].as_dvec3().distance(pin.point) as f32 * fit.mm_per_unit)
+        .sum();
     FaceReading {
         face_probability,
-        marks_mean_mm: distances.iter().map(|d| d.1).sum::<f32>() / distances.len().max(1) as f32,
-        worst_mark_vertex,
-        worst_mark_mm,
+        marks_mean_mm: total_mm / marks.len().max(1) as f32,
     }
 }
 
