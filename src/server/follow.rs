@@ -9,12 +9,16 @@
 //!   held to the rules a producer's socket is ([`deliver`]).
 //! - Streams relayed from a node that vanished end ([`end_orphans`]).
 
+use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::Duration;
 
 use tokio_util::sync::CancellationToken;
+use tokio_util::time::{delay_queue, DelayQueue};
 
-use super::cluster::{Cluster, ClusterError, ClusterHeads, HeadChange, Remote, RemoteBody, Republished};
+use super::cluster::{
+    Cluster, ClusterError, ClusterHeads, HeadChange, Remote, RemoteBody, Republished, SharedHead,
+};
 use super::registry::Registry;
 use super::store::{HeadRecord, Store};
 use super::telemetry::Telemetry;
@@ -74,61 +78,111 @@ fn deliver(registry: &Registry, telemetry: &Telemetry, message: Remote<'_>) -> R
 }
 
 /// Keeps `registry` in step with the shared one until `shutdown`: every head in it is
-/// registered here, every head deleted from it is dropped here.
+/// registered here, every head deleted from it is dropped here. A head this node fails to
+/// take (the bus timed out reading its meshes, the disk refused its copy) is tried again,
+/// after [`RETRY_FIRST`] doubling to [`RETRY_LAST`], until it is taken or a later change to
+/// its id replaces it: no change to that head may ever come to prompt it.
 async fn follow_heads(heads: ClusterHeads, registry: Registry, shutdown: CancellationToken) {
     let mut changes = heads.clone().changes(shutdown);
-    while let Some(change) = changes.recv().await {
-        let (id, shared) = match change {
-            HeadChange::Deleted { id } => {
-                if registry.drop_local(&id) {
-                    tracing::info!(head = %id, "head deleted on another node");
+    // One entry per id at most, each a head a trusted node put in the shared registry:
+    // bounded by the registry's own size.
+    let mut retries: DelayQueue<(String, SharedHead, Duration)> = DelayQueue::new();
+    let mut waiting: HashMap<String, delay_queue::Key> = HashMap::new();
+    loop {
+        let (id, shared, wait) = tokio::select! {
+            change = changes.recv() => {
+                let Some(change) = change else { return };
+                if let Some(key) = waiting.remove(change.id()) {
+                    retries.remove(&key);
                 }
-                if let Err(e) = registry.store().forget_copy(&id).await {
-                    tracing::warn!(head = %id, error = %e, "local copy of a deleted head not removed");
+                match change {
+                    HeadChange::Deleted { id } => {
+                        if registry.drop_local(&id) {
+                            tracing::info!(head = %id, "head deleted on another node");
+                        }
+                        if let Err(e) = registry.store().forget_copy(&id).await {
+                            tracing::warn!(head = %id, error = %e, "local copy of a deleted head not removed");
+                        }
+                        continue;
+                    }
+                    HeadChange::Unproven { id, why } => {
+                        tracing::warn!(head = %id, %why, "cluster registry entry changed without the cluster key");
+                        if let Some(local) = registry.store().local_copies() {
+                            put_back(&heads, local, &id).await;
+                        }
+                        continue;
+                    }
+                    HeadChange::Put { id, head } => (id, head, RETRY_FIRST),
                 }
-                continue;
             }
-            HeadChange::Unproven { id, why } => {
-                tracing::warn!(head = %id, %why, "cluster registry entry changed without the cluster key");
-                if let Some(local) = registry.store().local_copies() {
-                    put_back(&heads, local, &id).await;
-                }
-                continue;
-            }
-            HeadChange::Put { id, head } => (id, head),
-        };
-        match registry
-            .get(&id)
-            .map(|h| h.registration_tag().map(str::to_string))
-        {
-            Some(Some(tag)) if tag == shared.tag() => continue,
-            Some(_) => {
-                tracing::info!(head = %id, "head registered again on another node");
-                registry.drop_local(&id);
-            }
-            None => {}
-        }
-        let record = match heads.load(&id, shared).await {
-            Ok(record) => record,
-            Err(e) => {
-                tracing::warn!(head = %id, error = %e, "cluster head not loaded");
-                continue;
+            Some(due) = std::future::poll_fn(|cx| retries.poll_expired(cx)) => {
+                let (id, shared, wait) = due.into_inner();
+                waiting.remove(&id);
+                (id, shared, wait)
             }
         };
-        let record = match registry.store().copy_from_cluster(record).await {
-            Ok(record) => record,
-            Err(e) => {
-                tracing::warn!(head = %id, error = %e, "cluster head not kept on this node's disk");
-                continue;
-            }
-        };
-        let Ok(slot) = registry.registration_slot(Duration::MAX).await else {
-            continue;
-        };
-        if let Err(e) = registry.register(record, false, slot).await {
-            tracing::warn!(head = %id, error = %e, "cluster head not registered here");
+        tracing::debug!(head = %id, "taking a head from the cluster registry");
+        if let Err(untaken) = take(&heads, &registry, &id, shared).await {
+            tracing::warn!(head = %id, error = %untaken.why, retry_in_s = wait.as_secs_f64(), "cluster head not taken yet");
+            let key = retries.insert((id.clone(), untaken.shared, (wait * 2).min(RETRY_LAST)), wait);
+            waiting.insert(id, key);
         }
     }
+}
+
+/// The first wait before a head not taken is tried again; each failure doubles it.
+const RETRY_FIRST: Duration = Duration::from_millis(500);
+/// The longest wait between tries.
+const RETRY_LAST: Duration = Duration::from_secs(30);
+
+/// A head not taken for a reason that may pass, kept to be tried again.
+struct Untaken {
+    shared: SharedHead,
+    why: String,
+}
+
+/// Registers head `id` here as the shared registry holds it (`shared`), keeping a copy on
+/// this node's disk; an error when the bus or the disk failed (worth trying again).
+async fn take(
+    heads: &ClusterHeads,
+    registry: &Registry,
+    id: &str,
+    shared: SharedHead,
+) -> Result<(), Untaken> {
+    match registry.get(id).map(|h| h.registration_tag().map(str::to_string)) {
+        Some(Some(tag)) if tag == shared.tag() => return Ok(()),
+        Some(_) => {
+            tracing::info!(head = %id, "head registered again on another node");
+            registry.drop_local(id);
+        }
+        None => {}
+    }
+    let record = match heads.load(id, shared.clone()).await {
+        Ok(record) => record,
+        Err(e) => {
+            return Err(Untaken {
+                shared,
+                why: format!("not loaded: {e}"),
+            })
+        }
+    };
+    let record = match registry.store().copy_from_cluster(record).await {
+        Ok(record) => record,
+        Err(e) => {
+            return Err(Untaken {
+                shared,
+                why: format!("not kept on this node's disk: {e}"),
+            })
+        }
+    };
+    let Ok(slot) = registry.registration_slot(Duration::MAX).await else {
+        return Ok(());
+    };
+    // A head that does not build here fails the same way on every try: not tried again.
+    if let Err(e) = registry.register(record, false, slot).await {
+        tracing::warn!(head = %id, error = %e, "cluster head not registered here");
+    }
+    Ok(())
 }
 
 /// How often the buckets are checked.

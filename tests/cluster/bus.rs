@@ -420,6 +420,26 @@ async fn buckets_an_operator_made_first_are_used_as_they_are() {
     );
 }
 
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_head_a_node_could_not_take_at_first_is_taken_once_it_can() {
+    // A node that fails to take a head from the shared registry (here its disk refuses the
+    // copy: a file stands where the head's folder goes; under load it is the bus timing out)
+    // tries again, rather than waiting for a change to that head that may never come.
+    let nats = NatsServer::start();
+    let n1 = node(&nats, "n1").await;
+    let n2 = node(&nats, "n2").await;
+    let blocker = n2.data_dir().unwrap().join("heads").join(HEAD);
+    std::fs::create_dir_all(blocker.parent().unwrap()).unwrap();
+    std::fs::write(&blocker, b"not a folder").unwrap();
+    n1.register(HEAD, "makehuman_head", "").await;
+    // n1 has put the head in the shared registry; n2 has seen it and failed to keep it.
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    assert!(info(&n2, HEAD).await.is_none(), "n2 kept the head through a file");
+    std::fs::remove_file(&blocker).unwrap();
+    n2.wait_ready_in_cluster(HEAD, Duration::from_secs(20)).await;
+    assert!(blocker.join("head.obj").is_file(), "n2 keeps its copy on disk");
+}
+
 #[test]
 fn a_node_that_cannot_reach_nats_at_start_exits_with_the_reason() {
     // Nothing listens on this port: the node says so and exits, rather than serving

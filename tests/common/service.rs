@@ -30,7 +30,7 @@ enum Runs {
     },
     Child {
         child: KilledOnDrop,
-        _data_dir: tempfile::TempDir,
+        data_dir: tempfile::TempDir,
     },
 }
 
@@ -82,7 +82,12 @@ impl Server {
             .arg(&config)
             .arg("--data-dir")
             .arg(data_dir.path().join("data"))
-            .env("RUST_LOG", "warn")
+            // FACEWIRE_TEST_LOG (a RUST_LOG filter) shows more of the children when a
+            // test is looked into.
+            .env(
+                "RUST_LOG",
+                std::env::var("FACEWIRE_TEST_LOG").unwrap_or_else(|_| "warn".into()),
+            )
             .stdout(std::process::Stdio::piped())
             .stderr(std::process::Stdio::inherit())
             .spawn()
@@ -105,8 +110,16 @@ impl Server {
             addr,
             runs: Runs::Child {
                 child: KilledOnDrop(child),
-                _data_dir: data_dir,
+                data_dir,
             },
+        }
+    }
+
+    /// The data directory of a server run as a child process (`facewire serve --data-dir`).
+    pub fn data_dir(&self) -> Option<std::path::PathBuf> {
+        match &self.runs {
+            Runs::InProcess { .. } => None,
+            Runs::Child { data_dir, .. } => Some(data_dir.path().join("data")),
         }
     }
 

@@ -28,6 +28,7 @@ use tokio::sync::mpsc;
 use tokio_util::sync::CancellationToken;
 
 use super::seal::{hex, Seal};
+use super::watch_lag::WatchLag;
 use super::{open_key_value, stream_exists};
 use crate::server::ids::valid_id;
 use crate::server::store::{HeadMeta, HeadRecord, PartRecord};
@@ -36,6 +37,11 @@ const HEADS_BUCKET: &str = "facewire_heads";
 const MESHES_BUCKET: &str = "facewire_meshes";
 /// How long a follower waits before watching again after the watch failed.
 const REWATCH: Duration = Duration::from_secs(1);
+/// The longest a follower reads one head's meshes: a read the bus left hanging ends, and
+/// is tried again. The largest mesh the HTTP limit admits, 64 MiB, reads in a few seconds.
+const LOAD_WITHIN: Duration = Duration::from_secs(60);
+/// How often a follower checks that its watch delivers what the bucket holds.
+const LAG_CHECK: Duration = Duration::from_secs(3);
 /// Changes read from the bucket and not yet applied: the watch waits beyond this.
 const CHANGES_WAITING: usize = 64;
 
@@ -58,7 +64,7 @@ impl ObjectDigest {
 }
 
 /// The value under a head's id.
-#[derive(Debug, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SharedHead {
     tag: String,
@@ -126,6 +132,15 @@ pub enum HeadChange {
     /// `id`'s value was changed or removed without proof: a node that keeps the head
     /// puts it back.
     Unproven { id: String, why: String },
+}
+
+impl HeadChange {
+    /// The head id the change is to.
+    pub fn id(&self) -> &str {
+        match self {
+            HeadChange::Put { id, .. } | HeadChange::Deleted { id } | HeadChange::Unproven { id, .. } => id,
+        }
+    }
 }
 
 impl SharedHead {
@@ -513,8 +528,16 @@ impl ClusterHeads {
         Ok(bytes)
     }
 
-    /// Reads the meshes of `shared`, checked against it.
+    /// Reads the meshes of `shared`, checked against it, within [`LOAD_WITHIN`].
     pub async fn load(&self, id: &str, shared: SharedHead) -> Result<HeadRecord, SharedHeadError> {
+        tokio::time::timeout(LOAD_WITHIN, self.read_meshes(id, shared))
+            .await
+            .map_err(|_| {
+                SharedHeadError::Bus(format!("head {id:?}: meshes not read within {LOAD_WITHIN:?}"))
+            })?
+    }
+
+    async fn read_meshes(&self, id: &str, shared: SharedHead) -> Result<HeadRecord, SharedHeadError> {
         let digest = |name: &str| shared.objects.get(name);
         let obj = self
             .read_object(&mesh_name(id, &shared.tag), digest("head.obj"))
@@ -542,33 +565,50 @@ impl ClusterHeads {
     /// Follows the bucket until `shutdown` or until the receiver is dropped: the current
     /// value of every key first, then each change, as [`HeadChange`]s in order. Watches
     /// again (from each key's current value, which is idempotent) when the watch fails, as
-    /// it does while NATS restarts or when the bucket is made again.
+    /// it does while NATS restarts or when the bucket is made again, and when it stalls: a
+    /// revision the bucket holds and the watch has not delivered over a whole
+    /// [`LAG_CHECK`] ([`WatchLag`]).
     pub fn changes(self, shutdown: CancellationToken) -> mpsc::Receiver<HeadChange> {
         let (tx, rx) = mpsc::channel(CHANGES_WAITING);
         tokio::spawn(async move {
             loop {
+                tracing::debug!("watching the cluster registry");
                 match self.kv.watch_with_history(">").await {
-                    Ok(mut changes) => loop {
-                        let change = tokio::select! {
-                            _ = shutdown.cancelled() => return,
-                            change = changes.next() => change,
-                        };
-                        match change {
-                            Some(Ok(entry)) => {
-                                let Some(change) = self.change(entry) else {
+                    Ok(mut changes) => {
+                        let mut lag = WatchLag::default();
+                        let mut delivered = 0;
+                        let mut checks = tokio::time::interval(LAG_CHECK);
+                        checks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+                        loop {
+                            let change = tokio::select! {
+                                _ = shutdown.cancelled() => return,
+                                change = changes.next() => change,
+                                _ = checks.tick() => {
+                                    if self.watch_stalled(&mut lag, delivered).await {
+                                        tracing::warn!(delivered, "registry watch stalled; watching again");
+                                        break;
+                                    }
                                     continue;
-                                };
-                                if tx.send(change).await.is_err() {
-                                    return;
                                 }
+                            };
+                            match change {
+                                Some(Ok(entry)) => {
+                                    delivered = delivered.max(entry.revision);
+                                    let Some(change) = self.change(entry) else {
+                                        continue;
+                                    };
+                                    if tx.send(change).await.is_err() {
+                                        return;
+                                    }
+                                }
+                                Some(Err(e)) => {
+                                    tracing::warn!(error = %e, "registry watch failed; watching again");
+                                    break;
+                                }
+                                None => break,
                             }
-                            Some(Err(e)) => {
-                                tracing::warn!(error = %e, "registry watch failed; watching again");
-                                break;
-                            }
-                            None => break,
                         }
-                    },
+                    }
                     Err(e) => tracing::warn!(error = %e, "cannot watch the cluster registry; retrying"),
                 }
                 tokio::select! {
@@ -578,6 +618,18 @@ impl ClusterHeads {
             }
         });
         rx
+    }
+
+    /// One [`WatchLag`] check against the bucket's newest revision; a bucket that cannot be
+    /// asked now (the bus failing over) is no sign of a stalled watch.
+    async fn watch_stalled(&self, lag: &mut WatchLag, delivered: u64) -> bool {
+        match self.kv.stream.get_info().await {
+            Ok(info) => lag.stalled(info.state.last_sequence, delivered),
+            Err(e) => {
+                tracing::debug!(error = %e, "cluster registry's newest revision not read");
+                false
+            }
+        }
     }
 
     /// The change a bucket entry makes; `None` for a key that is no head id.

@@ -19,6 +19,7 @@ mod heads;
 mod lease;
 mod relay;
 mod seal;
+mod watch_lag;
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -30,7 +31,7 @@ use super::config::BusAuth;
 use super::telemetry::Telemetry;
 use crate::mask::Mask;
 pub use credentials::CredentialError;
-pub use heads::{BucketSettings, ClusterHeads, HeadChange, Republished, SharedHeadError};
+pub use heads::{BucketSettings, ClusterHeads, HeadChange, Republished, SharedHead, SharedHeadError};
 pub use lease::LeaseError;
 pub use relay::{Remote, RemoteBody};
 
