@@ -1,12 +1,13 @@
 //! Nodes authenticate to NATS as NATS users expect: a user and password (in `[bus_auth]`,
 //! the environment or the URL) limited to facewire's subjects and buckets by
-//! `deploy/nats-server.conf`, a token, an nkey seed, TLS with the server's CA and mutual
-//! TLS with a client certificate. A node refused says why and never prints its secret.
+//! `deploy/nats-server.conf`, a token, an nkey seed, a `.creds` file on a server in
+//! operator mode, TLS with the server's CA and mutual TLS with a client certificate. A node refused says why and never prints its secret.
 
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use crate::common::nats::NatsServer;
+use crate::common::nats_jwt::Operator;
 use crate::common::service::{connect, moving_jaw_line, next_json, next_message, Server};
 use facewire_proto::messages::ServerMessage;
 use futures_util::SinkExt;
@@ -149,6 +150,42 @@ async fn a_token_or_an_nkey_seed_file_lets_a_node_in() {
         stranger.display()
     ));
     assert!(stderr.to_lowercase().contains("authoriz"), "{stderr}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_creds_file_from_an_operator_lets_a_node_in_and_a_strangers_is_refused() {
+    // nats-server in operator mode (decentralized JWT auth, as `nsc` sets it up): a node
+    // with a user's `.creds` file of the trusted account connects and uses JetStream (the
+    // registry's buckets); one whose account the operator never signed is refused, and a
+    // file that holds no credentials is named before connecting.
+    let folder = tempfile::tempdir().unwrap();
+    let operator = Operator::new(folder.path());
+    let nats = NatsServer::start_with_config(&operator.server_config);
+    let creds = |name: &str, text: &str| {
+        let path = folder.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        format!(
+            "bus = \"nats://127.0.0.1:{}\"\nnode_name = \"{name}\"\n[bus_auth]\ncreds_file = \"{}\"\n",
+            nats.port,
+            path.display()
+        )
+    };
+    let n1 = Server::spawn(&creds("n1", &operator.user_creds())).await;
+    let n2 = Server::spawn(&creds("n2", &operator.user_creds())).await;
+    assert!(bus_connected(&n1).await);
+    n1.register("mh", "makehuman_head", "").await;
+    n2.wait_ready_in_cluster("mh", Duration::from_secs(30)).await;
+
+    let stranger = Operator::stranger_creds();
+    let stderr = refused_node(&creds("stranger", &stranger));
+    assert!(stderr.to_lowercase().contains("authoriz"), "{stderr}");
+    let seed = stranger.lines().find(|line| line.starts_with("SU")).unwrap();
+    assert!(!stderr.contains(seed), "the seed is printed: {stderr}");
+    let stderr = refused_node(&creds("garbled", "not a creds file\n"));
+    assert!(
+        stderr.contains("creds_file") && stderr.contains("not a NATS credentials file"),
+        "{stderr}"
+    );
 }
 
 /// A CA, a server certificate for 127.0.0.1 and a client certificate, as PEM files in

@@ -4,6 +4,7 @@
 #![allow(dead_code)] // each test file uses its own subset
 
 pub mod nats;
+pub mod nats_jwt;
 pub mod service;
 pub mod streams;
 
