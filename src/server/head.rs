@@ -127,13 +127,21 @@ pub struct HeadEntry {
 }
 
 impl HeadEntry {
-    pub fn new(id: String, meta: HeadMeta, status: HeadStatus, limits: StreamLimits) -> HeadEntry {
+    /// A head entry; its recordings are kept in `recordings_dir` beyond this process when
+    /// it is given.
+    pub fn new(
+        id: String,
+        meta: HeadMeta,
+        status: HeadStatus,
+        limits: StreamLimits,
+        recordings_dir: Option<std::path::PathBuf>,
+    ) -> HeadEntry {
         HeadEntry {
             id,
             meta,
             status: watch::Sender::new(status),
             streams: Mutex::new(HashMap::new()),
-            recordings: Arc::new(Recordings::new(limits.recordings.clone())),
+            recordings: Arc::new(Recordings::new(limits.recordings.clone(), recordings_dir)),
             limits,
             deleted: CancellationToken::new(),
         }

@@ -120,6 +120,18 @@ impl HeadStore {
         }
     }
 
+    /// Where head `id`'s recordings are kept beyond this process: in its folder of the
+    /// data directory, when there is one (a cluster node's own copies included).
+    pub fn recordings_dir(&self, id: &str) -> Option<std::path::PathBuf> {
+        match self {
+            HeadStore::Dir(store)
+            | HeadStore::Cluster {
+                local: Some(store), ..
+            } => Some(store.recordings_dir(id)),
+            _ => None,
+        }
+    }
+
     /// A cluster node's local copies: what it puts back into the cluster's buckets.
     pub fn local_copies(&self) -> Option<&Store> {
         match self {

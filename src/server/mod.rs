@@ -40,6 +40,7 @@ mod pipeline;
 pub mod process;
 mod producer;
 mod rate;
+mod recording_shelf;
 mod recordings;
 mod registration;
 mod registry;

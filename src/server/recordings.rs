@@ -14,6 +14,8 @@ use std::sync::{Arc, Mutex};
 
 use super::error::ApiError;
 use super::ids::valid_id;
+use super::recording_shelf::{RecordingShelf, ShelvedMeta};
+use crate::mask::Mask;
 use crate::stream::Frame;
 use facewire_proto::messages::{RecordingInfo, RecordingLabel};
 
@@ -42,13 +44,24 @@ impl RecordQuery {
     }
 }
 
-/// The limits of a head's recordings (from the configuration), and the memory all of the
-/// server's recordings share.
-#[derive(Debug, Clone)]
+/// The limits of a head's recordings (from the configuration), the memory all of the
+/// server's recordings share, and the mask their files on disk name animation units by.
+#[derive(Clone)]
 pub struct RecordingLimits {
     pub max_per_head: usize,
     pub max_frames: usize,
     pub budget: Arc<RecordingBudget>,
+    pub mask: Arc<Mask>,
+}
+
+impl std::fmt::Debug for RecordingLimits {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RecordingLimits")
+            .field("max_per_head", &self.max_per_head)
+            .field("max_frames", &self.max_frames)
+            .field("budget", &self.budget)
+            .finish_non_exhaustive()
+    }
 }
 
 /// The memory every recording of a server takes together, bytes, and the most it may.
@@ -150,6 +163,8 @@ impl Recording {
 pub struct Recordings {
     limits: RecordingLimits,
     inner: Mutex<Inner>,
+    /// Where they are kept beyond this process, on a server with a data directory.
+    shelf: Option<RecordingShelf>,
 }
 
 #[derive(Default)]
@@ -162,10 +177,73 @@ struct Inner {
 }
 
 impl Recordings {
-    pub fn new(limits: RecordingLimits) -> Recordings {
+    /// A head's recordings, kept in `dir` beyond this process when it is given.
+    pub fn new(limits: RecordingLimits, dir: Option<std::path::PathBuf>) -> Recordings {
         Recordings {
+            shelf: dir.map(|dir| RecordingShelf::new(dir, limits.mask.clone())),
             limits,
             inner: Mutex::new(Inner::default()),
+        }
+    }
+
+    /// Reads the recordings kept on disk back into memory, within the limits (what does
+    /// not fit, or cannot be read, stays on disk and is named in the log). Blocking.
+    pub fn restore(&self, head: &str) {
+        let Some(shelf) = &self.shelf else { return };
+        let (found, problems) = shelf.load_all();
+        for problem in problems {
+            tracing::warn!(%head, %problem, "kept recording not read");
+        }
+        let mut inner = self.inner.lock().expect("recordings lock");
+        for shelved in found {
+            let held = inner.done.len() + inner.recording.len();
+            let bytes: usize = shelved.frames.iter().map(frame_bytes).sum();
+            if inner.done.contains_key(&shelved.name) {
+                continue;
+            }
+            if held >= self.limits.max_per_head || !self.limits.budget.take(bytes) {
+                tracing::warn!(%head, recording = %shelved.name, "kept recording past the recording limits: left on disk, not listed");
+                continue;
+            }
+            let recording = Recording {
+                name: shelved.name,
+                stream: shelved.meta.stream,
+                frames: shelved.frames,
+                cut: shelved.meta.cut,
+                bytes,
+                budget: self.limits.budget.clone(),
+            };
+            inner.done.insert(recording.name.clone(), Arc::new(recording));
+        }
+    }
+
+    /// Writes `recording` to disk, if this head keeps recordings there. A recording
+    /// deleted (or replaced) while it was written is removed again.
+    fn shelve(self: &Arc<Self>, recording: Arc<Recording>) {
+        if self.shelf.is_none() {
+            return;
+        }
+        let recordings = self.clone();
+        let write = move || {
+            let Some(shelf) = &recordings.shelf else { return };
+            let meta = ShelvedMeta {
+                stream: recording.stream.clone(),
+                cut: recording.cut,
+            };
+            if let Err(e) = shelf.save(&recording.name, &meta, &recording.frames) {
+                tracing::warn!(recording = %recording.name, error = %e, "recording not kept on disk");
+            }
+            let inner = recordings.inner.lock().expect("recordings lock");
+            let current = inner.done.get(&recording.name);
+            if !current.is_some_and(|kept| Arc::ptr_eq(kept, &recording)) {
+                if let Err(e) = shelf.remove(&recording.name) {
+                    tracing::warn!(recording = %recording.name, error = %e, "deleted recording left on disk");
+                }
+            }
+        };
+        match tokio::runtime::Handle::try_current() {
+            Ok(runtime) => drop(runtime.spawn_blocking(write)),
+            Err(_) => write(),
         }
     }
 
@@ -272,8 +350,12 @@ impl Recordings {
         inner
             .done
             .remove(name)
-            .map(drop)
-            .ok_or_else(|| ApiError::NotFound(format!("recording {name:?} of head {head:?}")))
+            .ok_or_else(|| ApiError::NotFound(format!("recording {name:?} of head {head:?}")))?;
+        // Under the lock: a recording of the same name written meanwhile is not removed.
+        if let Some(shelf) = &self.shelf {
+            shelf.remove(name).map_err(ApiError::internal)?;
+        }
+        Ok(())
     }
 }
 
@@ -310,10 +392,16 @@ impl Drop for Recorder {
         let Some(recording) = self.recording.take() else {
             return;
         };
-        let mut inner = self.recordings.inner.lock().expect("recordings lock");
-        inner.recording.retain(|n| *n != recording.name);
-        if !recording.frames.is_empty() {
-            inner.done.insert(recording.name.clone(), Arc::new(recording));
-        }
+        let kept = {
+            let mut inner = self.recordings.inner.lock().expect("recordings lock");
+            inner.recording.retain(|n| *n != recording.name);
+            if recording.frames.is_empty() {
+                return;
+            }
+            let kept = Arc::new(recording);
+            inner.done.insert(kept.name.clone(), kept.clone());
+            kept
+        };
+        self.recordings.shelve(kept);
     }
 }

@@ -164,6 +164,7 @@ impl Registry {
                 record.meta.clone(),
                 HeadStatus::Registering { progress: 0.0 },
                 self.inner.limits.streams.clone(),
+                self.inner.store.recordings_dir(&record.id),
             ));
             heads.insert(entry.id.clone(), entry.clone());
             entry
@@ -197,6 +198,7 @@ impl Registry {
                         fit_surface_max_mm = ready.fit.surface_max_mm,
                         "head registered"
                     );
+                    job_entry.recordings.restore(&job_entry.id);
                     HeadStatus::Ready(Arc::new(ready))
                 }
                 Err(RegistrationError::Cancelled) => {
@@ -282,6 +284,7 @@ impl Registry {
                         HeadMeta::default(),
                         HeadStatus::Failed(format!("stored head cannot be loaded: {}", broken.problem)),
                         self.inner.limits.streams.clone(),
+                        None,
                     );
                     self.inner
                         .heads

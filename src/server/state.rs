@@ -191,6 +191,7 @@ impl AppState {
                         max_per_head: limits.max_recordings_per_head,
                         max_frames: limits.max_recording_frames,
                         budget: RecordingBudget::new(limits.max_recording_bytes),
+                        mask: mask.clone(),
                     },
                 },
             },

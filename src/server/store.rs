@@ -150,6 +150,11 @@ impl Store {
         self.root.join(id)
     }
 
+    /// Head `id`'s recordings folder ([`super::recording_shelf`]); it goes with the head.
+    pub fn recordings_dir(&self, id: &str) -> PathBuf {
+        self.dir(id).join("recordings")
+    }
+
     pub fn save(&self, record: &HeadRecord) -> Result<(), StoreError> {
         let dir = self.dir(&record.id);
         std::fs::create_dir_all(&dir).map_err(io(&dir))?;

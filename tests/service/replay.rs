@@ -306,3 +306,71 @@ async fn all_recordings_together_keep_to_their_memory() {
     );
     server.stop().await;
 }
+
+/// Every replayed frame of recording `name` of head `mh`, in order, with the server's
+/// clock readings left out: the replay played through at full speed.
+async fn replay_all(server: &Server, name: &str, frames: u64) -> Vec<ViewerFrame> {
+    let mut replay = connect(&server.ws(&format!("/v1/heads/mh/recordings/{name}/view?format=fwf2"))).await;
+    assert!(matches!(next_json(&mut replay).await, ServerMessage::Snapshot(_)));
+    let mut shown = Vec::new();
+    while (shown.len() as u64) < frames {
+        let (mut frame, _) = next_replayed(&mut replay).await;
+        frame.header.server_receive_us = 0;
+        frame.header.server_send_us = 0;
+        shown.push(frame);
+    }
+    shown
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn recordings_survive_a_restart_and_deleted_ones_stay_deleted() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = Config {
+        data_dir: Some(dir.path().to_path_buf()),
+        ..Config::default()
+    };
+    let server = Server::start(config.clone()).await;
+    server.register("mh", "makehuman_head", "").await;
+    produce_lesson(&server, "lesson", 12).await;
+    produce_lesson(&server, "scratch", 12).await;
+    let before = recordings(&server).await;
+    let lesson_before = replay_all(&server, "lesson", 12).await;
+    let deleted = reqwest::Client::new()
+        .delete(server.http("/v1/heads/mh/recordings/scratch"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(deleted.status(), 204);
+    server.stop().await;
+
+    let server = Server::start(config).await;
+    server.wait_ready("mh", "").await;
+    let after = recordings(&server).await;
+    assert_eq!(
+        after,
+        before
+            .iter()
+            .filter(|r| r.name == "lesson")
+            .cloned()
+            .collect::<Vec<_>>(),
+        "the recordings listed after the restart"
+    );
+    // The same frames, deformed the same: positions, labels and times.
+    assert_eq!(replay_all(&server, "lesson", 12).await, lesson_before);
+    // A name taken on disk is taken: a new recording of it is refused.
+    let again =
+        tokio_tungstenite::connect_async(server.ws("/v1/heads/mh/streams/s/produce?record=lesson")).await;
+    let Err(tokio_tungstenite::tungstenite::Error::Http(response)) = again else {
+        panic!("expected a refusal, got {again:?}")
+    };
+    assert_eq!(response.status(), 400);
+    // The files are a facewire JSONL stream any reader takes, beside what they do not say.
+    let shelf = dir.path().join("heads/mh/recordings");
+    let text = std::fs::read_to_string(shelf.join("lesson.jsonl")).unwrap();
+    assert_eq!(text.lines().count(), 12);
+    assert!(
+        text.starts_with(r#"{"seq":0,"t":0.0,"label":"pa","au":{"jaw_drop":0.1}}"#),
+        "{text}"
+    );
+    assert!(!shelf.join("scratch.jsonl").exists() && !shelf.join("scratch.json").exists());
+}
