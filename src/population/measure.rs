@@ -22,7 +22,7 @@ pub struct Outcome {
     pub result: Result<Measures, String>,
 }
 
-#[derive(Debug, Clone, Copy, serde::Serialize)]
+#[derive(Debug, Clone, serde::Serialize)]
 pub struct Measures {
     /// The reference's landmark mask vertices against the fit's (mm, the true scale).
     pub landmark_mean_mm: f32,
@@ -38,6 +38,8 @@ pub struct Measures {
     /// the fits by their error (docs/FITTING.md, "On a population").
     pub face_probability: f32,
     pub marks_mean_mm: f32,
+    /// Each mark's offset from its mask vertex (mask axes, mm, true scale).
+    pub mark_offsets_mm: Vec<(u32, [f32; 3])>,
 }
 
 /// Fits `member` automatically (scale guessed) and compares it with its reference.
@@ -74,6 +76,11 @@ pub fn measure(member: &Member, mask: &Mask) -> Outcome {
             surface_mm: score as f32 * scale * member.mm_per_unit,
             face_probability: reading.face_probability,
             marks_mean_mm: reading.marks_mean_mm / guessed_mm * member.mm_per_unit,
+            mark_offsets_mm: reading
+                .mark_offsets_mm
+                .iter()
+                .map(|&(vertex, offset)| (vertex, offset.map(|c| c / guessed_mm * member.mm_per_unit)))
+                .collect(),
         }
     });
     Outcome {

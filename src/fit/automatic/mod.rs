@@ -119,10 +119,13 @@ pub struct AutomaticFit {
 /// face, and how far the fitted mask's marked vertices lie from its marks (mm at the fit's
 /// scale). Not a confidence yet: on the population neither ranks the fits by their error
 /// (docs/FITTING.md, "On a population").
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct FaceReading {
     pub face_probability: f32,
     pub marks_mean_mm: f32,
+    /// Each mark's offset from its mask vertex: (mask vertex, mark minus vertex in the
+    /// mask's own axes, mm at the fit's scale).
+    pub mark_offsets_mm: Vec<(u32, [f32; 3])>,
 }
 
 /// The features the automatic fit found and pinned the mask to, besides the nose tip and
@@ -419,13 +422,22 @@ fn read_learned(
 /// How far `fit`'s marked vertices lie from the learned `marks` (mm at the fit's scale).
 fn face_reading(mask: &Mask, fit: &Fit, marks: &[Pin], face_probability: f32) -> FaceReading {
     let neutral = FittedMask::new(mask.clone(), fit.clone()).neutral;
-    let total_mm: f32 = marks
+    let to_mask_axes = fit.pose.rotation().transpose();
+    let mark_offsets_mm: Vec<(u32, [f32; 3])> = marks
         .iter()
-        .map(|pin| neutral[pin.vertex as usize].as_dvec3().distance(pin.point) as f32 * fit.mm_per_unit)
+        .map(|pin| {
+            let offset = (pin.point - neutral[pin.vertex as usize].as_dvec3()).as_vec3();
+            (pin.vertex, (to_mask_axes * offset * fit.mm_per_unit).to_array())
+        })
+        .collect();
+    let total_mm: f32 = mark_offsets_mm
+        .iter()
+        .map(|(_, offset)| glam::Vec3::from(*offset).length())
         .sum();
     FaceReading {
         face_probability,
         marks_mean_mm: total_mm / marks.len().max(1) as f32,
+        mark_offsets_mm,
     }
 }
 
