@@ -14,7 +14,7 @@ use tokio_tungstenite::tungstenite::Message;
 use crate::bus::{info, next_seq, produce, producer, viewer, HEAD, STREAM};
 use crate::common::data;
 use crate::common::nats::{NatsCluster, NatsServer};
-use crate::common::service::{connect, moving_jaw_line, next_json, Server, Socket};
+use crate::common::service::{close_code, connect, moving_jaw_line, next_json, Server, Socket};
 use facewire_proto::messages::ServerMessage;
 
 const CLUSTER_KEY: &str = "a key only the cluster's nodes hold";
@@ -284,6 +284,43 @@ async fn with_a_cluster_key_nobody_on_the_bus_takes_or_holds_a_stream() {
         ServerMessage::Ack { seq, .. } => assert_eq!(seq, 0),
         other => panic!("a producer beside a stranger's lease: {other:?}"),
     }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn with_a_cluster_key_a_lease_deleted_under_its_producer_lets_no_second_one_in() {
+    // A client allowed to delete keys removes a live producer's lease; a second producer
+    // asks another node for the stream at once, before the holder's next refresh would
+    // notice: the holder answers "who holds it", the second is refused and the first goes
+    // on, its frames reaching the other node.
+    let nats = NatsServer::start();
+    let n1 = Server::spawn(&keyed(&nats.url(), "n1")).await;
+    let n2 = Server::spawn(&keyed(&nats.url(), "n2")).await;
+    n1.register(HEAD, "makehuman_head", "").await;
+    n2.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
+    let js = jetstream::new(async_nats::connect(nats.url()).await.unwrap());
+    let leases = js.get_key_value("facewire_producers").await.unwrap();
+    let key = format!("{HEAD}.{STREAM}");
+
+    let mut watcher = viewer(&n2).await;
+    let mut source = producer(&n1).await;
+    for seq in 0..=100 {
+        if seq == 30 || seq == 70 {
+            leases.delete(&key).await.unwrap();
+            let mut second = producer(&n2).await;
+            assert_eq!(
+                close_code(&mut second).await,
+                4409,
+                "a second producer beside the first"
+            );
+        }
+        produce(&mut source, seq).await;
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    let mut last = 0;
+    while let Some(seq) = next_seq(&mut watcher, Duration::from_millis(500)).await {
+        last = seq;
+    }
+    assert_eq!(last, 100, "the other node's viewer stopped at {last}");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

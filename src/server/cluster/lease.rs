@@ -12,6 +12,9 @@
 //! nobody of the cluster wrote is no lease (a claim takes it over, its holder takes it
 //! back), and an answer must carry the proof over the question's nonce, so neither a
 //! forged lease nor a stranger answering for a node keeps a stream from its producer.
+//! A claim that finds the key released, removed or overwritten without proof first asks
+//! every node whether it holds the lease (`facewire.lease.who`): the holder answers with
+//! its sealed name, so a lease deleted under a live producer lets no second one in.
 
 use std::collections::HashSet;
 use std::future::Future;
@@ -75,6 +78,16 @@ pub struct Leases {
 
 fn alive_subject(node: &str) -> String {
     format!("{PREFIX}.node.{node}.alive")
+}
+
+/// Where a claim asks every node whether it holds a lease; only its holder answers.
+fn who_subject() -> String {
+    format!("{PREFIX}.lease.who")
+}
+
+/// Where the answer to "who holds it" question `question` is sealed.
+fn who_place(question: &[u8]) -> String {
+    format!("who/{}", String::from_utf8_lossy(question))
 }
 
 fn place(key: &str) -> String {
@@ -157,10 +170,16 @@ impl Leases {
         client: &async_nats::Client,
     ) -> Result<impl Future<Output = ()>, ClusterError> {
         let subject = alive_subject(&self.node);
-        let mut checks = client
+        let alive = client
             .subscribe(subject.clone())
             .await
             .map_err(|source| ClusterError::Subscribe { subject, source })?;
+        let subject = who_subject();
+        let who = client
+            .subscribe(subject.clone())
+            .await
+            .map_err(|source| ClusterError::Subscribe { subject, source })?;
+        let mut checks = futures_util::stream::select(alive, who);
         let (client, held, seal, node) = (
             client.clone(),
             self.held.clone(),
@@ -179,10 +198,18 @@ impl Leases {
                     .nth(1)
                     .map(String::from_utf8_lossy);
                 let holds = key.is_some_and(|key| held.lock().expect("held lock").contains(key.as_ref()));
-                let answer = seal.seal(
-                    &answer_place(&node, &check.payload),
-                    if holds { HELD } else { FREE },
-                );
+                let answer = if check.subject.as_str() == who_subject() {
+                    // Every node hears it: only the holder answers, with its name.
+                    if !holds {
+                        continue;
+                    }
+                    seal.seal(&who_place(&check.payload), node.as_bytes())
+                } else {
+                    seal.seal(
+                        &answer_place(&node, &check.payload),
+                        if holds { HELD } else { FREE },
+                    )
+                };
                 let _ = client.publish(reply, answer.into()).await;
             }
         })
@@ -213,27 +240,37 @@ impl Leases {
         let key = format!("{head}.{stream}");
         let unavailable = |e: &dyn std::fmt::Display| LeaseError::Unavailable(e.to_string());
         let made_s = bucket_made_s(&self.js).await.map_err(|e| unavailable(&e))?;
+        let busy = |node: String| LeaseError::Busy {
+            head: head.to_string(),
+            stream: stream.to_string(),
+            node,
+        };
         // A lease can change hands between reading it and taking it; a few tries settle it.
         for _ in 0..3 {
-            match self.kv.create(&key, self.value(&key)).await {
-                Ok(revision) => return Ok(self.hold(key, (made_s, revision), cancel_producer)),
-                Err(e) if e.kind() == kv::CreateErrorKind::AlreadyExists => {}
-                Err(e) => return Err(unavailable(&e)),
-            }
             let Some(entry) = self.kv.entry(&key).await.map_err(|e| unavailable(&e))? else {
-                continue;
+                // Never held, or expired with its holder: free.
+                match self.kv.create(&key, self.value(&key)).await {
+                    Ok(revision) => return Ok(self.hold(key, (made_s, revision), cancel_producer)),
+                    Err(e) if e.kind() == kv::CreateErrorKind::AlreadyExists => continue,
+                    Err(e) => return Err(unavailable(&e)),
+                }
             };
-            // A value nobody of the cluster wrote holds nothing: it is taken over.
             let holder = self.holder(&key, &entry);
-            if let Some(holder) = &holder {
+            match &holder {
                 // This node's own lease is one its last producer has not released yet:
                 // the local producer slot already says nobody else produces here.
-                if *holder != self.node && self.holds(holder, &key).await {
-                    return Err(LeaseError::Busy {
-                        head: head.to_string(),
-                        stream: stream.to_string(),
-                        node: holder.clone(),
-                    });
+                Some(holder) if *holder == self.node => {}
+                Some(holder) => {
+                    if self.holds(holder, &key).await {
+                        return Err(busy(holder.clone()));
+                    }
+                }
+                // Released, removed or written by someone without the cluster key: free,
+                // unless a node answers that it holds it (the key was removed under it).
+                None => {
+                    if let Some(node) = self.who_holds(&key).await {
+                        return Err(busy(node));
+                    }
                 }
             }
             if let Ok(revision) = self.kv.update(&key, self.value(&key), entry.revision).await {
@@ -272,6 +309,18 @@ impl Leases {
             }
             _ => false,
         }
+    }
+
+    /// The node that answers, with proof, that it holds lease `key`: asked of every node
+    /// at once, waiting [`LIVENESS_TIMEOUT`] when none does.
+    async fn who_holds(&self, key: &str) -> Option<String> {
+        let nonce = self.questions.fetch_add(1, Ordering::Relaxed);
+        let question = format!("{}-{}-{nonce}\n{key}", self.node, crate::server::now_us());
+        let ask = self.client.request(who_subject(), Bytes::from(question.clone()));
+        let answer = tokio::time::timeout(LIVENESS_TIMEOUT, ask).await.ok()?.ok()?;
+        let node = self.seal.open(&who_place(question.as_bytes()), &answer.payload)?;
+        let node = std::str::from_utf8(node).ok()?;
+        (valid_id(node) && node != self.node).then(|| node.to_string())
     }
 
     /// Holds lease `key`, claimed at `revision` of the bucket made at `made_s`.
