@@ -195,7 +195,7 @@ mod tests {
     }
 
     #[test]
-    fn a_recording_cut_short_on_disk_is_named_not_loaded() {
+    fn a_broken_or_unfinished_recording_on_disk_is_not_loaded_and_the_broken_one_is_named() {
         let dir = tempfile::tempdir().unwrap();
         let shelf = RecordingShelf::new(dir.path().to_path_buf(), Arc::new(Mask::candide3()));
         let meta = ShelvedMeta {

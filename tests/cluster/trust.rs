@@ -211,8 +211,9 @@ async fn with_a_cluster_key_a_client_on_the_bus_changes_nothing_in_the_registry(
     assert!(info(&n3, "forged").await.is_none());
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn with_a_cluster_key_nobody_on_the_bus_takes_or_holds_a_stream() {
+/// Two keyed nodes on one NATS server, the MakeHuman head registered on n1 and ready on
+/// n2, and the lease bucket as a plain client (holding no key) sees it.
+async fn keyed_pair_sharing_the_head() -> (NatsServer, Server, Server, kv::Store) {
     let nats = NatsServer::start();
     let n1 = Server::spawn(&keyed(&nats.url(), "n1")).await;
     let n2 = Server::spawn(&keyed(&nats.url(), "n2")).await;
@@ -220,6 +221,12 @@ async fn with_a_cluster_key_nobody_on_the_bus_takes_or_holds_a_stream() {
     n2.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
     let js = jetstream::new(async_nats::connect(nats.url()).await.unwrap());
     let leases = js.get_key_value("facewire_producers").await.unwrap();
+    (nats, n1, n2, leases)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn with_a_cluster_key_nobody_on_the_bus_takes_or_holds_a_stream() {
+    let (nats, n1, n2, leases) = keyed_pair_sharing_the_head().await;
     let key = format!("{HEAD}.{STREAM}");
 
     // The lease overwritten under a live producer, twice over its refresh period: the
@@ -292,13 +299,7 @@ async fn with_a_cluster_key_a_lease_deleted_under_its_producer_lets_no_second_on
     // asks another node for the stream at once, before the holder's next refresh would
     // notice: the holder answers "who holds it", the second is refused and the first goes
     // on, its frames reaching the other node.
-    let nats = NatsServer::start();
-    let n1 = Server::spawn(&keyed(&nats.url(), "n1")).await;
-    let n2 = Server::spawn(&keyed(&nats.url(), "n2")).await;
-    n1.register(HEAD, "makehuman_head", "").await;
-    n2.wait_ready_in_cluster(HEAD, Duration::from_secs(30)).await;
-    let js = jetstream::new(async_nats::connect(nats.url()).await.unwrap());
-    let leases = js.get_key_value("facewire_producers").await.unwrap();
+    let (_nats, n1, n2, leases) = keyed_pair_sharing_the_head().await;
     let key = format!("{HEAD}.{STREAM}");
 
     let mut watcher = viewer(&n2).await;

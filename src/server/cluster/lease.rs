@@ -294,10 +294,15 @@ impl Leases {
         Ok(entry.is_some_and(|e| e.operation == kv::Operation::Put))
     }
 
+    /// A question about lease `key`: a nonce no earlier question had, then the key.
+    fn question(&self, key: &str) -> String {
+        let nonce = self.questions.fetch_add(1, Ordering::Relaxed);
+        format!("{}-{}-{nonce}\n{key}", self.node, crate::server::now_us())
+    }
+
     /// Whether `node` answers, with proof, that it holds lease `key`.
     async fn holds(&self, node: &str, key: &str) -> bool {
-        let nonce = self.questions.fetch_add(1, Ordering::Relaxed);
-        let question = format!("{}-{}-{nonce}\n{key}", self.node, crate::server::now_us());
+        let question = self.question(key);
         let check = self
             .client
             .request(alive_subject(node), Bytes::from(question.clone()));
@@ -314,8 +319,7 @@ impl Leases {
     /// The node that answers, with proof, that it holds lease `key`: asked of every node
     /// at once, waiting [`LIVENESS_TIMEOUT`] when none does.
     async fn who_holds(&self, key: &str) -> Option<String> {
-        let nonce = self.questions.fetch_add(1, Ordering::Relaxed);
-        let question = format!("{}-{}-{nonce}\n{key}", self.node, crate::server::now_us());
+        let question = self.question(key);
         let ask = self.client.request(who_subject(), Bytes::from(question.clone()));
         let answer = tokio::time::timeout(LIVENESS_TIMEOUT, ask).await.ok()?.ok()?;
         let node = self.seal.open(&who_place(question.as_bytes()), &answer.payload)?;
