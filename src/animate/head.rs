@@ -5,7 +5,9 @@
 use glam::Vec3;
 
 use super::part_split::split_rows;
-use super::{infer_role, Eyeball, EyeballError, EyelidContact, TeethContact, TongueShaper};
+use super::{
+    infer_role, Eyeball, EyeballError, EyelidContact, LabiodentalContact, TeethContact, TongueShaper,
+};
 use crate::deform::Registration;
 use crate::head::{check_part_names, Head, Part, PartListError, PartRole};
 use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
@@ -28,6 +30,9 @@ pub struct AnimatedHead {
     pub splits: Vec<PartSplit>,
     /// Keeps the lips and the tongue out of the teeth; `None` without closed teeth.
     pub contact: Option<TeethContact>,
+    /// Brings the lower lip to the upper teeth on f and v; `None` without parts that move
+    /// with the skull.
+    pub labiodental: Option<LabiodentalContact>,
     /// The eyeballs (parts given the role eyes, split one a side): not in `parts`, which
     /// viewers index; at most two.
     pub eyes: Vec<Eyeball>,
@@ -183,6 +188,7 @@ impl AnimatedHead {
             &settled,
             registration.mm_per_unit(),
         );
+        let labiodental = LabiodentalContact::new(&registration, &lip_region, &settled);
         let eyelids = EyelidContact::new(&registration.head, &eyes, registration.mm_per_unit());
         Ok(AnimatedHead {
             eyes,
@@ -194,6 +200,7 @@ impl AnimatedHead {
             tongue,
             splits,
             contact,
+            labiodental,
         })
     }
 

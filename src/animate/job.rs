@@ -3,7 +3,8 @@
 //!
 //! 1. [`FrameJob::deform`]: pose the mask from a frame, deform the head, find the head's
 //!    own rigid motion and the jaw's (kept apart from the deformation), shape the tongue,
-//!    keep the lips and the tongue out of the teeth, turn the eyes with the gaze and keep
+//!    bring the lower lip to the upper teeth on f and v, keep the lips and the tongue out
+//!    of the teeth, turn the eyes with the gaze and keep
 //!    the lids out of them;
 //! 2. [`FrameJob::measure`]: the frame's [`FrameMeters`] (lip roughness and folds, the
 //!    heat asked for);
@@ -18,7 +19,7 @@ use glam::Vec3;
 
 use super::frame_meters::{FrameMeasures, FrameMeters, MeterError};
 use super::json_frame::write_json_frame;
-use super::{head_motion, jaw_motion, AnimatedHead, ContactScratch, Gaze, RigidMotion};
+use super::{head_motion, jaw_motion, AnimatedHead, ContactScratch, Gaze, LabiodentalScratch, RigidMotion};
 use crate::deform::{Binding, DeformScratch};
 use crate::mask::LIP_VERTICES;
 use crate::stream::{ArkitBasis, Frame, FramePoser};
@@ -87,6 +88,8 @@ pub struct FrameJob {
     tongue_wire: Vec<[f32; 3]>,
     /// Buffers of the head's contact constraint; `None` for a head without teeth.
     contact: Option<ContactScratch>,
+    /// Buffers of the lower lip's contact with the upper teeth on f and v.
+    labiodental: Option<LabiodentalScratch>,
     /// Each eyeball's motion in the last frame (the head's `eyes` order), and the turned
     /// ones as a viewer frame carries them.
     eye_motions: Vec<RigidMotion>,
@@ -134,6 +137,7 @@ impl FrameJob {
             tongue_shaped: false,
             tongue_wire: vec![[0.0; 3]; tongue_n],
             contact: head.contact.as_ref().map(|c| c.scratch(n, tongue_n)),
+            labiodental: head.labiodental.as_ref().map(|c| c.scratch(n)),
             eye_motions: vec![RigidMotion::IDENTITY; head.eyes.len()],
             eye_wire: Vec::with_capacity(head.eyes.len()),
             meters,
@@ -175,6 +179,10 @@ impl FrameJob {
         }
         if let Some((_, shaper)) = &self.head.tongue {
             self.tongue_shaped = shaper.shape(frame, &mut self.tongue);
+        }
+        if let (Some(labiodental), Some(scratch)) = (&self.head.labiodental, &mut self.labiodental) {
+            let share = labiodental.share(self.poser.weights());
+            labiodental.apply(&reg.head.topology, &mut self.deformed, share, scratch);
         }
         if let (Some(contact), Some(scratch)) = (&self.head.contact, &mut self.contact) {
             let tongue = self.head.tongue.as_ref().map(|_| self.tongue.as_mut_slice());

@@ -51,6 +51,13 @@ impl SurfaceDistance {
         }
     }
 
+    /// Room for runs that reach `vertices` vertices without growing a buffer: a caller
+    /// that must not allocate per run reserves once for the largest it makes.
+    pub fn reserve(&mut self, vertices: usize) {
+        self.reached.reserve(vertices);
+        self.heap.reserve(vertices);
+    }
+
     /// Runs from `sources` (vertex, starting distance), settling every vertex within
     /// `max_distance` (head units; `f32::INFINITY` for no bound). Returns the settled
     /// vertices in order of increasing distance.

@@ -38,6 +38,11 @@ impl FramePoser {
         &self.posed
     }
 
+    /// The animation-unit weights of the last [`FramePoser::pose`] ([`animation_weights`]).
+    pub fn weights(&self) -> &[f32] {
+        &self.weights
+    }
+
     /// The mask as the last [`FramePoser::pose`] left it (head units).
     pub fn posed(&self) -> &[Vec3] {
         &self.posed

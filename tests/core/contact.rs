@@ -36,10 +36,11 @@ fn the_syllables_touch_the_teeth_without_going_into_them() {
         assert_eq!(a.contact.len(), comparison.frames, "{}", s.spec);
         // No lip vertex inside a tooth, in any frame.
         assert_eq!(s.lips_in_teeth, Some(0), "{}", s.spec);
-        // Every f syllable brings the lower lip within 2 mm of the upper teeth...
+        // Every f syllable brings the lower lip to the upper teeth (the labiodental
+        // contact leaves it at most its 0.2 mm margin from them; 1.0 mm without it)...
         let fv = s.fv_gap_mm.unwrap();
         eprintln!("{}: widest f/v gap {fv:.2} mm", s.spec);
-        assert!(fv < 2.0, "{}: {fv} mm", s.spec);
+        assert!(fv <= 0.201, "{}: {fv} mm", s.spec);
         // ... and the lips stay off the teeth where the mouth opens for a vowel.
         for row in a
             .contact

@@ -75,62 +75,103 @@ const MAX_TONGUE_DEPTH_MM: f32 = 0.55;
 /// that adds folds fails. The goal is 0.
 const MAX_SAMPLE_LIP_FOLDS: u64 = 990;
 
-#[test]
-fn the_whole_heads_animate_within_the_contact_goals() {
+/// Animates `spec`'s whole head from its landmark fit through the syllable stream with
+/// the default algorithm (`facewire population --animate`'s row), with whether it has
+/// parts.
+fn animate_whole_head(
+    maker: &Maker,
+    spec: &population::MemberSpec,
+) -> (String, bool, facewire::report::AnimationMeasures) {
     let data = crate::common::repo_path("data");
-    let maker = Maker::new(&data).unwrap();
-    let mask = Mask::candide3();
     let algorithm = facewire::report::parse_algorithms(facewire::deform::spec::DEFAULT_ALGORITHM)
         .unwrap()
         .remove(0);
-    let stream = data.join("streams/syllables.jsonl");
+    let member = maker.make(spec).unwrap();
+    let targets = spec.source.targets_dir().map_or(Vec::new(), |dir| {
+        facewire::targets::ExpressionTarget::load_dir(
+            &data.join("heads").join(dir),
+            member.head.positions.len(),
+        )
+        .unwrap()
+    });
+    let outcome = facewire::report::animate(
+        &member,
+        facewire::report::FitSource::Landmarks,
+        &Mask::candide3(),
+        &data.join("streams/syllables.jsonl"),
+        &algorithm,
+        &targets,
+    );
+    let m = outcome
+        .result
+        .unwrap_or_else(|e| panic!("{}: {e}", outcome.member));
+    eprintln!("{}: {m:?}", outcome.member);
+    (outcome.member, !member.parts.is_empty(), m)
+}
+
+#[test]
+fn the_whole_heads_animate_within_the_contact_goals() {
+    let maker = Maker::new(&crate::common::repo_path("data")).unwrap();
     let sample = population::whole_heads_sample();
     assert!(sample.len() >= 8, "{} heads", sample.len());
     let mut lip_folds = 0;
     for spec in &sample {
-        let member = maker.make(spec).unwrap();
-        let targets = spec.source.targets_dir().map_or(Vec::new(), |dir| {
-            facewire::targets::ExpressionTarget::load_dir(
-                &data.join("heads").join(dir),
-                member.head.positions.len(),
-            )
-            .unwrap()
-        });
-        let outcome = facewire::report::animate(
-            &member,
-            facewire::report::FitSource::Landmarks,
-            &mask,
-            &stream,
-            &algorithm,
-            &targets,
-        );
-        let m = outcome
-            .result
-            .unwrap_or_else(|e| panic!("{}: {e}", outcome.member));
-        eprintln!("{}: {m:?}", outcome.member);
+        let (member, has_parts, m) = animate_whole_head(&maker, spec);
         lip_folds += m.lip_folds;
-        if member.parts.is_empty() {
-            assert_eq!(m.lips_in_teeth, None, "{}", outcome.member);
+        if !has_parts {
+            assert_eq!(m.lips_in_teeth, None, "{member}");
             continue;
         }
-        assert_eq!(m.split_parts, ["teeth"], "{}", outcome.member);
-        assert_eq!(m.lips_in_teeth, Some(0), "{}", outcome.member);
+        assert_eq!(m.split_parts, ["teeth"], "{member}");
+        assert_eq!(m.lips_in_teeth, Some(0), "{member}");
         // Both eyeballs found on every identity, and no lid left in one through 20 s of
         // blinks and glances (the lids enter them without the constraint).
-        assert_eq!(m.eyes, 2, "{}", outcome.member);
-        assert_eq!(m.lids_in_eyes, Some(0), "{}", outcome.member);
-        assert!(m.lids_in_eyes_unconstrained.is_some(), "{}", outcome.member);
+        assert_eq!(m.eyes, 2, "{member}");
+        assert_eq!(m.lids_in_eyes, Some(0), "{member}");
+        assert!(m.lids_in_eyes_unconstrained.is_some(), "{member}");
         let depth = m.tongue_depth_mm.unwrap();
         assert!(
             depth <= MAX_TONGUE_DEPTH_MM,
-            "{}: tongue {depth} mm in the teeth",
-            outcome.member
+            "{member}: tongue {depth} mm in the teeth"
         );
+        let gap = m.fv_gap_mm.unwrap();
+        assert!(gap <= MAX_FV_GAP_MM, "{member}: f/v gap {gap} mm");
         let truth = m.ground_truth_rms_mm.unwrap();
-        assert!(truth < 0.7, "{}: ground truth {truth} mm", outcome.member);
+        assert!(truth < 0.7, "{member}: ground truth {truth} mm");
     }
     eprintln!("{lip_folds} lip folds over the sample");
     assert!(lip_folds <= MAX_SAMPLE_LIP_FOLDS, "{lip_folds} lip folds");
+}
+
+/// The goal: on every f and v the lower lip comes within this of the upper teeth (mm).
+const MAX_FV_GAP_MM: f64 = 1.5;
+
+/// The identities whose lower lip stopped farthest short of the upper teeth on f before
+/// the labiodental contact (landmark fits: seed 27 by 2.90 mm, held-out seed 1007 by
+/// 2.62 mm) meet them now.
+#[test]
+fn the_lower_lip_meets_the_upper_teeth_on_f_where_it_stopped_short() {
+    let maker = Maker::new(&crate::common::repo_path("data")).unwrap();
+    let heads: Vec<_> = population::whole_heads()
+        .into_iter()
+        .filter(|m| {
+            ["ict seed 27 ", "ict seed 1007 "]
+                .iter()
+                .any(|n| m.name().starts_with(n))
+        })
+        .collect();
+    assert_eq!(heads.len(), 2);
+    for spec in &heads {
+        let (member, _, m) = animate_whole_head(&maker, spec);
+        // Within the contact's 0.2 mm margin, far inside the goal.
+        let gap = m.fv_gap_mm.unwrap();
+        assert!(gap <= 0.201, "{member}: f/v gap {gap} mm");
+        assert_eq!(
+            m.lips_in_teeth,
+            Some(0),
+            "{member}: the pull leaves no lip in the teeth"
+        );
+    }
 }
 
 #[test]
