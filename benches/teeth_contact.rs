@@ -1,7 +1,8 @@
 //! The contact constraint on the ICT head (13,294 vertices, its teeth, gums and tongue)
 //! with the default algorithm, over the frames of the shipped syllable stream: the job's
-//! deform with the constraint against the same deform without it, and the constraint
-//! alone on a frame that presses the lips and the tongue into the teeth.
+//! deform with the constraint against the same deform without it; and on the frames of
+//! the f syllables, the deform with the labiodental contact (the lower lip brought to the
+//! upper teeth) against the same deform without it.
 //!
 //! `cargo bench --bench teeth_contact`; numbers in docs/PERFORMANCE.md ("Contact").
 
@@ -64,6 +65,30 @@ fn teeth_contact(c: &mut Criterion) {
         let mut job =
             FrameJob::new(Arc::new(head), binding.clone(), basis.clone(), Heat::None).expect("job builds");
         let mut next = frames.iter().cycle();
+        group.bench_function(name, |b| {
+            b.iter(|| black_box(job.deform(next.next().expect("cycled")).len()))
+        });
+    }
+    group.finish();
+
+    // The frames that ask for the labiodental shape: the f syllables' (the contact does
+    // nothing on the others).
+    let f_frames: Vec<Frame> = frames
+        .iter()
+        .filter(|f| f.label.as_deref().is_some_and(|l| l.starts_with('f')))
+        .cloned()
+        .collect();
+    let with = ict();
+    let mut without = ict();
+    without.labiodental = None;
+    let mut group = c.benchmark_group("labiodental/ict_13k");
+    for (name, head) in [
+        ("deform of f frames with labiodental contact", with),
+        ("deform of f frames without it", without),
+    ] {
+        let mut job =
+            FrameJob::new(Arc::new(head), binding.clone(), basis.clone(), Heat::None).expect("job builds");
+        let mut next = f_frames.iter().cycle();
         group.bench_function(name, |b| {
             b.iter(|| black_box(job.deform(next.next().expect("cycled")).len()))
         });

@@ -111,7 +111,7 @@ pub struct AlgorithmSummary {
     pub lips_in_teeth: Option<u64>,
     /// The widest of the closest approaches of the lower lip to the upper teeth in each
     /// labiodental syllable (a run of frames whose label starts with `f` or `v`), mm:
-    /// under 2 mm when every f and v brings the lip to the teeth. `None` without teeth or
+    /// under 1.5 mm when every f and v brings the lip to the teeth. `None` without teeth or
     /// without such syllables.
     pub fv_gap_mm: Option<f64>,
 }

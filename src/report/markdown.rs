@@ -209,7 +209,7 @@ pub fn render(comparison: &Comparison, context: &ReportContext<'_>, files: &File
             "- **lip vertices in teeth** (count; 0 is the goal): the lip region's vertices that \
              end inside a tooth (a closed piece of the skull or jaw parts, the jaw's moved by \
              the frame's jaw motion), summed over the frames; {} at rest.\n\
-             - **f/v lip to teeth** (mm; under 2 is the goal): in each syllable whose label \
+             - **f/v lip to teeth** (mm; under 1.5 is the goal): in each syllable whose label \
              starts with f or v, the lower lip's closest approach to the upper teeth; the \
              column is the widest of those. {:.1} mm at rest.",
             rest.lips_in_teeth, rest.lower_lip_to_upper_teeth_mm
