@@ -15,7 +15,6 @@ mod compare;
 mod contact;
 mod default_algorithm;
 mod deform;
-mod explore_tmp;
 mod eyes;
 mod fit_report;
 mod frame_checks;
