@@ -167,6 +167,20 @@ impl Browser {
         reply["value"].clone()
     }
 
+    /// A Chrome DevTools Protocol command through chromedriver.
+    async fn cdp(&self, cmd: &str, params: Value) -> Value {
+        self.command("/goog/cdp/execute", Some(json!({ "cmd": cmd, "params": params })))
+            .await
+    }
+
+    /// WebDriver input actions (keys, touches), then their release.
+    async fn act(&self, actions: Value) {
+        self.command("/actions", Some(json!({ "actions": actions })))
+            .await;
+        let url = format!("{}/actions", self.session);
+        self.http.delete(url).send().await.unwrap();
+    }
+
     async fn open(&self, url: &str) {
         self.command("/url", Some(json!({ "url": url }))).await;
     }
@@ -351,6 +365,11 @@ async fn check_the_page(browser: &Browser) {
         check_the_replay(browser, &url, Duration::from_secs(120)).await;
         return;
     }
+    if std::env::var_os("FACEWIRE_PHONE_ONLY").is_some() {
+        let (_demo, url) = start_demo();
+        check_the_page_on_a_phone(browser, &url, Duration::from_secs(120)).await;
+        return;
+    }
     check_failover_across_nodes(browser).await;
     let (_demo, url) = start_demo();
     let long = Duration::from_secs(120);
@@ -442,6 +461,7 @@ async fn check_the_page(browser: &Browser) {
     check_a_stalled_stream(browser, &url, long).await;
     check_a_head_posted_with_no_fit(browser, &url, long).await;
     check_the_face_is_seen_when_its_voice_is_heard(browser, &url, long).await;
+    check_the_page_on_a_phone(browser, &url, long).await;
 
     // An unknown head: the server's error and close 4404 end in the error state.
     browser.open(&format!("{url}?head=nosuch")).await;
@@ -603,6 +623,177 @@ async fn check_a_head_posted_with_no_fit(browser: &Browser, url: &str, long: Dur
     );
     producer.close(None).await.unwrap();
 }
+
+/// The page on a phone: 390 x 844 CSS pixels with touch (Chromium's mobile emulation).
+/// Nothing scrolls sideways; every control shown lies on the screen, has a name a screen
+/// reader reads, is at least 24 px a side (WCAG 2.2's minimum target size) and is reached
+/// by Tab; one finger orbits the head and two pinch to zoom it. `FACEWIRE_SCREENSHOTS=DIR`
+/// keeps the page (`DIR/phone.png.base64`; docs/img/phone.png is it).
+async fn check_the_page_on_a_phone(browser: &Browser, url: &str, long: Duration) {
+    let (width, height) = (390, 844);
+    browser
+        .cdp(
+            "Emulation.setDeviceMetricsOverride",
+            json!({ "width": width, "height": height, "deviceScaleFactor": 2, "mobile": true }),
+        )
+        .await;
+    browser
+        .cdp(
+            "Emulation.setTouchEmulationEnabled",
+            json!({ "enabled": true, "maxTouchPoints": 5 }),
+        )
+        .await;
+    browser.open(url).await;
+    browser
+        .wait_for(
+            "view 1 to go live on a phone",
+            &state_is("status-0", "live"),
+            long,
+        )
+        .await;
+    let layout = browser.js(PHONE_CONTROLS_JS).await;
+    println!("on a phone: {layout}");
+    assert_eq!(
+        layout["innerWidth"], width,
+        "the page is wider than the phone: {}",
+        layout["wider"]
+    );
+    assert!(
+        layout["scrollWidth"].as_i64().unwrap() <= width,
+        "the page scrolls sideways on a phone: {layout}"
+    );
+    let controls = layout["controls"].as_array().unwrap();
+    assert!(controls.len() >= 10, "the page's controls: {layout}");
+    for control in controls {
+        assert!(
+            control["name"].as_str().is_some_and(|n| !n.is_empty()),
+            "a control without a name: {control}"
+        );
+        assert!(
+            control["onScreen"].as_bool().unwrap(),
+            "a control off the screen: {control}"
+        );
+        assert!(
+            control["width"].as_f64().unwrap() >= 24.0 && control["height"].as_f64().unwrap() >= 24.0,
+            "a control smaller than 24 px: {control}"
+        );
+    }
+    // Tab from the top of the page reaches every control shown.
+    browser
+        .js("document.activeElement?.blur(); window.scrollTo(0, 0); return true")
+        .await;
+    let mut reached = std::collections::BTreeSet::new();
+    for _ in 0..controls.len() * 2 + 10 {
+        let tab = json!([{ "type": "key", "id": "keyboard", "actions": [
+            { "type": "keyDown", "value": "\u{E004}" }, { "type": "keyUp", "value": "\u{E004}" }
+        ]}]);
+        browser.act(tab).await;
+        let at = browser
+            .js("return document.activeElement?.dataset.phoneKey ?? null")
+            .await;
+        if let Some(key) = at.as_str() {
+            reached.insert(key.to_string());
+        }
+    }
+    let missed: Vec<&Value> = controls
+        .iter()
+        .filter(|c| !reached.contains(c["key"].as_str().unwrap()))
+        .collect();
+    assert!(missed.is_empty(), "Tab never reaches {missed:?}");
+    browser
+        .js("document.activeElement?.blur(); window.scrollTo(0, 0); return true")
+        .await;
+    if let Some(dir) = std::env::var_os("FACEWIRE_SCREENSHOTS") {
+        let page = browser.command("/screenshot", None).await;
+        std::fs::write(
+            std::path::Path::new(&dir).join("phone.png.base64"),
+            page.as_str().unwrap(),
+        )
+        .unwrap();
+    }
+    // One finger across the head orbits it; two moving apart zoom in.
+    let camera = "const c = window.facewireCamera; return { yaw: c.yaw, zoom: c.zoom };";
+    let before = browser.js(camera).await;
+    // The canvas's centre, in viewport pixels.
+    let centre = browser
+        .js(
+            "const r = document.getElementById('canvas-0').getBoundingClientRect(); \
+             r.top < 0 || r.bottom > innerHeight ? document.getElementById('canvas-0').scrollIntoView() : 0; \
+             const s = document.getElementById('canvas-0').getBoundingClientRect(); \
+             return [Math.round(s.left + s.width / 2), Math.round(s.top + s.height / 2)]",
+        )
+        .await;
+    let (cx, cy) = (centre[0].as_i64().unwrap(), centre[1].as_i64().unwrap());
+    let finger = |id: &str, from: (i64, i64), to: (i64, i64)| {
+        json!({ "type": "pointer", "id": id, "parameters": { "pointerType": "touch" }, "actions": [
+            { "type": "pointerMove", "duration": 0, "origin": "viewport", "x": cx + from.0, "y": cy + from.1 },
+            { "type": "pointerDown", "button": 0 },
+            { "type": "pointerMove", "duration": 300, "origin": "viewport", "x": cx + to.0, "y": cy + to.1 },
+            { "type": "pointerUp", "button": 0 }
+        ]})
+    };
+    browser.act(json!([finger("one", (-60, 0), (60, 0))])).await;
+    let orbited = browser.js(camera).await;
+    assert!(
+        (orbited["yaw"].as_f64().unwrap() - before["yaw"].as_f64().unwrap()).abs() > 0.3,
+        "one finger did not orbit: {before} -> {orbited}"
+    );
+    browser
+        .act(json!([
+            finger("one", (-20, 0), (-90, 0)),
+            finger("two", (20, 0), (90, 0))
+        ]))
+        .await;
+    let pinched = browser.js(camera).await;
+    assert!(
+        pinched["zoom"].as_f64().unwrap() > orbited["zoom"].as_f64().unwrap() * 1.5,
+        "two fingers apart did not zoom in: {orbited} -> {pinched}"
+    );
+    browser
+        .cdp("Emulation.setTouchEmulationEnabled", json!({ "enabled": false }))
+        .await;
+    browser
+        .cdp("Emulation.clearDeviceMetricsOverride", json!({}))
+        .await;
+}
+
+/// Every control the page shows (buttons, fields, links, anything given a tab stop), each
+/// marked with a `data-phone-key` to recognise it when focused, with its name as a screen
+/// reader reads it (ARIA label, labelling element, `<label>`, text, title), its size and
+/// whether it lies within the screen's width; the page's widths, and the elements that
+/// reach past the screen's.
+const PHONE_CONTROLS_JS: &str = r#"
+const selector = 'button, input, select, textarea, a[href], [role=button], [tabindex]:not([tabindex="-1"])';
+const shown = (el) => el.getClientRects().length > 0 && getComputedStyle(el).visibility !== 'hidden'
+  && !el.disabled && !el.closest('[hidden], [inert]');
+const text = (el) => (el?.textContent ?? '').replace(/\s+/g, ' ').trim();
+const nameOf = (el) => {
+  if (el.getAttribute('aria-label')) return el.getAttribute('aria-label').trim();
+  const by = el.getAttribute('aria-labelledby');
+  if (by) return by.split(/\s+/).map((id) => text(document.getElementById(id))).join(' ').trim();
+  if (el.labels && el.labels.length) return text(el.labels[0]);
+  if (el.tagName !== 'INPUT' && text(el)) return text(el);
+  return (el.getAttribute('title') ?? el.getAttribute('placeholder') ?? '').trim();
+};
+const controls = [...document.querySelectorAll(selector)].filter(shown).map((el, i) => {
+  el.dataset.phoneKey = String(i);
+  const r = el.getBoundingClientRect();
+  return {
+    key: String(i), tag: el.tagName.toLowerCase(), id: el.id, name: nameOf(el),
+    width: r.width, height: r.height,
+    onScreen: r.left >= -0.5 && r.right <= window.innerWidth + 0.5,
+  };
+});
+const wider = [...document.querySelectorAll('body *')]
+  .filter((el) => el.getClientRects().length && el.getBoundingClientRect().right > screen.width + 0.5)
+  .map((el) => `${el.tagName.toLowerCase()}#${el.id}.${el.className} ${Math.round(el.getBoundingClientRect().right)}`);
+return {
+  innerWidth: window.innerWidth,
+  scrollWidth: document.documentElement.scrollWidth,
+  wider: wider.slice(0, 12),
+  controls,
+};
+"#;
 
 /// The ICT head's teeth, gums and tongue, in the mouth close-up that the URL asks for;
 /// the head keeps talking. `FACEWIRE_SCREENSHOTS=DIR` keeps twelve pictures 200 ms apart

@@ -96,6 +96,8 @@ let soundCodec = null;
 window.facewireSound = sound;
 // For tests: each view's live head (head-view.js), as the <facewire-head> element has one.
 window.facewireViews = () => page.panels.map((panel) => panel.view);
+// For tests: the shared camera (drag, pinch and keys move it).
+window.facewireCamera = camera;
 const chart = new LiveChart(byId("chart"));
 const replayBar = new ReplayBar((message) => page.panels.forEach((panel) => panel.control(message)));
 const meshes = new Map();
