@@ -100,8 +100,9 @@ pub struct PartInfo {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub split_from: Option<String>,
     /// Its closed pieces (teeth). A skull or jaw part with none is an open shell: the lips
-    /// and the tongue are not kept out of it and contact is not measured. Absent (null)
-    /// from servers before it.
+    /// and the tongue are not kept out of it and contact is not measured (on f and v the
+    /// lower lip is still brought to a skull part's surface). Absent (null) from servers
+    /// before it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub closed_pieces: Option<u32>,
 }

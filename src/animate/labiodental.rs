@@ -349,6 +349,24 @@ mod tests {
     }
 
     #[test]
+    fn open_shell_teeth_are_met_as_well_as_closed_ones() {
+        // One triangle above the grid's middle, as a game asset's teeth may be: a surface
+        // with no inside.
+        let skin = flat_grid(10);
+        let tooth = [[
+            Vec3::new(4.8, 4.8, 2.0),
+            Vec3::new(5.2, 4.8, 2.0),
+            Vec3::new(5.0, 5.2, 2.0),
+        ]];
+        let lower_lip = (0..skin.positions.len() as u32).collect();
+        let contact = LabiodentalContact::with_lengths(&skin.positions, &tooth, lower_lip, LENGTHS).unwrap();
+        let mut scratch = contact.scratch(skin.positions.len());
+        let mut moved = skin.positions.clone();
+        contact.apply(&skin.topology, &mut moved, 1.0, &mut scratch);
+        assert!((moved[MIDDLE].z - 1.8).abs() < 1e-5, "{}", moved[MIDDLE]);
+    }
+
+    #[test]
     fn a_lip_already_at_the_teeth_stays() {
         let (skin, contact) = grid_under_a_tooth(0.1);
         let mut scratch = contact.scratch(skin.positions.len());

@@ -55,7 +55,7 @@ pub fn describe_parts(head: &AnimatedHead) {
         );
         if part.role != PartRole::Tongue && part.closed_pieces == 0 {
             eprintln!(
-                "warning: part {} has no closed piece (an open shell): the lips and the tongue are not kept out of it, and contact is not measured against it",
+                "warning: part {} has no closed piece (an open shell): the lips and the tongue are not kept out of it, and contact is not measured against it (on f and v the lower lip is still brought to a skull part's surface)",
                 part.name
             );
         }
