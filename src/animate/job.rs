@@ -4,8 +4,7 @@
 //! 1. [`FrameJob::deform`]: pose the mask from a frame, deform the head, find the head's
 //!    own rigid motion and the jaw's (kept apart from the deformation), shape the tongue,
 //!    bring the lower lip to the upper teeth on f and v, keep the lips and the tongue out
-//!    of the teeth, turn the eyes with the gaze and keep
-//!    the lids out of them;
+//!    of the teeth, turn the eyes with the gaze and keep the lids out of them;
 //! 2. [`FrameJob::measure`]: the frame's [`FrameMeters`] (lip roughness and folds, the
 //!    heat asked for);
 //! 3. [`FrameJob::encode`]: quantize the deltas and encode the viewer frame with those

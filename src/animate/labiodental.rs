@@ -23,9 +23,10 @@
 //! within the falloff over the surface by `(1 - (s / falloff)²)²` of that. Both lengths
 //! are the head's own, read from its fit: the falloff is half the mouth's width at rest
 //! (the corners do not move), and `fade` goes from 1 at a gap of an eighth of that width
-//! to 0 at a quarter (a wide-open jaw is not pulled shut, and no pull bends the lip more
-//! steeply than half its own reach over the surface). The teeth contact runs after this one and keeps every lip vertex out of the
-//! teeth. Nothing is allocated per frame: the search buffers are sized at construction.
+//! to 0 at a quarter (a wide-open jaw is not pulled shut, and no pull is longer than half
+//! the distance it is spread over). The teeth contact runs after this one and keeps every
+//! lip vertex out of the teeth. Nothing is allocated per frame: the search buffers are
+//! sized at construction.
 
 use glam::Vec3;
 
@@ -106,13 +107,7 @@ impl LabiodentalContact {
             })
             .collect();
         let skin = &registration.head;
-        let mut lower_lip: Vec<u32> = lips
-            .per_lip_vertex()
-            .filter(|(mask_vertex, _)| LOWER_LIP.contains(mask_vertex))
-            .flat_map(|(_, triangles)| triangles.iter().flat_map(|&t| skin.triangles[t as usize]))
-            .collect();
-        lower_lip.sort_unstable();
-        lower_lip.dedup();
+        let lower_lip = lips.head_vertices(skin, |j| LOWER_LIP.contains(&j));
         let anchor = |j: usize| skin.positions[registration.anchors.vertex[j] as usize];
         let [left, right] = OUTER_MOUTH_CORNERS.map(anchor);
         let falloff = left.distance(right) / 2.0;
@@ -219,29 +214,15 @@ impl LabiodentalContact {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::head::flat_grid;
+    use crate::head::{box_mesh, flat_grid};
 
     /// The 12 triangles of the box between `min` and `max`.
     fn box_triangles(min: Vec3, max: Vec3) -> Vec<[Vec3; 3]> {
-        let corner = |i: usize| {
-            Vec3::new(
-                if i & 1 == 0 { min.x } else { max.x },
-                if i & 2 == 0 { min.y } else { max.y },
-                if i & 4 == 0 { min.z } else { max.z },
-            )
-        };
-        [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ]
-        .iter()
-        .flat_map(|q: &[usize; 4]| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-        .map(|t| t.map(corner))
-        .collect()
+        let mesh = box_mesh(min, max);
+        mesh.triangles
+            .iter()
+            .map(|t| t.map(|v| mesh.positions[v as usize]))
+            .collect()
     }
 
     const LENGTHS: Lengths = Lengths {

@@ -487,35 +487,11 @@ fn spread(watched: &Watched, rounds: &mut Rounds) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::head::flat_grid;
+    use crate::head::{box_mesh, flat_grid};
 
     /// A closed box between `min` and `max` as a part with `role`.
     fn tooth(min: Vec3, max: Vec3, role: PartRole) -> Part {
-        let corner = |i: usize| {
-            Vec3::new(
-                if i & 1 == 0 { min.x } else { max.x },
-                if i & 2 == 0 { min.y } else { max.y },
-                if i & 4 == 0 { min.z } else { max.z },
-            )
-        };
-        let quads = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
-        let triangles = quads
-            .iter()
-            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-            .collect();
-        Part::new(
-            "tooth".into(),
-            role,
-            Head::new("tooth", (0..8).map(corner).collect(), triangles),
-            None,
-        )
+        Part::new("tooth".into(), role, box_mesh(min, max), None)
     }
 
     /// Every triangle of `head`, as the lip region.

@@ -143,6 +143,31 @@ impl Head {
     }
 }
 
+/// The closed box between `min` and `max`, 12 triangles wound outward, for the
+/// hand-checked tests of contact with teeth.
+#[cfg(test)]
+pub(crate) fn box_mesh(min: Vec3, max: Vec3) -> Head {
+    let corner = |i: usize| {
+        Vec3::new(
+            if i & 1 == 0 { min.x } else { max.x },
+            if i & 2 == 0 { min.y } else { max.y },
+            if i & 4 == 0 { min.z } else { max.z },
+        )
+    };
+    let triangles = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ]
+    .iter()
+    .flat_map(|q: &[u32; 4]| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+    .collect();
+    Head::new("box", (0..8).map(corner).collect(), triangles)
+}
+
 /// A flat grid of `squares` x `squares` unit squares in z = 0, two triangles each, for the
 /// hand-checked tests of mesh measures.
 #[cfg(test)]

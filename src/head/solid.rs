@@ -295,24 +295,9 @@ pub fn surface_of(triangles: &[[Vec3; 3]]) -> Option<SurfaceIndex> {
 mod tests {
     use super::*;
 
-    /// A closed unit cube [0, 1]^3 as 12 triangles.
+    /// A closed unit cube [0, 1]^3 moved by `offset`, as 12 triangles.
     fn cube(offset: Vec3) -> Head {
-        let mut obj = String::new();
-        for i in 0..8 {
-            let p = Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) + offset;
-            obj += &format!("v {} {} {}\n", p.x, p.y, p.z);
-        }
-        for f in [
-            [1, 3, 4, 2],
-            [5, 6, 8, 7],
-            [1, 2, 6, 5],
-            [3, 7, 8, 4],
-            [1, 5, 7, 3],
-            [2, 4, 8, 6],
-        ] {
-            obj += &format!("f {} {} {} {}\n", f[0], f[1], f[2], f[3]);
-        }
-        Head::from_obj_bytes("cube", obj.as_bytes()).unwrap()
+        crate::head::box_mesh(offset, offset + Vec3::ONE)
     }
 
     #[test]

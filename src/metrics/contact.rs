@@ -107,16 +107,6 @@ impl MouthContact {
             .copied()
             .max_by(|a, b| a.dot(forward).total_cmp(&b.dot(forward)))
             .unwrap_or(Vec3::ZERO);
-        let corners_of = |keep: &dyn Fn(usize) -> bool| -> Vec<u32> {
-            let mut vertices: Vec<u32> = lips
-                .per_lip_vertex()
-                .filter(|&(mask_vertex, _)| keep(mask_vertex))
-                .flat_map(|(_, triangles)| triangles.iter().flat_map(|&t| head.triangles[t as usize]))
-                .collect();
-            vertices.sort_unstable();
-            vertices.dedup();
-            vertices
-        };
         let mut contact = MouthContact {
             upper_teeth: surface_of(&upper)?,
             upper_gums: surface_of(&gums),
@@ -125,8 +115,8 @@ impl MouthContact {
             jaw,
             teeth_front,
             forward,
-            lip_vertices: corners_of(&|_| true),
-            lower_lip_vertices: corners_of(&|j| LOWER_LIP.contains(&j)),
+            lip_vertices: lips.head_vertices(head, |_| true),
+            lower_lip_vertices: lips.head_vertices(head, |j| LOWER_LIP.contains(&j)),
             mm_per_unit,
         };
         contact.tongue = parts.iter().find(|p| p.role == PartRole::Tongue).map(|part| {

@@ -91,4 +91,17 @@ impl LipRegion {
     pub fn union(&self) -> &[u32] {
         &self.union
     }
+
+    /// The vertices of `head` (the head the region was found on) of the triangles of the
+    /// lip vertices that `keep` keeps (by mask vertex), each once, ascending.
+    pub fn head_vertices(&self, head: &Head, keep: impl Fn(usize) -> bool) -> Vec<u32> {
+        let mut vertices: Vec<u32> = self
+            .per_lip_vertex()
+            .filter(|&(mask_vertex, _)| keep(mask_vertex))
+            .flat_map(|(_, triangles)| triangles.iter().flat_map(|&t| head.triangles[t as usize]))
+            .collect();
+        vertices.sort_unstable();
+        vertices.dedup();
+        vertices
+    }
 }
