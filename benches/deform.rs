@@ -38,6 +38,9 @@ fn variants() -> Vec<(String, AlgoSpec)> {
         .collect();
     let held_at_40 = "biharmonic:hold_mm=40,eyes_hold_mm=40,k=16";
     variants.push(("biharmonic_40".into(), held_at_40.parse().expect("a valid spec")));
+    // V's field as it is bound without the lip smoothing and the needles: what they cost.
+    let exact = "biharmonic:smooth_lips=0";
+    variants.push(("biharmonic_exact".into(), exact.parse().expect("a valid spec")));
     variants
 }
 

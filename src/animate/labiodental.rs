@@ -38,9 +38,6 @@ use crate::metrics::LipRegion;
 use crate::stream::mouth_shapes::CHANNELS;
 use crate::stream::visemes::VISEMES;
 
-/// The CANDIDE-3 outer mouth corners (MPEG-4 8.3 and 8.4): the mouth's width at rest.
-const OUTER_MOUTH_CORNERS: [usize; 2] = [31, 64];
-
 /// The lower lip and the upper teeth of one head: built once per head, shared by its jobs
 /// (each keeps a [`LabiodentalScratch`]).
 #[derive(Debug, Clone)]
@@ -108,9 +105,7 @@ impl LabiodentalContact {
             .collect();
         let skin = &registration.head;
         let lower_lip = lips.head_vertices(skin, |j| LOWER_LIP.contains(&j));
-        let anchor = |j: usize| skin.positions[registration.anchors.vertex[j] as usize];
-        let [left, right] = OUTER_MOUTH_CORNERS.map(anchor);
-        let falloff = left.distance(right) / 2.0;
+        let falloff = registration.mouth_width() / 2.0;
         let lengths = Lengths {
             falloff,
             reach: falloff / 2.0,

@@ -13,7 +13,8 @@ use glam::{Vec2, Vec3};
 use crate::deform::Registration;
 use crate::head::SurfaceDistance;
 use crate::mask::{
-    INNER_LIP_CORNERS, LIP_VERTICES, LOWER_LIP_INNER, LOWER_LIP_OUTER, UPPER_LIP_INNER, UPPER_LIP_OUTER,
+    INNER_LIP_CORNERS, LIP_VERTICES, LOWER_LIP_INNER, LOWER_LIP_OUTER, OUTER_LIP_CORNERS, UPPER_LIP_INNER,
+    UPPER_LIP_OUTER,
 };
 
 /// Half the width of the tint's edge, millimetres: the weight goes from 0 this far outside
@@ -21,9 +22,6 @@ use crate::mask::{
 /// millimetre keeps it from aliasing and is finer than most heads' triangles, whose
 /// interpolation softens it further.
 pub const SOFT_EDGE_MM: f32 = 1.0;
-
-/// The outer lip contour's corners (CANDIDE-3 31 and 64, MPEG-4 8.3 and 8.4).
-const OUTER_LIP_CORNERS: [usize; 2] = [31, 64];
 
 /// Per head vertex, how much it is lip: 0 skin, 255 lip (the rest mesh's vertex order).
 pub fn lip_tint(registration: &Registration) -> Vec<u8> {

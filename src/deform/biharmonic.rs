@@ -27,6 +27,9 @@ use rayon::prelude::*;
 use super::anchor_system::{centres, Centre};
 use super::binding::{Binding, LinearTerm};
 use super::lip_seam::without_seam;
+use super::lip_smoothing::smooth_over_lips;
+use super::needles::bind_needles;
+use super::row_merge::keep_largest;
 use super::spec::AlgoSpec;
 use super::Registration;
 use crate::head::CotanLaplacian;
@@ -66,7 +69,10 @@ enum Role {
     Held,
 }
 
-pub fn bind(reg: &Registration, spec: AlgoSpec, reach: Reach, k: u32) -> Binding {
+/// Binds the field, smooths it over the lips within `smooth_lips` of the mouth's width
+/// ([`smooth_over_lips`]) and binds the needle triangles' thin vertices to their long
+/// edges ([`bind_needles`]); `smooth_lips` 0 keeps the exact field, needles and all.
+pub fn bind(reg: &Registration, spec: AlgoSpec, reach: Reach, k: u32, smooth_lips: f32) -> Binding {
     let centres = centres(reg);
     let roles = roles(reg, &centres, reach);
     let free_count = roles.iter().filter(|r| matches!(r, Role::Free(_))).count();
@@ -84,6 +90,19 @@ pub fn bind(reg: &Registration, spec: AlgoSpec, reach: Reach, k: u32) -> Binding
             },
         })
         .collect();
+    if smooth_lips == 0.0 {
+        return Binding::linear(spec, rows);
+    }
+    // The needles are bound on the smoothed field only: on the exact one they folded the
+    // ICT head's lips (86 triangle-frames of the syllable stream, against none).
+    let rows = smooth_over_lips(reg, rows, smooth_lips, k as usize);
+    let rows = bind_needles(
+        &reg.head.positions,
+        &reg.head.triangles,
+        |v| matches!(roles[v as usize], Role::Anchor(_)),
+        k as usize,
+        rows,
+    );
     Binding::linear(spec, rows)
 }
 
@@ -176,25 +195,11 @@ fn strongest(fields: &Mat<f64>, f: usize, centres: &[Centre], k: usize) -> Vec<L
         .map(|c| (c, fields.col_as_slice(c)[f]))
         .filter(|&(_, w)| w != 0.0)
         .collect();
-    let total: f64 = weights.iter().map(|&(_, w)| w).sum();
-    if weights.len() > k {
-        weights.select_nth_unstable_by(k - 1, |a, b| b.1.abs().total_cmp(&a.1.abs()));
-        weights.truncate(k);
-    }
-    // The dropped weights' sum goes to the kept ones in proportion to their magnitude: for
-    // weights of one sign that is a rescale to the full sum; for the signed weights of an
-    // extrapolating vertex it never divides by a sum that nearly cancels.
-    let kept: f64 = weights.iter().map(|&(_, w)| w).sum();
-    let magnitude: f64 = weights.iter().map(|&(_, w)| w.abs()).sum();
-    let dropped_per_magnitude = if magnitude > 0.0 {
-        (total - kept) / magnitude
-    } else {
-        0.0
-    };
+    keep_largest(&mut weights, k);
     weights.sort_by_key(|&(c, _)| c);
     weights
         .iter()
-        .flat_map(|&(c, w)| spread(&centres[c], w + dropped_per_magnitude * w.abs()))
+        .flat_map(|&(c, w)| spread(&centres[c], w))
         .collect()
 }
 

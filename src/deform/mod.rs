@@ -14,7 +14,9 @@ mod bones;
 mod geometric;
 mod kshirsagar;
 mod lip_seam;
+mod lip_smoothing;
 mod mouth_calibration;
+mod needles;
 mod normalize;
 pub mod planar_bones;
 mod point_distance;
@@ -24,6 +26,7 @@ mod registration;
 mod renato1;
 mod renato2;
 mod renato3;
+mod row_merge;
 pub mod spec;
 mod triangle_basis;
 mod weights;
@@ -54,7 +57,7 @@ pub fn bind(reg: &Registration, spec: &AlgoSpec) -> Binding {
                 eyes_mm: p.eyes_hold_mm,
                 other_mm: p.hold_mm,
             };
-            biharmonic::bind(reg, *spec, reach, p.k)
+            biharmonic::bind(reg, *spec, reach, p.k, p.smooth_lips)
         }
     }
 }

@@ -16,6 +16,7 @@ use super::mouth_calibration::{close_rest_mouth, MouthCalibrationError};
 use super::projection::{project, Projection};
 use crate::fit::{anchor_mask, Anchors, FittedMask, MouthCalibration, RangeError};
 use crate::head::{check_animatable, AnimatableError, Bounds, Head, SurfaceDistance};
+use crate::mask::OUTER_LIP_CORNERS;
 
 /// Bounding-box diagonal of a head in mm (the shipped ones: 400 and 643), a doll's head to a
 /// statue's. Every radius and tolerance of the deformers is in mm, so a head outside this
@@ -205,6 +206,14 @@ impl Registration {
     /// Millimetres per head unit.
     pub fn mm_per_unit(&self) -> f32 {
         self.fitted.fit.mm_per_unit
+    }
+
+    /// The mouth's width at rest, head units: from one outer lip corner's anchor to the
+    /// other's ([`OUTER_LIP_CORNERS`]). The length the mouth's own contacts and smoothing
+    /// are measured in, so that they scale with the head.
+    pub fn mouth_width(&self) -> f32 {
+        let [left, right] = OUTER_LIP_CORNERS.map(|j| self.head.positions[self.anchors.vertex[j] as usize]);
+        left.distance(right)
     }
 
     /// Surface distance (mm) from the anchor of mask vertex `j` to head vertex `v`.

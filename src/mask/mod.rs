@@ -45,6 +45,8 @@ pub const INNER_LIP_MID_UPPER: usize = 87;
 pub const INNER_LIP_MID_LOWER: usize = 40;
 /// Inner-lip corners: left (MPEG-4 2.4) and right (2.5).
 pub const INNER_LIP_CORNERS: [usize; 2] = [88, 89];
+/// Outer-lip corners (MPEG-4 8.3 and 8.4): the mouth's width at rest.
+pub const OUTER_LIP_CORNERS: [usize; 2] = [31, 64];
 /// Every vertex facewire addresses by number (the lips above, the pupils and FAPU
 /// measures of [`fap::FapuValues::measure`]) is below this: the `.wfm` reader refuses a
 /// mask with fewer vertices rather than let a fit index past its end.

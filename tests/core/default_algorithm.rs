@@ -1,6 +1,7 @@
 //! The recommended default (preset V) against what a default must do on every shipped
 //! head over the whole syllable stream, as `facewire compare` measures it: every control
-//! reproduced, no lip triangle turned more than 60 degrees from rest in any frame, and
+//! followed (exactly but near the lips, where the field is smoothed), no lip triangle turned
+//! more than 60 degrees from rest in any frame, and
 //! lips no rougher than the thesis's point-distance-all (H). Its ground truth against the
 //! expression targets is in `tests/core/biharmonic.rs`.
 
@@ -15,7 +16,10 @@ use facewire::stream::ArkitBasis;
 fn the_default_is_preset_v() {
     let spec: AlgoSpec = DEFAULT_ALGORITHM.parse().unwrap();
     assert_eq!(spec.letter(), Some('V'));
-    assert_eq!(spec.to_string(), "biharmonic:hold_mm=50,eyes_hold_mm=20,k=32");
+    assert_eq!(
+        spec.to_string(),
+        "biharmonic:hold_mm=50,eyes_hold_mm=20,k=32,smooth_lips=0.125"
+    );
 }
 
 #[test]
@@ -52,8 +56,10 @@ fn on_every_shipped_head_the_default_folds_no_lip_and_is_smoother_than_h() {
             v.roughness_mean,
             h.roughness_mean
         );
+        // The lips' anchors move with their neighbours' mean: measured 0.125 (scan), 0.142
+        // (MakeHuman) and 0.144 mm (ICT) from their controls on average; 1e-7 mm unsmoothed.
         assert!(
-            v.control_err_mm < 1e-4,
+            v.control_err_mm < 0.16,
             "{name}: control error {} mm",
             v.control_err_mm
         );

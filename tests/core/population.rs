@@ -70,11 +70,11 @@ fn the_population_sample_is_fitted_as_measured() {
 /// beyond what the head has at rest, the tongue at most this deep in them (mm).
 const MAX_TONGUE_DEPTH_MM: f32 = 0.55;
 /// Lip folds are not solved on every head yet (docs/METRICS.md, "On a population"): the
-/// sample's sum over its heads as measured on the syllable stream timed by its voice (seeds
-/// 11, 21, 1001 and 1006 fold 130, 485, 278 and 103 lip triangle-frames; the labiodental
-/// contact added 3 on seed 11 and 3 on seed 1001), so that a change that adds folds fails.
-/// The goal is 0.
-const MAX_SAMPLE_LIP_FOLDS: u64 = 996;
+/// sample's sum over its heads as measured on the syllable stream timed by its voice, so
+/// that a change that adds folds fails. Seeds 11, 21 and 1001 fold 54, 103 and 74 lip
+/// triangle-frames with V smoothed over the lips (130, 488 and 281 before it; seed 1006,
+/// 103 before, folds nowhere now). The goal is 0.
+const MAX_SAMPLE_LIP_FOLDS: u64 = 231;
 
 /// Animates `spec`'s whole head from its landmark fit through the syllable stream with
 /// the default algorithm (`facewire population --animate`'s row), with whether it has
@@ -108,6 +108,16 @@ fn animate_whole_head(
         .unwrap_or_else(|e| panic!("{}: {e}", outcome.member));
     eprintln!("{}: {m:?}", outcome.member);
     (outcome.member, !member.parts.is_empty(), m)
+}
+
+/// The whole heads whose names start with each of `names`, one each.
+fn whole_heads_named(names: &[&str]) -> Vec<population::MemberSpec> {
+    let heads: Vec<_> = population::whole_heads()
+        .into_iter()
+        .filter(|m| names.iter().any(|n| m.name().starts_with(n)))
+        .collect();
+    assert_eq!(heads.len(), names.len(), "{names:?}");
+    heads
 }
 
 #[test]
@@ -153,25 +163,35 @@ const MAX_FV_GAP_MM: f64 = 1.5;
 #[test]
 fn the_lower_lip_meets_the_upper_teeth_on_f_where_it_stopped_short() {
     let maker = Maker::new(&crate::common::repo_path("data")).unwrap();
-    let heads: Vec<_> = population::whole_heads()
-        .into_iter()
-        .filter(|m| {
-            ["ict seed 27 ", "ict seed 1007 "]
-                .iter()
-                .any(|n| m.name().starts_with(n))
-        })
-        .collect();
-    assert_eq!(heads.len(), 2);
+    let heads = whole_heads_named(&["ict seed 27 ", "ict seed 1007 "]);
     for spec in &heads {
         let (member, _, m) = animate_whole_head(&maker, spec);
-        // Within the contact's 0.2 mm margin, far inside the goal.
+        // At the contact's 0.2 mm margin (measured 0.200 and 0.201: the frame nearest the
+        // teeth asks for a little less than the full labiodental shape), far inside the goal.
         let gap = m.fv_gap_mm.unwrap();
-        assert!(gap <= 0.201, "{member}: f/v gap {gap} mm");
+        assert!(gap <= 0.21, "{member}: f/v gap {gap} mm");
         assert_eq!(
             m.lips_in_teeth,
             Some(0),
             "{member}: the pull leaves no lip in the teeth"
         );
+    }
+}
+
+/// The identities whose mouth corners folded most under the unsmoothed field (landmark
+/// fits: seed 6 on 1,378 lip triangle-frames, sharpest 153 degrees; held-out seed 1004 on
+/// 424, where needle triangles turned too) fold nowhere with the field smoothed over the
+/// lips and the needles bound to their long edges (docs/ALGORITHMS.md, "Biharmonic").
+#[test]
+fn the_mouth_corners_that_folded_most_fold_no_more() {
+    let maker = Maker::new(&crate::common::repo_path("data")).unwrap();
+    let heads = whole_heads_named(&["ict seed 6 ", "ict seed 1004 "]);
+    for spec in &heads {
+        let (member, _, m) = animate_whole_head(&maker, spec);
+        assert_eq!(m.lip_folds, 0, "{member}: sharpest {} degrees", m.fold_deg);
+        // The smoothing costs the ground truth about 0.01 mm (measured 0.514 and 0.519).
+        let truth = m.ground_truth_rms_mm.unwrap();
+        assert!(truth < 0.53, "{member}: ground truth {truth} mm");
     }
 }
 

@@ -116,10 +116,11 @@ pub enum SpecError {
 }
 
 /// The algorithm facewire recommends (preset V, `biharmonic` with the eyes' reach cut
-/// short): every control reproduced, the artists' expression targets followed closest of
-/// every preset (mean RMS 0.54 mm on MakeHuman, 0.51 mm on ICT), no lip triangle turned
-/// over 60 degrees on the syllable stream of any shipped head, and smoother lips than the
-/// thesis's smoothest exact method. See the README's "Which algorithm" and docs/reports/.
+/// short, smoothed over the lips): every control reproduced (the lips' within 0.15 mm), the
+/// artists' expression targets followed closest of every preset (mean RMS 0.54 mm on
+/// MakeHuman, 0.52 mm on ICT), no lip triangle turned over 60 degrees on the syllable
+/// stream of any shipped head, and smoother lips than the thesis's smoothest method. See
+/// the README's "Which algorithm" and docs/reports/.
 pub const DEFAULT_ALGORITHM: &str = "biharmonic";
 
 /// The thesis's table 4.5 presets plus `kshirsagar` (S), `rbf` (T), the interpolating
@@ -234,7 +235,7 @@ pub const PRESETS: [(char, &str, &str); 22] = [
     (
         'V',
         "biharmonic",
-        "the smoothest field through every control (least bi-Laplacian energy), the head held still beyond its nearest anchor's reach: 50 mm, 20 mm for the eyes (recommended)",
+        "the smoothest field through every control (least bi-Laplacian energy), the head held still beyond its nearest anchor's reach: 50 mm, 20 mm for the eyes; averaged over the lips within an eighth of the mouth's width (recommended)",
     ),
 ];
 
@@ -420,6 +421,10 @@ mod tests {
             ("biharmonic:hold_mm=0", "positive"),
             ("biharmonic:hold_mm=inf", "positive"),
             ("biharmonic:eyes_hold_mm=-1", "positive"),
+            ("biharmonic:smooth_lips=-0.1", "from 0 to 0.25"),
+            ("biharmonic:smooth_lips=0.3", "from 0 to 0.25"),
+            ("biharmonic:smooth_lips=NaN", "from 0 to 0.25"),
+            ("biharmonic:smooth_lips=wide", "not a number"),
         ] {
             let err = text.parse::<AlgoSpec>().unwrap_err().to_string();
             assert!(err.contains(problem), "{text}: {err}");
@@ -433,11 +438,18 @@ mod tests {
             hold_mm: 50.0,
             eyes_hold_mm: 20.0,
             k: 32,
+            smooth_lips: 0.125,
         });
         assert_eq!(spec, recommended);
-        assert_eq!(spec.to_string(), "biharmonic:hold_mm=50,eyes_hold_mm=20,k=32");
-        let spec: AlgoSpec = "biharmonic:hold_mm=40".parse().unwrap();
-        assert_eq!(spec.to_string(), "biharmonic:hold_mm=40,eyes_hold_mm=20,k=32");
+        assert_eq!(
+            spec.to_string(),
+            "biharmonic:hold_mm=50,eyes_hold_mm=20,k=32,smooth_lips=0.125"
+        );
+        let spec: AlgoSpec = "biharmonic:hold_mm=40,smooth_lips=0".parse().unwrap();
+        assert_eq!(
+            spec.to_string(),
+            "biharmonic:hold_mm=40,eyes_hold_mm=20,k=32,smooth_lips=0"
+        );
         let spec: AlgoSpec = "Biharmonic: k=4, eyes_hold_mm=12, hold_mm=30.5".parse().unwrap();
         assert_eq!(spec.to_string().parse::<AlgoSpec>(), Ok(spec));
         assert!(spec.is_linear() && spec.letter().is_none());

@@ -281,15 +281,23 @@ pub struct BiharmonicParams {
     pub eyes_hold_mm: f32,
     /// Weights kept per vertex (the largest), rescaled to their full sum.
     pub k: u32,
+    /// The radius the field is smoothed over near the lips, as a share of the mouth's
+    /// width at rest (0: not smoothed; see `deform::lip_smoothing`).
+    pub smooth_lips: f32,
 }
+
+/// Largest `smooth_lips`: a quarter of the mouth's width already averages the lip
+/// contours with the cheeks.
+pub const MAX_SMOOTH_LIPS: f32 = 0.25;
 
 impl AlgoParams for BiharmonicParams {
     const NAME: &'static str = "biharmonic";
-    const KEYS: &'static [&'static str] = &["hold_mm", "eyes_hold_mm", "k"];
+    const KEYS: &'static [&'static str] = &["hold_mm", "eyes_hold_mm", "k", "smooth_lips"];
     const DEFAULT: Self = BiharmonicParams {
         hold_mm: 50.0,
         eyes_hold_mm: 20.0,
         k: 32,
+        smooth_lips: 0.125,
     };
     fn apply(&mut self, given: &Given) -> Result<(), SpecError> {
         self.hold_mm = given.positive("hold_mm")?.unwrap_or(self.hold_mm);
@@ -305,13 +313,26 @@ impl AlgoParams for BiharmonicParams {
             }
             self.k = n as u32;
         }
+        if let Some(v) = given.get("smooth_lips") {
+            let share: f32 = v
+                .parse()
+                .map_err(|_| given.bad("smooth_lips", v, "not a number"))?;
+            if !(0.0..=MAX_SMOOTH_LIPS).contains(&share) {
+                return Err(given.bad(
+                    "smooth_lips",
+                    v,
+                    format!("must be a share of the mouth's width from 0 to {MAX_SMOOTH_LIPS}"),
+                ));
+            }
+            self.smooth_lips = share;
+        }
         Ok(())
     }
     fn write(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "hold_mm={},eyes_hold_mm={},k={}",
-            self.hold_mm, self.eyes_hold_mm, self.k
+            "hold_mm={},eyes_hold_mm={},k={},smooth_lips={}",
+            self.hold_mm, self.eyes_hold_mm, self.k, self.smooth_lips
         )
     }
 }

@@ -11,7 +11,7 @@ use super::mirror_plane::MirrorPlane;
 use super::{eyes, fissure, front_image, profile, FoundFeatures, MouthCorners};
 use crate::fit::umeyama::Similarity;
 use crate::fit::FitSolution;
-use crate::mask::{fap, Mask};
+use crate::mask::{fap, Mask, OUTER_LIP_CORNERS};
 
 /// CANDIDE-3's nose tip (FP 9.3).
 pub(super) const MASK_NOSE_TIP: u32 = 5;
@@ -20,7 +20,7 @@ const MASK_MOUTH_MIDDLE: [u32; 2] = [40, 87];
 /// CANDIDE-3's chin (FP 2.1), at the bottom of the chin.
 const MASK_CHIN: u32 = 10;
 /// CANDIDE-3's mouth corners, left (FP 8.3) and right (FP 8.4).
-const MASK_MOUTH_CORNERS: [u32; 2] = [31, 64];
+const MASK_MOUTH_CORNERS: [u32; 2] = [OUTER_LIP_CORNERS[0] as u32, OUTER_LIP_CORNERS[1] as u32];
 /// CANDIDE-3's eye corners, inner then outer: left (FP 3.11, 3.7) and right (FP 3.8, 3.12).
 const MASK_LEFT_EYE_CORNERS: [u32; 2] = [23, 20];
 const MASK_RIGHT_EYE_CORNERS: [u32; 2] = [56, 53];
