@@ -14,10 +14,11 @@
 //!
 //! The mean is over the head without the lip seam ([`without_seam`]): the upper lip is
 //! never averaged with the lower lip that touches it. It is linear in the displacements,
-//! so it is folded into the bound rows once: deforming stays one sparse gather, longer
-//! only for the vertices near the lips. The lip anchors move with their neighbours' mean
-//! too, so they follow their controls within a fraction of a millimetre rather than
-//! exactly (the price of the smooth corner; `smooth_lips=0` turns it off).
+//! so it is folded into the bound rows once, each cut back to the field's `k` terms:
+//! deforming stays the same sparse gather at the same cost. The lip anchors move with
+//! their neighbours' mean too, so they follow their controls within a fraction of a
+//! millimetre rather than exactly (the price of the smooth corner; `smooth_lips=0` turns
+//! it off).
 
 use rayon::prelude::*;
 
