@@ -13,7 +13,7 @@ use tokio_tungstenite::tungstenite::Message;
 
 use crate::bus::{info, next_seq, produce, producer, viewer, HEAD, STREAM};
 use crate::common::data;
-use crate::common::nats::{NatsCluster, NatsServer};
+use crate::common::nats::{subscribed, NatsCluster, NatsServer};
 use crate::common::service::{close_code, connect, moving_jaw_line, next_json, Server, Socket};
 use facewire_proto::messages::ServerMessage;
 
@@ -268,7 +268,7 @@ async fn with_a_cluster_key_nobody_on_the_bus_takes_or_holds_a_stream() {
     produce(&mut second, 0).await;
     drop(second);
     let client = async_nats::connect(nats.url()).await.unwrap();
-    let mut checks = client.subscribe("facewire.node.n9.alive").await.unwrap();
+    let mut checks = subscribed(&client, "facewire.node.n9.alive".into()).await;
     let answerer = client.clone();
     tokio::spawn(async move {
         while let Some(check) = futures_util::StreamExt::next(&mut checks).await {

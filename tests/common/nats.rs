@@ -238,3 +238,18 @@ impl NatsCluster {
         js.delete_key_value("ready_check").await.unwrap();
     }
 }
+
+/// Subscribes `client` to `subject` and returns once the server has taken the
+/// subscription: `flush` only writes it out, and another connection's message published
+/// after it may still miss it. A message to the client's own inbox comes back only after
+/// the server has read everything the client sent before it.
+pub async fn subscribed(client: &async_nats::Client, subject: String) -> async_nats::Subscriber {
+    let subscriber = client.subscribe(subject).await.unwrap();
+    let inbox = client.new_inbox();
+    let mut echo = client.subscribe(inbox.clone()).await.unwrap();
+    client.publish(inbox, bytes::Bytes::new()).await.unwrap();
+    futures_util::StreamExt::next(&mut echo)
+        .await
+        .expect("the echo through the server");
+    subscriber
+}
