@@ -6,12 +6,14 @@
 //! photographs of many thousands of people, it knows faces the hand-set rules never saw.
 //!
 //! The model's bytes are part of the binary (so the demo needs no file beside it) and are
-//! parsed and checked once per process, on first use; tract runs it in pure Rust.
+//! parsed and checked once per process, on first use, and run by [`super::conv_net`].
 
 use std::sync::OnceLock;
 
 use glam::Vec3;
-use tract_onnx::prelude::*;
+
+use super::conv_net::{ConvNet, Shape};
+use super::onnx_file::read_onnx;
 
 /// The network's input side, pixels.
 pub const CROP_PIXELS: usize = 192;
@@ -59,19 +61,18 @@ impl FaceMesh {
     }
 }
 
-type Runnable = std::sync::Arc<TypedRunnableModel>;
-
-fn model() -> Result<&'static Runnable, FaceModelError> {
-    static LOADED: OnceLock<Result<Runnable, FaceModelError>> = OnceLock::new();
+fn model() -> Result<&'static ConvNet, FaceModelError> {
+    static LOADED: OnceLock<Result<ConvNet, FaceModelError>> = OnceLock::new();
     LOADED
         .get_or_init(|| {
-            let shape = [1, 3, CROP_PIXELS, CROP_PIXELS];
-            tract_onnx::onnx()
-                .model_for_read(&mut std::io::Cursor::new(MODEL))
-                .and_then(|model| model.with_input_fact(0, f32::fact(shape).into()))
-                .and_then(|model| model.into_optimized())
-                .and_then(|model| model.into_runnable())
-                .map_err(|e| FaceModelError::Load(format!("{e:#}")))
+            let graph = read_onnx(MODEL).map_err(|e| FaceModelError::Load(e.to_string()))?;
+            let input = Shape {
+                channels: 3,
+                rows: CROP_PIXELS,
+                columns: CROP_PIXELS,
+            };
+            ConvNet::from_onnx(&graph, "image", input, &["landmarks", "face_flag"])
+                .map_err(|e| FaceModelError::Load(e.to_string()))
         })
         .as_ref()
         .map_err(Clone::clone)
@@ -87,25 +88,12 @@ pub fn read_face(grey: &[f32]) -> Result<FaceMesh, FaceModelError> {
             grey.len()
         )));
     }
-    let mut planes = Vec::with_capacity(3 * pixels);
-    for _ in 0..3 {
-        planes.extend_from_slice(grey);
-    }
-    let input = tract_ndarray::Array4::from_shape_vec((1, 3, CROP_PIXELS, CROP_PIXELS), planes)
-        .map_err(|e| FaceModelError::Run(e.to_string()))?;
+    // The same grey in the red, green and blue planes.
+    let planes = grey.repeat(3);
     let outputs = model()?
-        .run(tvec!(Tensor::from(input).into()))
-        .map_err(|e| FaceModelError::Run(format!("{e:#}")))?;
-    let values = |k: usize| -> Result<Vec<f32>, FaceModelError> {
-        let view = outputs
-            .get(k)
-            .ok_or_else(|| FaceModelError::Run(format!("output {k} is missing")))?
-            .to_plain_array_view::<f32>()
-            .map_err(|e| FaceModelError::Run(format!("{e:#}")))?;
-        Ok(view.iter().copied().collect())
-    };
-    let coordinates = values(0)?;
-    let flag = values(1)?;
+        .run(&planes)
+        .map_err(|e| FaceModelError::Run(e.to_string()))?;
+    let (coordinates, flag) = (&outputs[0], &outputs[1]);
     if coordinates.len() != 3 * MESH_POINTS || flag.len() != 1 {
         return Err(FaceModelError::Run(format!(
             "the model gave {} coordinates and {} flags, not {} and 1",

@@ -19,6 +19,7 @@
 //! was checked on is in docs/FITTING.md, "The automatic fit's constants".
 
 mod closest_points;
+mod conv_net;
 pub(crate) mod depth_map;
 mod eyes;
 mod face_model;
@@ -28,6 +29,7 @@ mod learned_reading;
 mod mirror_plane;
 mod nose_search;
 mod nudges;
+mod onnx_file;
 mod pins;
 mod profile;
 mod reading;
