@@ -16,7 +16,8 @@
 //! Every vertex `u` within [`FALLOFF_MM`] over the surface of a pushed vertex `v` moves by
 //! `w(|uv|) d_v` with `w(s) = (1 - (s / FALLOFF_MM)²)²`; where several pushes reach `u`,
 //! the largest of them. A push may leave a vertex in the next tooth (between two teeth),
-//! so the search runs again, at most [`PASSES`] times. Each job remembers where each
+//! so the search runs again, at most [`PASSES`] times; a vertex the last round left in a
+//! tooth then goes out alone, with no falloff. Each job remembers where each
 //! vertex was last found clear of the teeth and by how much; until it has moved that far
 //! from there it cannot be inside one and is not tested, so a frame tests the few
 //! vertices near the teeth that moved. The bound holds for any next frame (a seek, a
@@ -351,6 +352,7 @@ impl TeethContact {
         rounds: &mut Rounds,
     ) -> u32 {
         let mut first = 0;
+        let mut settled = false;
         for pass in 0..PASSES {
             rounds.pushes.clear();
             let mut probe = |k: u32| {
@@ -370,6 +372,7 @@ impl TeethContact {
                 first = rounds.pushes.len() as u32;
             }
             if rounds.pushes.is_empty() {
+                settled = true;
                 break;
             }
             spread(watched, rounds);
@@ -379,6 +382,20 @@ impl TeethContact {
                 rounds.offsets[u as usize] = Vec3::ZERO;
                 if watched.index_of[u as usize] != NOT_WATCHED {
                     rounds.recheck.push(watched.index_of[u as usize]);
+                }
+            }
+        }
+        if !settled {
+            // The last round's pushes may have left a neighbour in a tooth, a fraction of
+            // a millimetre deep: each such vertex goes out on its own, with no falloff.
+            for &k in &rounds.recheck {
+                let v = watched.vertices[k as usize];
+                let allowed = watched.allowed[k as usize];
+                let p = mesh.position(v);
+                if let Some(push) =
+                    self.probe_vertex(&mut clearances[k as usize], p, allowed, jaw, jaw_inverse)
+                {
+                    mesh.push(v, push);
                 }
             }
         }
