@@ -2,12 +2,13 @@
 //! network as ONNX holds it (`Conv` plain, grouped and depthwise with strides, dilations
 //! and padding; `Relu`, `PRelu`, `Add`, `MaxPool`, constant `Pad` and `Reshape`), for one
 //! picture at a time in NCHW order (N = 1). Shapes are worked out and checked once, when
-//! the network is built from the file; running it is plain loops over channel planes,
-//! the output channels of a convolution shared among rayon's threads.
+//! the network is built from the file.
 //!
-//! Each convolution adds one weighted, shifted copy of an input plane per kernel tap
+//! A convolution without groups is one matrix product (faer): the weights times the input's
+//! taps gathered column by column (for a 1 x 1 kernel, the planes themselves). A grouped
+//! or depthwise one adds one weighted, shifted copy of an input plane per kernel tap
 //! (`out[y][x] += w * in[y·s + dy][x·s + dx]`), the rows' valid spans worked out once per
-//! tap, so that the inner loop is a bounds-check-free multiply-add the compiler vectorizes.
+//! tap ([`Window::sweep`]), its output channels shared among rayon's threads.
 
 use std::collections::HashMap;
 
