@@ -1,5 +1,5 @@
 //! What deriving the mouth from a voice costs per stream: the viseme tracker
-//! (`src/speech/tracker.rs`: log-mel, normalization, the model, the forward filter) over the
+//! (`core/src/speech/tracker.rs`: log-mel, normalization, the model, the forward filter) over the
 //! syllable stream's 16 kHz voice pushed in 20 ms chunks, as a producer's audio arrives.
 //! One iteration is the whole 16.2 s voice; its real-time factor is 16.2 s over the time
 //! (docs/SPEECH.md "Speed").

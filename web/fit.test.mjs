@@ -14,7 +14,7 @@ function same(actual, expected, path) {
   }
 }
 
-/** A report as the server sends it (src/fit/report.rs), with the fields the page ignores. */
+/** A report as the server sends it (core/src/fit/report.rs), with the fields the page ignores. */
 const report = {
   mm_per_unit: 10.0,
   surface: { mean_mm: 1.5, max_mm: 5.8, worst_mask_vertex: 0, count: 113 },

@@ -2,7 +2,7 @@
 benches/speech_visemes.py (definitions in docs/SPEECH.md, "Measures").
 
 Frames are 10 ms steps; frame i is centred at (160 i + 200) / 16000 s, as in
-src/speech/log_mel.rs. A track is one viseme index (into corpus.VISEMES) per frame.
+core/src/speech/log_mel.rs. A track is one viseme index (into corpus.VISEMES) per frame.
 """
 
 import numpy as np

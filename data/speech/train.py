@@ -8,7 +8,7 @@ the log-mel frames of its wav files written by facewire itself
 (`cargo run --release --example speech_features -- TRAIN_DIR TRAIN_FEATURES`), so the model
 learns from exactly the frames the server computes.
 
-What it makes (read by src/speech/model.rs, documented in docs/SPEECH.md):
+What it makes (read by core/src/speech/model.rs, documented in docs/SPEECH.md):
 - the input normalization the tracker applies frame by frame (a running mean of the
   log-mel bands, updated only on frames within `gate` of the decaying peak level, a fixed
   per-band scale, and the loudness of the frame under that peak); this file replays it
@@ -60,7 +60,7 @@ def f32(x):
 
 def normalize(raw, mean_init, inv_std):
     """The tracker's normalization of one file's raw log-mel frames, in float32, frame by
-    frame as src/speech/tracker.rs does it."""
+    frame as core/src/speech/tracker.rs does it."""
     n = len(raw)
     out = np.empty((n, FEATURES), np.float32)
     mean = mean_init.astype(np.float32).copy()

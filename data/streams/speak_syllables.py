@@ -12,7 +12,7 @@ libespeak-ng.so.1, whose phoneme events give each phoneme's sample position.
 
 Each syllable is synthesized on its own (Spanish voice, as the thesis recorded it) and
 placed in its slot so that its consonant begins CONSONANT_AT_S into the slot, where the
-stream's mouth reaches the consonant; src/stream/syllables.rs derives the rest of the
+stream's mouth reaches the consonant; core/src/stream/syllables.rs derives the rest of the
 motion from the phoneme times. The 22,050 Hz output of eSpeak NG is resampled to 16 kHz
 with a windowed-sinc low-pass at 7.2 kHz.
 """

@@ -18,8 +18,9 @@ pub struct Args {
     /// A CANDIDE-3 .wfm instead of the embedded one.
     #[arg(long)]
     mask: Option<FilePath>,
+    /// Where the camera looks from.
     #[arg(long, value_enum, default_value = "front")]
-    view: View,
+    view: ViewArg,
     /// Image width and height in pixels.
     #[arg(long, default_value_t = 800)]
     size: usize,
@@ -39,6 +40,27 @@ pub struct Args {
     out: FilePath,
 }
 
+/// The command line's names for the renderer's views.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+enum ViewArg {
+    /// Looking at the face (down -z).
+    Front,
+    /// From the face's right side.
+    Side,
+    /// Halfway between front and the face's right side.
+    ThreeQuarter,
+}
+
+impl From<ViewArg> for View {
+    fn from(view: ViewArg) -> View {
+        match view {
+            ViewArg::Front => View::Front,
+            ViewArg::Side => View::Side,
+            ViewArg::ThreeQuarter => View::ThreeQuarter,
+        }
+    }
+}
+
 pub fn run(args: Args) -> CliResult {
     let head = load_head(&args.head)?;
     let mask = load_mask(args.mask.as_deref())?;
@@ -51,7 +73,7 @@ pub fn run(args: Args) -> CliResult {
         Some(f) if args.face => f.neutral.clone(),
         _ => head.positions.clone(),
     };
-    let mut canvas = Canvas::framing(&frame_points, args.view, args.size, args.size);
+    let mut canvas = Canvas::framing(&frame_points, args.view.into(), args.size, args.size);
     canvas.draw_mesh(&head.positions, &head.triangles, |_| [0.86, 0.76, 0.68])?;
     if let Some(fitted) = fitted.as_ref().filter(|_| !args.no_mask) {
         let slack = 0.004 * head.bounds().size().length();

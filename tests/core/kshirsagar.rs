@@ -1,6 +1,6 @@
 //! `kshirsagar` (thesis S) on the shipped heads and fits, plus degenerate geometry built
 //! through the public API. Hand-computed weights (eq. 2-5 on three feature points) are unit
-//! tests inside `src/deform/kshirsagar.rs`.
+//! tests inside `core/src/deform/kshirsagar.rs`.
 
 use crate::common::{deform_with, posed, register};
 

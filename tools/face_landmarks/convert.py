@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Convert MediaPipe's face landmark model (TFLite, Apache-2.0) to ONNX for facewire.
 
-facewire reads the ONNX file and runs its operators itself (src/fit/automatic/conv_net.rs). The model is the
+facewire reads the ONNX file and runs its operators itself (core/src/fit/automatic/conv_net.rs). The model is the
 `face_landmark.tflite` that MediaPipe's PyPI wheel 0.10.14 carries
 (mediapipe/modules/face_landmark/): 468 face-mesh points from a 192 x 192 RGB crop.
 It uses seven TFLite operators (CONV_2D, DEPTHWISE_CONV_2D, PRELU, ADD, MAX_POOL_2D, PAD,

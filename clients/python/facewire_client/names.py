@@ -10,7 +10,7 @@ from .errors import FrameError
 
 # The Rust test tests/service/python_client.rs checks these tables against the library.
 
-#: MPEG-4 FAP names, FAP n at index n - 1 (``src/mask/fap.rs``).
+#: MPEG-4 FAP names, FAP n at index n - 1 (``core/src/mask/fap.rs``).
 FAP_NAMES: Tuple[str, ...] = (
     "viseme", "expression", "open_jaw", "lower_t_midlip", "raise_b_midlip",
     "stretch_l_cornerlip", "stretch_r_cornerlip", "lower_t_lip_lm", "lower_t_lip_rm",

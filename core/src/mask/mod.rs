@@ -22,7 +22,7 @@ pub use region::FaceRegion;
 pub use wfm::WfmError;
 
 /// The CANDIDE-3.1.6 model shipped with facewire (`data/candide3/candide3.wfm`).
-pub const CANDIDE3_WFM: &[u8] = include_bytes!("../../data/candide3/candide3.wfm");
+pub const CANDIDE3_WFM: &[u8] = include_bytes!("../../../data/candide3/candide3.wfm");
 
 /// The 18 lip vertices: the corners of the upper- and lower-lip triangles.
 pub const LIP_VERTICES: [usize; 18] = [

@@ -199,7 +199,7 @@ mod tests {
     /// its trainer computed for them (data/speech/train.py): the tracker must agree.
     #[test]
     fn the_tracker_computes_what_the_trainer_computed() {
-        let bytes = include_bytes!("../../data/speech/visemes.safetensors");
+        let bytes = include_bytes!("../../../data/speech/visemes.safetensors");
         let tensors = SafeTensors::deserialize(bytes).unwrap();
         let (shape, log_mel) = floats(&tensors, "check.log_mel");
         let (_, expected) = floats(&tensors, "check.probability");

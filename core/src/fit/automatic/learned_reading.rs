@@ -251,7 +251,7 @@ mod tests {
     use crate::fit::Landmarks;
 
     fn ict() -> (Head, Landmarks) {
-        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/heads");
+        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/heads");
         (
             Head::load(&data.join("ict_head.obj")).unwrap(),
             Landmarks::load(&data.join("ict_head.landmarks.toml")).unwrap(),

@@ -12,7 +12,6 @@ use crate::head::Head;
 
 /// Where the camera looks from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum View {
     /// Looking at the face (down -z).
     Front,

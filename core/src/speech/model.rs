@@ -27,7 +27,7 @@ pub const MAX_LOOKBACK_FRAMES: i32 = 100;
 /// The format this reader knows, the file's `format` metadata.
 pub const FORMAT: &str = "facewire-visemes-1";
 
-const EMBEDDED: &[u8] = include_bytes!("../../data/speech/visemes.safetensors");
+const EMBEDDED: &[u8] = include_bytes!("../../../data/speech/visemes.safetensors");
 
 /// Why a viseme model file cannot be used.
 #[derive(Debug, thiserror::Error)]

@@ -1,10 +1,10 @@
 //! The syllable stream's voice: `data/streams/syllables.wav` (16 kHz, 16.2 s), spoken by
 //! eSpeak NG (`data/streams/speak_syllables.py`), embedded so that the demo talks from
-//! the binary alone. Its phonemes time the stream (src/stream/syllable_phonemes.rs).
+//! the binary alone. Its phonemes time the stream (core/src/stream/syllable_phonemes.rs).
 
 use super::{read_wav, Voice, WavError};
 
-const SYLLABLES_WAV: &[u8] = include_bytes!("../../data/streams/syllables.wav");
+const SYLLABLES_WAV: &[u8] = include_bytes!("../../../data/streams/syllables.wav");
 
 /// The voice of the 27 syllables, on the stream's timeline (the first syllable's slot
 /// starts at 0 s).

@@ -2,7 +2,7 @@
 //! `data/streams/syllables.phonemes.tsv`, which `data/streams/speak_syllables.py` wrote
 //! from eSpeak NG's phoneme events while it spoke `data/streams/syllables.wav`. The
 //! syllable stream takes its timing from it, so the mouth closes for `p` where the voice
-//! says `p` (src/stream/syllables.rs). The table is embedded and checked when read: a row
+//! says `p` (core/src/stream/syllables.rs). The table is embedded and checked when read: a row
 //! per syllable in order, times increasing, each inside its syllable's slot.
 
 use std::sync::Arc;
@@ -11,7 +11,7 @@ use super::error::{Location, StreamError};
 use crate::text_table;
 
 /// The embedded table.
-pub const PHONEMES_TSV: &str = include_str!("../../data/streams/syllables.phonemes.tsv");
+pub const PHONEMES_TSV: &str = include_str!("../../../data/streams/syllables.phonemes.tsv");
 
 /// Its path in the repository, named in errors.
 pub const PHONEMES_PATH: &str = "data/streams/syllables.phonemes.tsv";

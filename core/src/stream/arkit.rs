@@ -26,7 +26,7 @@ use crate::targets::{ExpressionTarget, TargetError};
 use crate::text_table::{self, FieldProblem, Row};
 
 /// The shipped basis (`data/arkit/basis.tsv`), derived from the MakeHuman head's targets.
-pub const SHIPPED_BASIS_TSV: &str = include_str!("../../data/arkit/basis.tsv");
+pub const SHIPPED_BASIS_TSV: &str = include_str!("../../../data/arkit/basis.tsv");
 
 /// The command that regenerates the shipped basis; its header names it.
 pub const SHIPPED_BASIS_COMMAND: &str = "facewire arkit-basis --head data/heads/makehuman_head.obj \

@@ -34,7 +34,7 @@ pub const MIRROR_PAIRS: [(usize, usize); 7] = [
     (175, 175),
 ];
 
-const MODEL: &[u8] = include_bytes!("../../../data/models/face_landmark.onnx");
+const MODEL: &[u8] = include_bytes!("../../../../data/models/face_landmark.onnx");
 
 #[derive(Debug, Clone, thiserror::Error)]
 pub enum FaceModelError {

@@ -207,7 +207,7 @@ mod tests {
     #[test]
     fn the_ict_head_is_symmetric_about_its_sagittal_plane_however_turned() {
         let head =
-            Head::load(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/heads/ict_head.obj"))
+            Head::load(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/heads/ict_head.obj"))
                 .unwrap();
         for turn in [
             Mat3::IDENTITY,

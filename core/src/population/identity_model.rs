@@ -249,7 +249,7 @@ mod tests {
 
     fn model() -> IdentityModel {
         IdentityModel::load(&IdentityModel::shipped_dir(
-            &Path::new(env!("CARGO_MANIFEST_DIR")).join("data"),
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("../data"),
         ))
         .unwrap()
     }
@@ -257,7 +257,7 @@ mod tests {
     #[test]
     fn the_generic_identity_is_the_shipped_ict_head() {
         let shipped =
-            Head::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("data/heads/ict_head.obj")).unwrap();
+            Head::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/heads/ict_head.obj")).unwrap();
         let generic = model().part(IdentityPart::Skin, &[], "generic");
         assert_eq!(generic.triangles, shipped.triangles);
         let worst = generic

@@ -250,7 +250,7 @@ mod tests {
     use crate::mask::{Mask, MaskPose};
 
     fn shipped(name: &str) -> (Head, Fit) {
-        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/heads");
+        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/heads");
         let head = Head::load(&data.join(format!("{name}.obj"))).unwrap();
         let fit = FitFile::load(&data.join(format!("{name}.fit.toml")))
             .unwrap()
