@@ -756,6 +756,31 @@ fn ogg_opus() {
 }
 
 #[test]
+fn glb() {
+    fuzz("glb", 4 << 10, true, |bytes| {
+        // As mutated, where a changed length breaks the container; then with the JSON and
+        // binary chunks packed again around what the mutations made of them, so that
+        // they reach the accessors, nodes and skins.
+        let raw = facewire::head::read_glb(bytes);
+        if let Some((json, bin)) = glb_chunks(bytes) {
+            if let Ok(meshes) = facewire::head::read_glb(&common::glb::pack(json, bin)) {
+                // What a registration does next: tell the skin from the parts.
+                let _ = facewire::head::glb_head(meshes, &[]);
+            }
+        }
+        raw.is_ok()
+    });
+}
+
+/// A GLB's JSON chunk (from after its header to the binary chunk's header, however long
+/// the header says it is) and binary chunk (the rest).
+fn glb_chunks(bytes: &[u8]) -> Option<(&[u8], &[u8])> {
+    let body = bytes.get(20..)?;
+    let bin = body.windows(4).position(|w| w == b"BIN\0")?;
+    Some((&body[..bin.checked_sub(4)?], &body[bin + 4..]))
+}
+
+#[test]
 fn ogg_checksums_are_resealed_as_an_encoder_wrote_them() {
     let file = std::fs::read(repo_path("tests/voices/syllables_2s.opus")).unwrap();
     assert_eq!(with_ogg_checksums(&file), file);

@@ -281,6 +281,28 @@ pub struct HeadInfo {
     /// How well the fit lays the mask on the head, once registered.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fit: Option<FitSummary>,
+    /// In the answer to a registration from a glTF file: which of its meshes became what.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub source: Option<HeadSource>,
+}
+
+/// Which meshes of a registered file became the head's skin and parts.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HeadSource {
+    /// `glb`.
+    pub format: String,
+    /// The mesh taken for the skin (its node's name, else its mesh's).
+    pub skin: String,
+    pub parts: Vec<PartSource>,
+    /// Meshes not used (hair, lashes, clothes, ...).
+    pub left_out: Vec<String>,
+}
+
+/// A part and the file's mesh it was made from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PartSource {
+    pub name: String,
+    pub mesh: String,
 }
 
 /// How well a head's fit lays the CANDIDE mask on it: the distance from each fitted mask

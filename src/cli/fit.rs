@@ -4,7 +4,7 @@
 
 use serde::Serialize;
 
-use super::{load_head, load_mask, print_json, CliResult, FilePath};
+use super::{format_mm_per_unit, load_head, load_mask, print_json, CliResult, FilePath};
 use crate::atomic::write_atomic;
 use crate::fit::limits::{in_range, MM_PER_UNIT_RANGE};
 use crate::fit::{
@@ -16,7 +16,7 @@ use crate::mask::Mask;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The head mesh (OBJ).
+    /// The head mesh: OBJ, or a glTF binary avatar (`.glb`: its skin, in metres).
     #[arg(long)]
     head: FilePath,
     /// Landmark correspondences (.landmarks.toml). Without them the face is found
@@ -74,17 +74,18 @@ struct AutomaticReport {
 }
 
 fn automatic(args: &Args, head: &Head, mask: &Mask) -> CliResult {
-    let mm_per_unit = args
+    let given = args
         .mm_per_unit
         .map(|mm| in_range("--mm-per-unit", mm, MM_PER_UNIT_RANGE))
         .transpose()?;
-    let found: AutomaticFit = fit_automatically(head, mask, mm_per_unit)?;
+    let from_format = format_mm_per_unit(&args.head);
+    let found: AutomaticFit = fit_automatically(head, mask, given.or(from_format))?;
     let report = fit_report(head, mask, &found.fit);
     let file = write_fit(args, &found.fit, mask)?;
-    let source = if found.mm_per_unit_from_pupils {
-        "63 mm pupil separation"
-    } else {
-        "command line"
+    let source = match (found.mm_per_unit_from_pupils, given) {
+        (true, _) => "63 mm pupil separation",
+        (false, Some(_)) => "command line",
+        (false, None) => "the file's format (glTF: metres)",
     };
     if args.json {
         return print_json(&AutomaticReport {
@@ -206,7 +207,13 @@ fn from_landmarks(args: &Args, landmarks_path: &FilePath, head: &Head, mask: &Ma
             "command line"
         }
         (None, Some(_)) => "landmarks file",
-        (None, None) => "63 mm pupil separation",
+        (None, None) => match format_mm_per_unit(&args.head) {
+            Some(mm) => {
+                landmarks.mm_per_unit = Some(mm);
+                "the file's format (glTF: metres)"
+            }
+            None => "63 mm pupil separation",
+        },
     };
     let origin = landmarks_path.display().to_string();
     let solved = fit_from_landmarks(head, &landmarks, &origin, mask)?;

@@ -115,8 +115,26 @@ fn load_fit(path: &Path, mask: &Mask) -> Result<Fit, Box<dyn std::error::Error +
     Ok(FitFile::load(path)?.resolve(&origin, mask)?)
 }
 
+/// A head file: an OBJ, or the skin of a glTF binary avatar (`.glb`, in metres; its
+/// skin told from its parts by their names, `head::glb_head`).
 fn load_head(path: &Path) -> Result<Head, Box<dyn std::error::Error + Send + Sync>> {
-    Ok(Head::load(path)?)
+    if !has_suffix(path, ".glb") {
+        return Ok(Head::load(path)?);
+    }
+    let bytes = crate::input::read_file(path, crate::input::MAX_HEAD_BYTES)?;
+    let named = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let meshes = crate::head::read_glb(&bytes).map_err(|e| named(&e))?;
+    let skin = crate::head::glb_head(meshes, &[]).map_err(|e| named(&e))?.skin;
+    Ok(Head::new(
+        &path.display().to_string(),
+        skin.positions,
+        skin.triangles,
+    ))
+}
+
+/// Millimetres per head unit when a head file's format says it (glTF: metres).
+fn format_mm_per_unit(path: &Path) -> Option<f32> {
+    has_suffix(path, ".glb").then_some(crate::head::MM_PER_METRE)
 }
 
 /// `name.fit.toml` -> true for the compound extension.

@@ -280,6 +280,7 @@ impl HeadEntry {
             eyes: ready.as_ref().map(|r| r.eye_infos(&self.id)).unwrap_or_default(),
             fit: ready.as_ref().map(|r| r.fit.clone()),
             algorithms: ready.map(|r| r.bindings.bound()).unwrap_or_default(),
+            source: None,
         }
     }
 }

@@ -5,14 +5,16 @@
 use std::time::Duration;
 
 use axum::body::Body;
+use axum::extract::rejection::QueryRejection;
 use axum::extract::{Path, Query, State};
-use axum::http::{header, StatusCode};
+use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
 use bytes::Bytes;
 use serde::{Deserialize, Serialize};
 
 use super::error::ApiError;
+use super::glb_upload::{self, GlbQuery};
 use super::ids::valid_id;
 use super::registration::{fit_automatically, fit_from_landmarks, AutomaticFitFailure};
 use super::store::{HeadMeta, HeadRecord, PartRecord};
@@ -21,8 +23,8 @@ use crate::cancel::Cancel;
 use crate::deform::AlgoSpec;
 use crate::fit::AutomaticFitError;
 use crate::fit::FitReport;
-use crate::head::{check_part_names, PartRole};
-use facewire_proto::messages::{HeadInfo, RecordingInfo};
+use crate::head::{check_part_names, PartRole, MM_PER_METRE};
+use facewire_proto::messages::{HeadInfo, HeadSource, RecordingInfo};
 
 /// How long a registration request waits for a free registration slot.
 const SLOT_WAIT: Duration = Duration::from_secs(10);
@@ -92,6 +94,8 @@ fn part_records(parts: Vec<PartUpload>) -> Result<Vec<PartRecord>, ApiError> {
 
 pub async fn register_head(
     State(state): State<AppState>,
+    headers: HeaderMap,
+    query: Result<Query<GlbQuery>, QueryRejection>,
     body: Body,
 ) -> Result<(StatusCode, Json<HeadInfo>), ApiError> {
     state.registry.check_room()?;
@@ -100,17 +104,93 @@ pub async fn register_head(
     let bytes = axum::body::to_bytes(body, limit)
         .await
         .map_err(|_| ApiError::TooLarge { limit })?;
-    let request: RegisterRequest = serde_json::from_slice(&bytes)
-        .map_err(|e| ApiError::BadRequest(format!("registration request: {e}")))?;
-    drop(bytes);
-    let parts = part_records(request.parts)?;
+    let glb = headers
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| {
+            v.split(';')
+                .next()
+                .is_some_and(|t| t.trim() == glb_upload::CONTENT_TYPE)
+        });
+    let Query(query) =
+        query.map_err(|e| ApiError::BadRequest(format!("registration query: {}", e.body_text())))?;
+    let upload = if glb {
+        let id = query
+            .id
+            .ok_or_else(|| ApiError::BadRequest("a glTF registration names its head with `?id=`".into()))?;
+        let producer_token = headers
+            .get(PRODUCER_TOKEN_HEADER)
+            .map(|v| v.to_str().map(String::from))
+            .transpose()
+            .map_err(|_| ApiError::BadRequest(format!("{PRODUCER_TOKEN_HEADER}: not visible ASCII")))?;
+        let from_file =
+            tokio::task::spawn_blocking(move || glb_upload::glb_upload(&bytes, query.roles.as_deref()))
+                .await
+                .map_err(ApiError::internal)??;
+        Upload {
+            id,
+            obj: from_file.obj,
+            fit: None,
+            landmarks: None,
+            producer_token,
+            parts: from_file.parts,
+            mm_per_unit: Some(MM_PER_METRE),
+            source: Some(from_file.source),
+        }
+    } else {
+        if query.id.is_some() || query.roles.is_some() {
+            return Err(ApiError::BadRequest(format!(
+                "`id` and `roles` in the query are for glTF registrations (Content-Type: {})",
+                glb_upload::CONTENT_TYPE
+            )));
+        }
+        let request: RegisterRequest = serde_json::from_slice(&bytes)
+            .map_err(|e| ApiError::BadRequest(format!("registration request: {e}")))?;
+        drop(bytes);
+        Upload {
+            id: request.id,
+            obj: request.obj,
+            fit: request.fit,
+            landmarks: request.landmarks,
+            producer_token: request.producer_token,
+            parts: part_records(request.parts)?,
+            mm_per_unit: None,
+            source: None,
+        }
+    };
+    register(&state, slot, upload).await
+}
+
+/// The header that carries a glTF registration's own producer token (a JSON
+/// registration has it in its body).
+const PRODUCER_TOKEN_HEADER: &str = "x-facewire-producer-token";
+
+/// A registration, from a JSON body or from a glTF file.
+struct Upload {
+    id: String,
+    obj: String,
+    fit: Option<String>,
+    landmarks: Option<String>,
+    producer_token: Option<String>,
+    parts: Vec<PartRecord>,
+    /// Known from the file's format (glTF: metres), for the automatic fit.
+    mm_per_unit: Option<f32>,
+    source: Option<HeadSource>,
+}
+
+/// Fits (unless a fit was given) and registers `upload`, holding `slot` throughout.
+async fn register(
+    state: &AppState,
+    slot: tokio::sync::OwnedSemaphorePermit,
+    upload: Upload,
+) -> Result<(StatusCode, Json<HeadInfo>), ApiError> {
     let budget = state.registry.budget();
     // A fit runs on the blocking pool holding the slot until it has stopped, even when
     // this request ends first (timed out, or its client left): `stop` cancels it then.
     let cancel = Cancel::new();
     let _stop = cancel.on_drop();
-    let obj = request.obj;
-    let (slot, obj, fit_toml) = match (request.fit, request.landmarks) {
+    let obj = upload.obj;
+    let (slot, obj, fit_toml) = match (upload.fit, upload.landmarks) {
         (Some(fit), None) => (slot, obj, fit),
         (None, Some(landmarks)) => {
             let (slot, obj, fit) = tokio::task::spawn_blocking(move || {
@@ -123,8 +203,9 @@ pub async fn register_head(
         }
         (None, None) => {
             let telemetry = state.telemetry.clone();
+            let mm_per_unit = upload.mm_per_unit;
             let (slot, obj, fit) = tokio::task::spawn_blocking(move || {
-                let fit = fit_automatically(obj.as_bytes(), budget, &cancel);
+                let fit = fit_automatically(obj.as_bytes(), mm_per_unit, budget, &cancel);
                 if let Err(AutomaticFitFailure::Fit(AutomaticFitError::Cancelled { .. })) = fit {
                     telemetry.fits_cancelled.inc();
                 }
@@ -141,15 +222,17 @@ pub async fn register_head(
         }
     };
     let record = HeadRecord {
-        id: request.id,
+        id: upload.id,
         obj: obj.into_bytes(),
         fit_toml,
-        parts,
-        meta: HeadMeta::with_producer_token(request.producer_token.as_deref()),
+        parts: upload.parts,
+        meta: HeadMeta::with_producer_token(upload.producer_token.as_deref()),
     };
     let entry = state.registry.register(record, true, slot).await?;
     state.telemetry.heads.set(state.registry.list().len() as i64);
-    Ok((StatusCode::ACCEPTED, Json(entry.info())))
+    let mut info = entry.info();
+    info.source = upload.source;
+    Ok((StatusCode::ACCEPTED, Json(info)))
 }
 
 pub async fn list_heads(State(state): State<AppState>) -> Json<Vec<HeadInfo>> {

@@ -26,6 +26,7 @@ pub mod demo;
 mod error;
 mod follow;
 mod frames;
+mod glb_upload;
 mod head;
 mod head_store;
 mod heads;

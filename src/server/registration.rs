@@ -208,12 +208,13 @@ pub enum AutomaticFitFailure {
 /// (blocking; about a second for a 30,000-triangle head), stopping when `cancel` is set.
 pub fn fit_automatically(
     obj: &[u8],
+    mm_per_unit: Option<f32>,
     mut budget: MeshBudget,
     cancel: &Cancel,
 ) -> Result<String, AutomaticFitFailure> {
     let head = read_head(obj, &mut budget)?;
     let mask = Mask::candide3();
-    let found = crate::fit::fit_automatically_unless(&head, &mask, None, cancel)?;
+    let found = crate::fit::fit_automatically_unless(&head, &mask, mm_per_unit, cancel)?;
     Ok(FitFile::from_fit(&found.fit, &mask, None).to_toml())
 }
 

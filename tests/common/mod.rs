@@ -3,6 +3,7 @@
 //! against a head's own expression targets.
 #![allow(dead_code)] // each test file uses its own subset
 
+pub mod glb;
 pub mod nats;
 pub mod nats_jwt;
 pub mod service;

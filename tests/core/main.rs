@@ -19,6 +19,7 @@ mod eyes;
 mod fit_report;
 mod frame_checks;
 mod geometry;
+mod glb;
 mod head_motion;
 mod jaw;
 mod kshirsagar;

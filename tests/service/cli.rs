@@ -91,6 +91,32 @@ fn fit_reproduces_the_shipped_fits() {
 }
 
 #[test]
+fn fit_reads_a_gltf_avatar_in_metres() {
+    let dir = tempfile::tempdir().unwrap();
+    let avatar = dir.path().join("avatar.glb");
+    std::fs::write(&avatar, crate::common::glb::ict_avatar()).unwrap();
+    let out_path = dir.path().join("avatar.fit.toml");
+    let report = json(&[
+        "fit",
+        "--head",
+        avatar.to_str().unwrap(),
+        "--out",
+        out_path.to_str().unwrap(),
+        "--json",
+    ]);
+    assert_eq!(
+        report["mm_per_unit_source"], "the file's format (glTF: metres)",
+        "{report}"
+    );
+    assert_eq!(report["fit"]["mm_per_unit"], 1000.0, "{report}");
+    // The skin read from the file is the shipped head in metres: measured 1.86 mm from
+    // the surface on average (0.61 mm in its centimetres: the automatic fit still depends on
+    // the head's unit, docs/FITTING.md "Units").
+    let surface = report["report"]["surface"]["mean_mm"].as_f64().unwrap();
+    assert!(surface < 2.0, "{report}");
+}
+
+#[test]
 fn fit_without_landmarks_finds_the_face_and_guesses_the_units() {
     let dir = tempfile::tempdir().unwrap();
     let out_path = dir.path().join("ict.fit.toml");

@@ -9,6 +9,7 @@ mod common;
 mod abuse;
 mod bounded_work;
 mod cli;
+mod glb_registration;
 mod load;
 mod parts;
 mod python_client;

@@ -4,6 +4,8 @@
 pub mod animatable;
 pub mod budget;
 pub mod geodesic;
+pub mod glb;
+pub mod glb_parts;
 pub mod laplacian;
 pub mod obj;
 pub mod part;
@@ -24,6 +26,8 @@ use crate::input::{read_file, ReadError, MAX_HEAD_BYTES};
 pub use animatable::{check_animatable, AnimatableError};
 pub use budget::{MeshBudget, OverBudget};
 pub use geodesic::SurfaceDistance;
+pub use glb::{read_glb, GlbError, GlbMesh, MorphTarget, MM_PER_METRE};
+pub use glb_parts::{glb_head, GlbHead, GlbPartsError, MeshRole};
 pub use laplacian::CotanLaplacian;
 pub use obj::ObjError;
 pub use part::{check_part_names, Part, PartListError, PartRole, PartRoleError, MAX_PARTS};

@@ -1,0 +1,250 @@
+//! A glTF binary (`.glb`) writer for the tests: named meshes as nodes under one root node
+//! with a transform, each mesh's triangles in one or more primitives with a material
+//! name, morph targets named in `extras.targetNames`, and optionally a skin. Built by
+//! hand from the glTF 2.0 specification so the reader is tested against files it did not
+//! write itself.
+
+use serde_json::{json, Value};
+
+/// One primitive: its own vertices (the file repeats shared ones, as exporters do at
+/// seams and material borders), triangles over them, per target an offset per vertex.
+pub struct GlbPrimitive {
+    pub material: String,
+    pub positions: Vec<[f32; 3]>,
+    pub indices: Vec<u32>,
+    pub targets: Vec<Vec<[f32; 3]>>,
+    /// Per vertex, joints and weights (a skinned mesh).
+    pub joints: Option<Vec<([u16; 4], [f32; 4])>>,
+}
+
+pub struct GlbMeshSpec {
+    pub name: String,
+    /// The mesh node's own matrix (column-major), identity if `None`.
+    pub matrix: Option<[f32; 16]>,
+    pub primitives: Vec<GlbPrimitive>,
+    pub target_names: Vec<String>,
+}
+
+/// A skin over joint nodes placed by `joint_matrices` (children of the root), with
+/// `inverse_bind` matrices; every skinned mesh uses it.
+pub struct GlbSkin {
+    pub joint_matrices: Vec<[f32; 16]>,
+    pub inverse_bind: Vec<[f32; 16]>,
+}
+
+#[derive(Default)]
+struct Binary {
+    bytes: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+}
+
+impl Binary {
+    /// Appends `data` as a buffer view and an accessor over it; returns the accessor.
+    fn accessor(&mut self, data: &[u8], count: usize, component: u32, kind: &str, extra: Value) -> usize {
+        while !self.bytes.len().is_multiple_of(4) {
+            self.bytes.push(0);
+        }
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": self.bytes.len(), "byteLength": data.len()}));
+        self.bytes.extend_from_slice(data);
+        let mut accessor = json!({"bufferView": self.views.len() - 1, "componentType": component, "count": count, "type": kind});
+        if let (Value::Object(a), Value::Object(e)) = (&mut accessor, extra) {
+            a.extend(e);
+        }
+        self.accessors.push(accessor);
+        self.accessors.len() - 1
+    }
+
+    fn vec3(&mut self, values: &[[f32; 3]], bounds: bool) -> usize {
+        let data: Vec<u8> = values.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
+        let extra = if bounds {
+            let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
+            for v in values {
+                for k in 0..3 {
+                    lo[k] = lo[k].min(v[k]);
+                    hi[k] = hi[k].max(v[k]);
+                }
+            }
+            json!({"min": lo, "max": hi})
+        } else {
+            json!({})
+        };
+        self.accessor(&data, values.len(), 5126, "VEC3", extra)
+    }
+}
+
+/// The file: `meshes` as children of one root node whose matrix is `root` (column-major).
+pub fn write_glb(meshes: &[GlbMeshSpec], root: [f32; 16], skin: Option<&GlbSkin>) -> Vec<u8> {
+    let mut binary = Binary::default();
+    let (mut nodes, mut json_meshes, mut materials) = (vec![json!({})], Vec::new(), Vec::<String>::new());
+    let mut children = Vec::new();
+    for (m, mesh) in meshes.iter().enumerate() {
+        let mut primitives = Vec::new();
+        for primitive in &mesh.primitives {
+            let position = binary.vec3(&primitive.positions, true);
+            let indices: Vec<u8> = primitive.indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+            let indices = binary.accessor(&indices, primitive.indices.len(), 5125, "SCALAR", json!({}));
+            let targets: Vec<Value> = primitive
+                .targets
+                .iter()
+                .map(|offsets| json!({"POSITION": binary.vec3(offsets, true)}))
+                .collect();
+            let material = materials
+                .iter()
+                .position(|n| n == &primitive.material)
+                .unwrap_or_else(|| {
+                    materials.push(primitive.material.clone());
+                    materials.len() - 1
+                });
+            let mut attributes = json!({"POSITION": position});
+            if let Some(joints) = &primitive.joints {
+                let j: Vec<u8> = joints
+                    .iter()
+                    .flat_map(|(j, _)| j.iter().flat_map(|v| v.to_le_bytes()))
+                    .collect();
+                let w: Vec<u8> = joints
+                    .iter()
+                    .flat_map(|(_, w)| w.iter().flat_map(|v| v.to_le_bytes()))
+                    .collect();
+                attributes["JOINTS_0"] = json!(binary.accessor(&j, joints.len(), 5123, "VEC4", json!({})));
+                attributes["WEIGHTS_0"] = json!(binary.accessor(&w, joints.len(), 5126, "VEC4", json!({})));
+            }
+            let mut json_primitive =
+                json!({"attributes": attributes, "indices": indices, "material": material});
+            if !targets.is_empty() {
+                json_primitive["targets"] = json!(targets);
+            }
+            primitives.push(json_primitive);
+        }
+        let mut json_mesh = json!({"name": mesh.name, "primitives": primitives});
+        if !mesh.target_names.is_empty() {
+            json_mesh["extras"] = json!({"targetNames": mesh.target_names});
+        }
+        json_meshes.push(json_mesh);
+        let mut node = json!({"name": mesh.name, "mesh": m});
+        if let Some(matrix) = mesh.matrix {
+            node["matrix"] = json!(matrix);
+        }
+        if mesh.primitives.iter().any(|p| p.joints.is_some()) {
+            node["skin"] = json!(0);
+        }
+        nodes.push(node);
+        children.push(nodes.len() - 1);
+    }
+    let mut skins = Vec::new();
+    if let Some(skin) = skin {
+        let mut joints = Vec::new();
+        for (j, matrix) in skin.joint_matrices.iter().enumerate() {
+            nodes.push(json!({"name": format!("joint {j}"), "matrix": matrix}));
+            joints.push(nodes.len() - 1);
+            children.push(nodes.len() - 1);
+        }
+        let data: Vec<u8> = skin
+            .inverse_bind
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let inverse = binary.accessor(&data, skin.inverse_bind.len(), 5126, "MAT4", json!({}));
+        skins.push(json!({"joints": joints, "inverseBindMatrices": inverse}));
+    }
+    nodes[0] = json!({"name": "root", "matrix": root, "children": children});
+    let mut document = json!({
+        "asset": {"version": "2.0", "generator": "facewire tests"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": nodes,
+        "meshes": json_meshes,
+        "materials": materials.iter().map(|n| json!({"name": n})).collect::<Vec<_>>(),
+        "buffers": [{"byteLength": binary.bytes.len()}],
+        "bufferViews": binary.views,
+        "accessors": binary.accessors,
+    });
+    if !skins.is_empty() {
+        document["skins"] = json!(skins);
+    }
+    pack(&serde_json::to_vec(&document).unwrap(), &binary.bytes)
+}
+
+/// The GLB container: header, JSON chunk (space-padded), BIN chunk (zero-padded).
+pub fn pack(json: &[u8], bin: &[u8]) -> Vec<u8> {
+    let pad = |n: usize| n.next_multiple_of(4);
+    let total = 12 + 8 + pad(json.len()) + 8 + pad(bin.len());
+    let mut out = Vec::with_capacity(total);
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(pad(json.len()) as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(json);
+    out.resize(out.len() + pad(json.len()) - json.len(), b' ');
+    out.extend_from_slice(&(pad(bin.len()) as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(bin);
+    out.resize(total, 0);
+    out
+}
+
+/// Column-major matrix of `scale` times a rotation of `degrees` about +x.
+pub fn scaled_turn_about_x(scale: f32, degrees: f32) -> [f32; 16] {
+    (glam::Mat4::from_scale(glam::Vec3::splat(scale)) * glam::Mat4::from_rotation_x(degrees.to_radians()))
+        .to_cols_array()
+}
+
+/// `head` (the shipped heads' cm, +y up) as one mesh of a file written Z-up.
+pub fn z_up_mesh(name: &str, head: &facewire::head::Head) -> GlbMeshSpec {
+    let turn = glam::Mat4::from_rotation_x(90f32.to_radians());
+    GlbMeshSpec {
+        name: name.to_string(),
+        matrix: None,
+        primitives: vec![GlbPrimitive {
+            material: name.to_string(),
+            positions: head
+                .positions
+                .iter()
+                .map(|&p| turn.transform_point3(p).to_array())
+                .collect(),
+            indices: head.triangles.iter().flatten().copied().collect(),
+            targets: Vec::new(),
+            joints: None,
+        }],
+        target_names: Vec::new(),
+    }
+}
+
+/// The shipped ICT head as an avatar maker would export it: in metres, Z-up under a root
+/// node that turns it upright, its skin `Head`, both rows of teeth in one mesh
+/// `Wolf3D_Teeth`, `Tongue`, `EyeLeft` (both eyeballs) and a stray `Eyelashes` triangle.
+pub fn ict_avatar() -> Vec<u8> {
+    use facewire::head::Head;
+    let load = |file: &str| Head::load(&super::data(&format!("heads/{file}"))).unwrap();
+    let (upper, lower) = (load("ict_head_teeth_upper.obj"), load("ict_head_teeth_lower.obj"));
+    let rows = upper.positions.len() as u32;
+    let teeth = Head::new(
+        "teeth",
+        upper.positions.iter().chain(&lower.positions).copied().collect(),
+        upper
+            .triangles
+            .iter()
+            .copied()
+            .chain(lower.triangles.iter().map(|t| t.map(|v| v + rows)))
+            .collect(),
+    );
+    let lash = Head::new(
+        "lash",
+        vec![glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::Y],
+        vec![[0, 1, 2]],
+    );
+    write_glb(
+        &[
+            z_up_mesh("Head", &load("ict_head.obj")),
+            z_up_mesh("Wolf3D_Teeth", &teeth),
+            z_up_mesh("Tongue", &load("ict_head_gums_lower_tongue.obj")),
+            z_up_mesh("EyeLeft", &load("ict_head_eyes.obj")),
+            z_up_mesh("Eyelashes", &lash),
+        ],
+        scaled_turn_about_x(0.01, -90.0),
+        None,
+    )
+}

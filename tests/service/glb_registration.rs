@@ -1,0 +1,166 @@
+//! A glTF avatar registered in one request: the skin, teeth (both rows in one mesh),
+//! tongue and eyes found by their names, metres taken from the format, the fit found
+//! automatically; and the refusals, each naming what is wrong.
+
+use crate::common::glb::ict_avatar;
+use crate::common::service::{memory_config, Server};
+
+use facewire::server::config::Auth;
+use facewire::server::Config;
+
+use serde_json::Value;
+
+async fn post_glb(server: &Server, query: &str, body: Vec<u8>) -> (u16, Value) {
+    let response = reqwest::Client::new()
+        .post(server.http(&format!("/v1/heads{query}")))
+        .header("content-type", "model/gltf-binary")
+        .body(body)
+        .send()
+        .await
+        .unwrap();
+    (response.status().as_u16(), response.json().await.unwrap())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_avatar_registers_in_one_request_with_its_parts() {
+    let server = Server::start(memory_config()).await;
+    let (status, body) = post_glb(&server, "?id=avatar", ict_avatar()).await;
+    assert_eq!(status, 202, "{body}");
+    assert_eq!(
+        body["source"],
+        serde_json::json!({
+            "format": "glb",
+            "skin": "Head",
+            "parts": [
+                {"name": "wolf3d_teeth", "mesh": "Wolf3D_Teeth"},
+                {"name": "tongue", "mesh": "Tongue"},
+                {"name": "eyeleft", "mesh": "EyeLeft"}
+            ],
+            "left_out": ["Eyelashes"]
+        })
+    );
+    let info = server.wait_ready("avatar", "").await;
+    // Metres, as glTF says: no guess from the pupils.
+    assert_eq!(info.mm_per_unit, 1000.0);
+    let roles: Vec<(&str, &str, Option<&str>)> = info
+        .parts
+        .iter()
+        .map(|p| (p.name.as_str(), p.role.as_str(), p.split_from.as_deref()))
+        .collect();
+    assert_eq!(
+        roles,
+        [
+            ("wolf3d_teeth_upper", "skull", Some("wolf3d_teeth")),
+            ("wolf3d_teeth_lower", "jaw", Some("wolf3d_teeth")),
+            ("tongue", "tongue", None)
+        ]
+    );
+    // Both eyeballs of the one eye mesh, each turning about its own centre.
+    let mut sides: Vec<&str> = info.eyes.iter().map(|e| e.side.as_str()).collect();
+    sides.sort();
+    assert_eq!(sides, ["left", "right"], "{:?}", info.eyes);
+    // The automatic fit on the skin in metres: 1.86 mm from the surface on average (0.61 in
+    // the head's own centimetres; docs/FITTING.md "Units").
+    let fit = info.fit.expect("a fit summary");
+    assert!(fit.surface_mean_mm < 2.0, "{fit:?}");
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_glb_registration_is_refused_with_what_is_wrong() {
+    let server = Server::start(memory_config()).await;
+    let refused = |(status, body): (u16, Value)| {
+        (
+            status,
+            body["error"].as_str().unwrap().to_string(),
+            body["message"].as_str().unwrap().to_string(),
+        )
+    };
+
+    let (status, code, message) = refused(post_glb(&server, "", ict_avatar()).await);
+    assert_eq!((status, code.as_str()), (400, "bad_request"));
+    assert!(message.contains("names its head with `?id=`"), "{message}");
+
+    let (status, code, message) = refused(post_glb(&server, "?id=x", b"v 0 0 0\nf 1 1 1\n".to_vec()).await);
+    assert_eq!((status, code.as_str()), (400, "bad_head"));
+    assert!(
+        message.starts_with(
+            "glTF file: not a glTF binary file the reader can use: it does not start with `glTF`"
+        ),
+        "{message}"
+    );
+
+    let (status, code, message) = refused(post_glb(&server, "?id=x&roles=Hat%3Dnone", ict_avatar()).await);
+    assert_eq!((status, code.as_str()), (400, "bad_head"));
+    assert!(message.contains("a role is given for \"Hat\""), "{message}");
+
+    let (status, code, message) = refused(post_glb(&server, "?id=x&roles=Head%3Dhat", ict_avatar()).await);
+    assert_eq!((status, code.as_str()), (400, "bad_request"));
+    assert!(message.contains("mesh role \"hat\""), "{message}");
+
+    let (status, code, message) = refused(post_glb(&server, "?id=x&colour=red", ict_avatar()).await);
+    assert_eq!((status, code.as_str()), (400, "bad_request"));
+    assert!(message.contains("unknown field `colour`"), "{message}");
+
+    // A JSON registration keeps its id in its body.
+    let response = reqwest::Client::new()
+        .post(server.http("/v1/heads?id=x"))
+        .json(&serde_json::json!({"id": "x", "obj": "v 0 0 0\n"}))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(response.status().as_u16(), 400);
+    let body: Value = response.json().await.unwrap();
+    assert!(
+        body["message"]
+            .as_str()
+            .unwrap()
+            .contains("are for glTF registrations"),
+        "{body}"
+    );
+    let heads: Vec<Value> = reqwest::get(server.http("/v1/heads"))
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    assert!(heads.is_empty(), "{heads:?}");
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_avatar_takes_its_own_producer_token_from_a_header() {
+    let server = Server::start(Config {
+        auth: Auth {
+            producer_token: Some("producer".into()),
+            viewer_token: None,
+            admin_token: Some("admin".into()),
+        },
+        ..memory_config()
+    })
+    .await;
+    let response = reqwest::Client::new()
+        .post(server.http("/v1/heads?id=avatar&token=admin"))
+        .header("content-type", "model/gltf-binary")
+        .header("x-facewire-producer-token", "mine")
+        .body(ict_avatar())
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(
+        response.status().as_u16(),
+        202,
+        "{}",
+        response.text().await.unwrap()
+    );
+    server.wait_ready("avatar", "?token=admin").await;
+    // The head's own token lets its producer in; the server-wide one no longer does.
+    let end_producer = |token: &str| {
+        reqwest::Client::new()
+            .delete(server.http(&format!("/v1/heads/avatar/streams/s/producer?token={token}")))
+            .send()
+    };
+    assert_ne!(end_producer("mine").await.unwrap().status().as_u16(), 401);
+    assert_eq!(end_producer("producer").await.unwrap().status().as_u16(), 401);
+    server.stop().await;
+}
