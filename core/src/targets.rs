@@ -99,6 +99,19 @@ impl ExpressionTarget {
             .collect()
     }
 
+    /// A target from one displacement per head vertex (head units), as a glTF morph
+    /// target gives it; the vertices it moves are the ones it lists.
+    pub fn from_displacements(name: &str, displacements: Vec<Vec3>) -> ExpressionTarget {
+        let listed = (0..displacements.len() as u32)
+            .filter(|&v| displacements[v as usize] != Vec3::ZERO)
+            .collect();
+        ExpressionTarget {
+            name: name.to_string(),
+            displacements,
+            listed,
+        }
+    }
+
     /// Parses a target's text; `origin` names it in errors.
     pub fn parse(
         name: &str,

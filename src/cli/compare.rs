@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use super::fitted_head::FittedHeadArgs;
 use super::part_arg::{describe_parts, load_parts};
-use super::{print_json, CliResult, FilePath};
+use super::{has_suffix, load_glb_skin, print_json, CliResult, FilePath};
 use crate::animate::AnimatedHead;
 use crate::report::{
     compare, every_preset, parse_algorithms, write_report, AlgorithmSummary, Column, CompareInput,
@@ -39,8 +39,9 @@ pub struct Args {
     #[arg(long)]
     algos: Option<String>,
     /// Folder of the head's expression targets (*.target) for the ground-truth error;
-    /// default: for the shipped heads that have them, `makehuman_arkit/` beside
-    /// makehuman_head.obj and `ict_targets/skin/` beside ict_head.obj.
+    /// default: a glTF avatar's morph targets, and for the shipped heads that have them,
+    /// `makehuman_arkit/` beside makehuman_head.obj and `ict_targets/skin/` beside
+    /// ict_head.obj.
     #[arg(long)]
     targets: Option<FilePath>,
     /// A part mesh (teeth, gums, tongue) in the head's units and frame, as `PATH` (its
@@ -103,7 +104,7 @@ pub fn run(args: Args) -> CliResult {
     Ok(())
 }
 
-/// Expression targets with the folder they came from.
+/// Expression targets with the folder (or glTF file) they came from.
 struct Targets {
     dir: PathBuf,
     targets: Vec<ExpressionTarget>,
@@ -122,6 +123,27 @@ fn load_targets(
         }
         return Ok(Some(Targets {
             dir: dir.clone(),
+            targets,
+        }));
+    }
+    if has_suffix(&args.fitted.head, ".glb") {
+        // A glTF avatar's morph targets are its expression targets.
+        let skin = load_glb_skin(&args.fitted.head)?;
+        let targets: Vec<ExpressionTarget> = skin
+            .targets
+            .into_iter()
+            .map(|t| ExpressionTarget::from_displacements(&t.name, t.offsets))
+            .filter(|t| !t.listed.is_empty())
+            .collect();
+        if targets.is_empty() {
+            eprintln!(
+                "no ground truth: {} has no morph targets",
+                args.fitted.head.display()
+            );
+            return Ok(None);
+        }
+        return Ok(Some(Targets {
+            dir: args.fitted.head.clone(),
             targets,
         }));
     }

@@ -121,15 +121,20 @@ fn load_head(path: &Path) -> Result<Head, Box<dyn std::error::Error + Send + Syn
     if !has_suffix(path, ".glb") {
         return Ok(Head::load(path)?);
     }
-    let bytes = crate::input::read_file(path, crate::input::MAX_HEAD_BYTES)?;
-    let named = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let meshes = crate::head::read_glb(&bytes).map_err(|e| named(&e))?;
-    let skin = crate::head::glb_head(meshes, &[]).map_err(|e| named(&e))?.skin;
+    let skin = load_glb_skin(path)?;
     Ok(Head::new(
         &path.display().to_string(),
         skin.positions,
         skin.triangles,
     ))
+}
+
+/// The skin of a glTF binary avatar, with its morph targets.
+fn load_glb_skin(path: &Path) -> Result<crate::head::GlbMesh, Box<dyn std::error::Error + Send + Sync>> {
+    let bytes = crate::input::read_file(path, crate::input::MAX_HEAD_BYTES)?;
+    let named = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let meshes = crate::head::read_glb(&bytes).map_err(|e| named(&e))?;
+    Ok(crate::head::glb_head(meshes, &[]).map_err(|e| named(&e))?.skin)
 }
 
 /// Millimetres per head unit when a head file's format says it (glTF: metres).

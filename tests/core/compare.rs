@@ -515,3 +515,75 @@ fn compare_counts_the_lip_folds_of_the_targets_themselves() {
     eprintln!("{jaw_open:?}");
     assert!(jaw_open.target_lip_folds > 0, "{jaw_open:?}");
 }
+
+/// A glTF avatar's morph targets are its ground truth: MakeHuman's head written as a
+/// `.glb` carrying its 51 ARKit targets as morph targets, fitted from the same landmarks,
+/// is compared exactly as the OBJ with its `.target` files is.
+#[test]
+fn compare_reads_a_gltf_avatars_morph_targets_as_its_ground_truth() {
+    use crate::common::glb::{write_glb, GlbMeshSpec, GlbPrimitive};
+    use facewire::head::Head;
+    use facewire::targets::ExpressionTarget;
+
+    let dir = tempfile::tempdir().unwrap();
+    let (stream, _) = short_stream(dir.path());
+    let obj = data("heads/makehuman_head.obj");
+    let head = Head::load(&obj).unwrap();
+    let targets = ExpressionTarget::load_dir(&data("heads/makehuman_arkit"), head.positions.len()).unwrap();
+    let spec = GlbMeshSpec {
+        name: "Head".into(),
+        matrix: None,
+        primitives: vec![GlbPrimitive {
+            material: "Skin".into(),
+            positions: head.positions.iter().map(|p| p.to_array()).collect(),
+            indices: head.triangles.iter().flatten().copied().collect(),
+            targets: targets
+                .iter()
+                .map(|t| t.displacements.iter().map(|d| d.to_array()).collect())
+                .collect(),
+            joints: None,
+        }],
+        target_names: targets.iter().map(|t| t.name.clone()).collect(),
+    };
+    let glb = dir.path().join("makehuman.glb");
+    std::fs::write(
+        &glb,
+        write_glb(&[spec], glam::Mat4::IDENTITY.to_cols_array(), None),
+    )
+    .unwrap();
+    let landmarks = data("heads/makehuman_head.landmarks.toml");
+    let summary = |head: &Path, targets: Option<&Path>, name: &str| {
+        let fit = dir.path().join(format!("{name}.fit.toml"));
+        succeeds(&[
+            "fit",
+            "--head",
+            s(head),
+            "--landmarks",
+            s(&landmarks),
+            "--out",
+            s(&fit),
+        ]);
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "compare",
+            "--head",
+            s(head),
+            "--fit",
+            s(&fit),
+            "--stream",
+            s(&stream),
+        ];
+        args.extend(["--algos", "V", "--out", s(&out), "--json"]);
+        if let Some(targets) = targets {
+            args.extend(["--targets", s(targets)]);
+        }
+        let printed: serde_json::Value = serde_json::from_slice(&succeeds(&args).stdout).unwrap();
+        let (_, rows) = read_tsv(&out.join("ground_truth.tsv"));
+        (printed[0]["ground_truth_rms_mm"].as_f64(), rows)
+    };
+    let from_glb = summary(&glb, None, "glb");
+    let from_obj = summary(&obj, Some(&data("heads/makehuman_arkit")), "obj");
+    assert!(from_glb.0.is_some_and(|rms| rms > 0.0), "{from_glb:?}");
+    assert_eq!(from_glb.1.len(), from_obj.1.len());
+    assert_eq!(from_glb, from_obj);
+}
