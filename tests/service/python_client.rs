@@ -581,3 +581,65 @@ fn the_python_client_reads_every_captured_frame_and_skips_what_it_does_not_know(
     );
     assert!(stdout.contains("fwf2: 10 frames, 10 match"), "{stdout}");
 }
+
+/// Run by `python3 -c` with the server's URL and a `.glb` path: registers the avatar with
+/// the client (its lashes named as left out, its own producer token) and prints the answer's
+/// `source` and the ready head's units and parts, as JSON.
+const REGISTER_GLB: &str = r#"
+import json, sys
+import facewire_client as fw
+client = fw.Client(sys.argv[1])
+answer = client.register_glb("avatar", open(sys.argv[2], "rb").read(),
+                             roles={"Eyelashes": "none", "Wolf3D_Teeth": "part"},
+                             producer_token="mine")
+info = client.wait_ready("avatar", timeout=60)
+try:
+    client.register_glb("bad", b"not a glb")
+    sys.exit("a file that is not a glb was registered")
+except fw.HttpError as e:
+    refused = [e.status, e.code]
+json.dump({"source": answer["source"], "mm_per_unit": info["mm_per_unit"],
+           "parts": [p["name"] for p in info["parts"]], "eyes": len(info["eyes"]),
+           "refused": refused}, sys.stdout)
+"#;
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_python_client_registers_a_gltf_avatar() {
+    require_python();
+    let server = Server::start(memory_config()).await;
+    let dir = tempfile::tempdir().unwrap();
+    let avatar = dir.path().join("avatar.glb");
+    std::fs::write(&avatar, crate::common::glb::ict_avatar()).unwrap();
+    let url = format!("http://{}", server.addr);
+    let avatar = avatar.display().to_string();
+    let out = tokio::task::spawn_blocking(move || {
+        Command::new("python3")
+            .args(["-c", REGISTER_GLB, &url, &avatar])
+            .env("PYTHONPATH", repo_path("clients/python"))
+            .output()
+            .expect("python3 starts")
+    })
+    .await
+    .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let printed: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(printed["source"]["skin"], "Head", "{printed}");
+    assert_eq!(
+        printed["source"]["left_out"],
+        serde_json::json!(["Eyelashes"]),
+        "{printed}"
+    );
+    assert_eq!(printed["mm_per_unit"], 1000.0, "{printed}");
+    assert_eq!(
+        printed["parts"],
+        serde_json::json!(["wolf3d_teeth_upper", "wolf3d_teeth_lower", "tongue"]),
+        "{printed}"
+    );
+    assert_eq!(printed["eyes"], 2, "{printed}");
+    assert_eq!(
+        printed["refused"],
+        serde_json::json!([400, "bad_head"]),
+        "{printed}"
+    );
+    server.stop().await;
+}

@@ -36,7 +36,8 @@ class Client:
 
     def request(self, method: str, path: str, body: Optional[bytes] = None,
                 content_type: Optional[str] = None,
-                token: Optional[str] = None) -> Tuple[int, bytes]:
+                token: Optional[str] = None,
+                headers: Optional[Mapping[str, str]] = None) -> Tuple[int, bytes]:
         """One HTTP request; returns (status, body) or raises :class:`HttpError`."""
         url = self.url + path
         request = urllib.request.Request(url, data=body, method=method)
@@ -45,6 +46,8 @@ class Client:
             request.add_header("Authorization", "Bearer " + token)
         if content_type:
             request.add_header("Content-Type", content_type)
+        for name, value in (headers or {}).items():
+            request.add_header(name, value)
         try:
             with urllib.request.urlopen(request, timeout=self.timeout) as response:
                 return response.status, response.read()
@@ -95,14 +98,15 @@ class Client:
                       token: Optional[str] = None,
                       parts: Optional[Sequence[Tuple[str, str, Optional[str]]]] = None
                       ) -> Dict[str, Any]:
-        """``POST /v1/heads`` with the OBJ text and exactly one of ``fit`` (a ``.fit.toml``
-        text) or ``landmarks`` (a ``.landmarks.toml`` text, the server solves the fit).
-        ``parts`` are the head's part meshes as ``(name, obj text, role)`` with role
-        ``"skull"``, ``"jaw"``, ``"tongue"`` or ``None`` (the server infers skull or jaw).
-        Registration runs in the background: follow with :meth:`wait_ready`. ``token`` is
-        the admin token."""
-        if (fit is None) == (landmarks is None):
-            raise FacewireError("register_head: give exactly one of fit and landmarks")
+        """``POST /v1/heads`` with the OBJ text and at most one of ``fit`` (a ``.fit.toml``
+        text) or ``landmarks`` (a ``.landmarks.toml`` text, the server solves the fit); with
+        neither, the server finds the face itself (the automatic fit). ``parts`` are the
+        head's part meshes as ``(name, obj text, role)`` with role ``"skull"``, ``"jaw"``,
+        ``"tongue"``, ``"eyes"`` or ``None`` (the server infers skull or jaw). Registration
+        runs in the background: follow with :meth:`wait_ready`. ``token`` is the admin
+        token."""
+        if fit is not None and landmarks is not None:
+            raise FacewireError("register_head: give at most one of fit and landmarks")
         payload: Dict[str, Any] = {"id": head_id, "obj": obj}
         if parts:
             payload["parts"] = [dict({"name": name, "obj": text}, **({"role": role} if role else {}))
@@ -114,6 +118,26 @@ class Client:
         if producer_token is not None:
             payload["producer_token"] = producer_token
         return cast(Dict[str, Any], self._json("POST", "/v1/heads", payload, token))
+
+    def register_glb(self, head_id: str, glb: bytes, *, roles: Optional[Mapping[str, str]] = None,
+                     producer_token: Optional[str] = None,
+                     token: Optional[str] = None) -> Dict[str, Any]:
+        """``POST /v1/heads?id=`` with a glTF binary avatar (the ``.glb`` file's bytes): the
+        server finds the skin, teeth, tongue and eyes by their names (``roles`` maps a
+        mesh's name to ``"skin"``, ``"part"``, ``"skull"``, ``"jaw"``, ``"tongue"``,
+        ``"eyes"`` or ``"none"`` where its name does not say it), takes metres from the
+        format and fits the face itself. The answer's ``source`` says which mesh became
+        what. ``token`` is the admin token."""
+        query = {"id": head_id}
+        if roles:
+            query["roles"] = ",".join("%s=%s" % (mesh, role) for mesh, role in roles.items())
+        headers = {"X-Facewire-Producer-Token": producer_token} if producer_token else None
+        _, raw = self.request("POST", "/v1/heads?" + urllib.parse.urlencode(query), glb,
+                              "model/gltf-binary", token, headers)
+        try:
+            return cast(Dict[str, Any], json.loads(raw))
+        except ValueError:
+            raise ProtocolError("POST /v1/heads: the answer is not JSON: %r" % raw[:200]) from None
 
     def register_head_files(self, head_id: str, obj_path: str, *, fit_path: Optional[str] = None,
                             landmarks_path: Optional[str] = None,
