@@ -6,14 +6,15 @@ use serde::Serialize;
 use super::{has_suffix, load_head, load_mask, print_json, CliResult, FilePath};
 use crate::deform::Registration;
 use crate::fit::{anchor_mask, residuals, FitFile, FittedMask, Landmarks};
-use crate::head::{Bounds, Problem};
+use crate::head::glb_parts::role_by_name;
+use crate::head::{glb_head, read_glb, Bounds, Problem};
 use crate::mask::{FapuValues, Mask, UnitKind};
 use crate::stream::summary::ChannelKind;
 use crate::stream::{open_stream, summarize, StreamFormat};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// A .wfm, .obj, .fit.toml or .landmarks.toml file, or a parameter stream (.jsonl, .fap,
+    /// A .wfm, .obj, .glb, .fit.toml or .landmarks.toml file, or a parameter stream (.jsonl, .fap,
     /// .fau, .txt).
     file: FilePath,
     /// With a .fit.toml or .landmarks.toml: the head it belongs to, to report residuals or
@@ -31,6 +32,8 @@ pub fn run(args: Args) -> CliResult {
         mask_report(path, args.json)
     } else if has_suffix(path, ".obj") {
         head_report(path, args.json)
+    } else if has_suffix(path, ".glb") {
+        glb_report(path, args.json)
     } else if has_suffix(path, ".fit.toml") {
         fit_report(path, args.head.as_ref(), args.json)
     } else if has_suffix(path, ".landmarks.toml") {
@@ -39,7 +42,7 @@ pub fn run(args: Args) -> CliResult {
         stream_report(path, args.json)
     } else {
         Err(format!(
-            "{}: unknown kind of file; expected .wfm, .obj, .fit.toml, .landmarks.toml, .jsonl, .fap, .fau or .txt",
+            "{}: unknown kind of file; expected .wfm, .obj, .glb, .fit.toml, .landmarks.toml, .jsonl, .fap, .fau or .txt",
             path.display()
         )
         .into())
@@ -162,6 +165,76 @@ struct HeadSummary {
     boundary_loops: usize,
     bounds: Bounds,
     problems: Vec<Problem>,
+}
+
+#[derive(Serialize)]
+struct GlbMeshSummary {
+    name: String,
+    names: Vec<String>,
+    materials: Vec<String>,
+    /// What a registration takes it for: skin, skull, jaw, tongue, eyes, part (its row
+    /// inferred) or none.
+    role: String,
+    file_vertices: usize,
+    vertices: usize,
+    triangles: usize,
+    morph_targets: Vec<String>,
+    skinned: bool,
+}
+
+#[derive(Serialize)]
+struct GlbSummary {
+    units: &'static str,
+    meshes: Vec<GlbMeshSummary>,
+    /// Why a registration would refuse the file as it is (no skin found, two, too many
+    /// parts), if it would.
+    refused: Option<String>,
+}
+
+/// A glTF avatar as a registration would read it: each mesh, what its names make it, its
+/// vertices in the file and welded.
+fn glb_report(path: &std::path::Path, json: bool) -> CliResult {
+    let bytes = crate::input::read_file(path, crate::input::MAX_HEAD_BYTES)?;
+    let meshes = read_glb(&bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+    let summary = GlbSummary {
+        units: "metres (glTF's unit: 1000 mm per unit)",
+        meshes: meshes
+            .iter()
+            .map(|m| GlbMeshSummary {
+                name: m.name.clone(),
+                names: m.names.clone(),
+                materials: m.materials.clone(),
+                role: role_by_name(m).to_string(),
+                file_vertices: m.welded.len(),
+                vertices: m.positions.len(),
+                triangles: m.triangles.len(),
+                morph_targets: m.targets.iter().map(|t| t.name.clone()).collect(),
+                skinned: m.skinned,
+            })
+            .collect(),
+        refused: glb_head(meshes, &[]).err().map(|e| e.to_string()),
+    };
+    if json {
+        return print_json(&summary);
+    }
+    println!("{}: glTF binary, {}", path.display(), summary.units);
+    for m in &summary.meshes {
+        println!(
+            "  {:<24} {:<6} {} vertices ({} in the file), {} triangles, {} morph targets{}",
+            m.name,
+            m.role,
+            m.vertices,
+            m.file_vertices,
+            m.triangles,
+            m.morph_targets.len(),
+            if m.skinned { ", skinned" } else { "" }
+        );
+    }
+    match &summary.refused {
+        Some(why) => println!("a registration would refuse it: {why}"),
+        None => println!("registers as it is (POST /v1/heads?id=..., Content-Type: model/gltf-binary)"),
+    }
+    Ok(())
 }
 
 fn head_report(path: &std::path::Path, json: bool) -> CliResult {

@@ -91,6 +91,46 @@ fn fit_reproduces_the_shipped_fits() {
 }
 
 #[test]
+fn inspect_says_what_each_mesh_of_a_gltf_avatar_is_taken_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let avatar = dir.path().join("avatar.glb");
+    std::fs::write(&avatar, crate::common::glb::ict_avatar()).unwrap();
+    let report = json(&["inspect", avatar.to_str().unwrap(), "--json"]);
+    let rows: Vec<(String, String, u64)> = report["meshes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| {
+            let name = m["name"].as_str().unwrap().to_string();
+            (
+                name,
+                m["role"].as_str().unwrap().to_string(),
+                m["triangles"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    let roles: Vec<(&str, &str)> = rows.iter().map(|(n, r, _)| (n.as_str(), r.as_str())).collect();
+    assert_eq!(
+        roles,
+        [
+            ("Head", "skin"),
+            ("Wolf3D_Teeth", "part"),
+            ("Tongue", "tongue"),
+            ("EyeLeft", "eyes"),
+            ("Eyelashes", "none")
+        ]
+    );
+    let head = facewire::head::Head::load(&data("heads/ict_head.obj")).unwrap();
+    assert_eq!(rows[0].2, head.triangles.len() as u64);
+    assert_eq!(report["meshes"][0]["vertices"], head.positions.len());
+    assert!(report["refused"].is_null(), "{report}");
+    // The text report says the same, and when a registration would refuse the file.
+    let out = facewire(&["inspect", avatar.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("registers as it is"), "{text}");
+}
+
+#[test]
 fn fit_reads_a_gltf_avatar_in_metres() {
     let dir = tempfile::tempdir().unwrap();
     let avatar = dir.path().join("avatar.glb");
