@@ -3,11 +3,11 @@
 
 use serde::Serialize;
 
-use super::{has_suffix, load_head, load_mask, print_json, CliResult, FilePath};
+use super::{has_suffix, load_glb, load_head, load_mask, print_json, CliResult, FilePath};
 use crate::deform::Registration;
 use crate::fit::{anchor_mask, residuals, FitFile, FittedMask, Landmarks};
 use crate::head::glb_parts::role_by_name;
-use crate::head::{glb_head, read_glb, Bounds, Problem};
+use crate::head::{glb_head, Bounds, Problem};
 use crate::mask::{FapuValues, Mask, UnitKind};
 use crate::stream::summary::ChannelKind;
 use crate::stream::{open_stream, summarize, StreamFormat};
@@ -194,8 +194,7 @@ struct GlbSummary {
 /// A glTF avatar as a registration would read it: each mesh, what its names make it, its
 /// vertices in the file and welded.
 fn glb_report(path: &std::path::Path, json: bool) -> CliResult {
-    let bytes = crate::input::read_file(path, crate::input::MAX_HEAD_BYTES)?;
-    let meshes = read_glb(&bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+    let meshes = load_glb(path)?;
     let summary = GlbSummary {
         units: "metres (glTF's unit: 1000 mm per unit)",
         meshes: meshes

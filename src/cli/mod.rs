@@ -129,12 +129,16 @@ fn load_head(path: &Path) -> Result<Head, Box<dyn std::error::Error + Send + Syn
     ))
 }
 
+/// Every mesh a glTF binary avatar's scene places (`head::read_glb`).
+fn load_glb(path: &Path) -> Result<Vec<crate::head::GlbMesh>, Box<dyn std::error::Error + Send + Sync>> {
+    let bytes = crate::input::read_file(path, crate::input::MAX_HEAD_BYTES)?;
+    Ok(crate::head::read_glb(&bytes).map_err(|e| format!("{}: {e}", path.display()))?)
+}
+
 /// The skin of a glTF binary avatar, with its morph targets.
 fn load_glb_skin(path: &Path) -> Result<crate::head::GlbMesh, Box<dyn std::error::Error + Send + Sync>> {
-    let bytes = crate::input::read_file(path, crate::input::MAX_HEAD_BYTES)?;
-    let named = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let meshes = crate::head::read_glb(&bytes).map_err(|e| named(&e))?;
-    Ok(crate::head::glb_head(meshes, &[]).map_err(|e| named(&e))?.skin)
+    let head = crate::head::glb_head(load_glb(path)?, &[]).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(head.skin)
 }
 
 /// Millimetres per head unit when a head file's format says it (glTF: metres).

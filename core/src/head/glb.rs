@@ -56,8 +56,8 @@ pub enum GlbError {
     },
     #[error("skin of mesh {mesh:?}: {what}")]
     Skin { mesh: String, what: String },
-    #[error("more than {MAX_VALUES} vertex values (vertices, morph-target offsets) in the file")]
-    TooLarge,
+    #[error("mesh {mesh:?}: more than {MAX_ELEMENTS} vertices or triangles")]
+    TooLarge { mesh: String },
     #[error("the scene places no triangles")]
     NoTriangles,
 }
@@ -555,7 +555,7 @@ fn read_mesh(
         }));
     }
     if out.positions.len() > MAX_ELEMENTS || out.triangles.len() > MAX_ELEMENTS {
-        return Err(GlbError::TooLarge);
+        return Err(GlbError::TooLarge { mesh: name });
     }
     out.names.dedup();
     out.materials.dedup();
