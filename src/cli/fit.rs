@@ -20,7 +20,7 @@ pub struct Args {
     #[arg(long)]
     head: FilePath,
     /// Landmark correspondences (.landmarks.toml). Without them the face is found
-    /// automatically (the head's +y must be up).
+    /// automatically, in any orientation and unit.
     #[arg(long)]
     landmarks: Option<FilePath>,
     /// Where to write the fit (.fit.toml).

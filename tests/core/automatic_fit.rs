@@ -24,7 +24,8 @@ use facewire::stream::ArkitBasis;
 use facewire::targets::ExpressionTarget;
 use glam::{Mat3, Vec3};
 
-const HEADS: [(&str, &str); 5] = [
+/// The shipped heads with their landmarks (the ICT identities share the ICT head's).
+pub(crate) const HEADS: [(&str, &str); 5] = [
     ("heads/makehuman_head.obj", "heads/makehuman_head.landmarks.toml"),
     (
         "heads/lee_perry_smith_head.obj",

@@ -159,9 +159,10 @@ fn on_makehumans_targets_the_eyes_short_reach_beats_holding_at_40_mm_and_u() {
         "ground truth, mean RMS over 51 targets: U {u:.4} mm, biharmonic held at 40 mm {held:.4} mm, \
          held nowhere {unheld:.4} mm, V {recommended:.4} mm"
     );
-    // Measured: U 0.737, held at 40 mm 0.596, held nowhere 0.787 (the eyelid fold
-    // overshoots), V 0.537 (0.536 before its smoothing over the lips).
-    assert!(held < 0.60, "biharmonic held at 40 mm: {held} mm");
+    // Measured: U 0.743, held at 40 mm 0.602, held nowhere 0.807 (the eyelid fold
+    // overshoots), V 0.538 (0.537 before its smoothing over the lips). On the fit solved
+    // before the ridge was weighed in mask units (1.7 % larger): 0.737, 0.596, 0.787, 0.537.
+    assert!(held < 0.61, "biharmonic held at 40 mm: {held} mm");
     assert!(held < 0.85 * u, "biharmonic {held} mm against U {u} mm");
     assert!(
         unheld > held + 0.1,

@@ -199,13 +199,26 @@ fn the_lids_close_over_the_eyes_without_passing_through_them() {
         );
         eprintln!("  facing away (over 90): {over_90:?}, sharpest dihedral increase {sharpest:?}");
         // The blink itself turns the lids' skin over on this head (issue: folds about the
-        // eyes); laying the lids on the eyeball adds some (V: 6,995 -> 9,582 past 60 degrees,
-        // 2,330 -> 2,975 past 90, the sharpest crease unchanged). Held here so it grows no
+        // eyes); laying the lids on the eyeball adds some (V: 7,077 -> 9,600 past 60 degrees,
+        // 2,456 -> 3,065 past 90, the sharpest crease unchanged). Held here so it grows no
         // further.
         assert!(folds[1] as f32 <= 1.5 * folds[0] as f32, "{spec}: {folds:?}");
-        assert!(sharpest[1] <= sharpest[0] + 1.0, "{spec}: {sharpest:?}");
+        assert!(
+            over_90[1] as f32 <= 1.5 * over_90[0] as f32,
+            "{spec}: {over_90:?}"
+        );
+        // The constraint makes no crease sharper, unless the blink alone already turns the
+        // skin over (past 175 degrees: U, A and O), where the sharpest angle only wobbles
+        // towards 180 (O: 178.5 -> 179.7) and the counts above hold it.
+        assert!(
+            sharpest[1] <= sharpest[0] + 1.0 || sharpest[0] > TURNED_OVER_DEG,
+            "{spec}: {sharpest:?}"
+        );
         assert_eq!(left_in, 0, "{spec}: deepest {left_deepest} mm");
         // The blink moves the lids by millimetres: the frames exercise them.
         assert!(farthest_mm > 3.0, "{spec}: {farthest_mm}");
     }
 }
+
+/// A crease this sharp is skin facing away from where it faced (degrees).
+const TURNED_OVER_DEG: f64 = 175.0;

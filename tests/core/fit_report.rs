@@ -33,8 +33,8 @@ fn the_shipped_fits_report_every_region_and_closed_lips() {
     let used = mask.used_vertices().iter().filter(|&&u| u).count();
     for (name, mean_mm, warnings) in [
         // The surface means are docs/FITTING.md's table.
-        ("makehuman_head", 3.21, vec!["far"]),
-        ("lee_perry_smith_head", 2.97, vec!["far"]),
+        ("makehuman_head", 3.24, vec!["far"]),
+        ("lee_perry_smith_head", 2.99, vec!["far"]),
         ("ict_head", 1.50, vec![]),
     ] {
         let r = shipped_report(name);
@@ -53,14 +53,14 @@ fn the_shipped_fits_report_every_region_and_closed_lips() {
         assert!(r.inner_lip_gap_mm < 2.0, "{name}: {}", r.inner_lip_gap_mm);
         assert_eq!(kinds(&r), warnings, "{name}: {:?}", r.warnings);
     }
-    // The scan's hairline: the forehead top (vertex 0) is the furthest, 18.4 mm.
+    // The scan's hairline: the forehead top (vertex 0) is the furthest, 18.6 mm.
     let scan = shipped_report("lee_perry_smith_head");
     match &scan.warnings[0].warning {
         FitWarning::FarFromSurface {
             worst_mask_vertex,
             worst_mm,
             ..
-        } => assert_eq!((*worst_mask_vertex, (worst_mm * 10.0).round()), (0, 184.0)),
+        } => assert_eq!((*worst_mask_vertex, (worst_mm * 10.0).round()), (0, 186.0)),
         other => panic!("{other:?}"),
     }
 }

@@ -17,6 +17,7 @@ mod default_algorithm;
 mod deform;
 mod eyes;
 mod fit_report;
+mod fit_units;
 mod frame_checks;
 mod geometry;
 mod glb;

@@ -10,9 +10,11 @@ use facewire::population::{self, Maker};
 
 /// The sample's figures as measured (27 members; see docs/FITTING.md): none refused and
 /// none more than 5 mm (mean) from the reference since the learned reading reads the face
-/// (5 and 2 with the rules alone), the median of the means 2.54 mm (2.27 with the rules
-/// alone, over the 22 they did not refuse). The goal of none over 3 mm is not met yet.
-const MAX_MEDIAN_MM: f32 = 2.6;
+/// (5 and 2 with the rules alone), the median of the means 2.64 mm since the fit's ridge
+/// is in mask units (2.54 before, when a head in metres was held 10,000 times as hard as
+/// in centimetres; 2.27 with the rules alone, over the 22 they did not refuse). The goal
+/// of none over 3 mm is not met yet.
+const MAX_MEDIAN_MM: f32 = 2.7;
 
 #[test]
 fn the_population_sample_is_fitted_as_measured() {

@@ -12,8 +12,8 @@ use crate::mask::{Mask, MaskPose};
 pub struct SolveOptions {
     /// Shape-unit weights are kept in `[-bound, bound]`.
     pub shape_bound: f64,
-    /// Ridge weight on the shape units (mask units squared per landmark); keeps units
-    /// that no landmark constrains at zero.
+    /// Ridge weight on the shape units (mask units squared per landmark, whatever the
+    /// head's unit); keeps units that no landmark constrains at zero.
     pub regularization: f64,
     /// Solve shape units at all (false: similarity only).
     pub solve_shape: bool,
@@ -26,7 +26,7 @@ impl Default for SolveOptions {
     fn default() -> Self {
         SolveOptions {
             shape_bound: 1.5,
-            regularization: 1e-4,
+            regularization: 1e-6,
             solve_shape: true,
             max_iterations: 500,
             tolerance: 1e-12,
@@ -172,9 +172,13 @@ fn gauss_newton_step(
             }
         }
     }
+    // The residuals are in head units, `scale` times the mask's: the ridge, given in mask
+    // units as in `solve_shape`, is weighed by `scale^2` so that the fit does not depend on
+    // the unit the head is written in.
+    let ridge = options.regularization * similarity.scale * similarity.scale;
     for (u, &s) in shape.iter().enumerate() {
-        jtj[(7 + u, 7 + u)] += options.regularization;
-        jtr[7 + u] += options.regularization * s;
+        jtj[(7 + u, 7 + u)] += ridge;
+        jtr[7 + u] += ridge * s;
     }
     // A whisper of damping keeps unconstrained directions finite.
     for a in 0..n {

@@ -25,9 +25,11 @@ const SIMILARITY_ROUNDS: usize = 12;
 const SHAPE_ROUNDS: usize = 24;
 /// Pairs further than this many times the median distance are left out of a round.
 const OUTLIER_FACTOR: f64 = 2.5;
-/// Ridge weight on the shape units (mask units squared): the surface constrains most
-/// units, but only loosely; this keeps a unit at zero unless the surface asks for it.
-const SHAPE_RIDGE: f64 = 2e-3;
+/// Ridge weight on the shape units (mask units squared per pair, so the same in any head
+/// unit): the surface constrains most units, but only loosely; this keeps a unit at zero
+/// unless the surface asks for it. Chosen on the population from 1e-4 to 2e-3
+/// (docs/FITTING.md, "The automatic fit"): stronger pulls every fit towards the mean mask.
+const SHAPE_RIDGE: f64 = 2e-4;
 /// A pin counts as this many vertices.
 const PIN_WEIGHT: usize = 10;
 /// Distances above this (mask units, about 5 mm) count as this much in the score.
