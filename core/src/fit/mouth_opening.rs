@@ -1,6 +1,11 @@
 //! How far apart the lips stand on the face's midline, seen from the front: the run of
 //! heights, through the mouth, where a ray along the fitted mask's -z axis meets nothing or
-//! meets the surface far behind the lips. Exact ray-triangle tests every
+//! meets the surface far behind the lips. The lips' depth is the fitted mask's outer lip
+//! midpoints': the fit lays them on closed lips, and hangs them in front of an open
+//! mouth's gap. Taken as the frontmost surface up to the mask's subnasale instead, a fit
+//! whose subnasale sat a few millimetres high (a large nose's underside in the window)
+//! read the closed lips of a generated head as 43 mm apart against the nose, so that
+//! registration "closed" them and folded them. Exact ray-triangle tests every
 //! [`STEP`] (about 0.05 mm), so a gap of a few tenths of a millimetre shows; zero for lips
 //! that meet, however deep the notch between them. The fit report's "lips apart at rest"
 //! and the calibration that closes such a mouth (`crate::deform::mouth_calibration`)
@@ -15,6 +20,9 @@ use serde::Serialize;
 use super::FittedMask;
 use crate::mask::{INNER_LIP_MID_LOWER, INNER_LIP_MID_UPPER};
 
+/// CANDIDE-3's outer lip midpoints, upper and lower (FP 8.1, 8.2).
+const MASK_UPPER_LIP: usize = 7;
+const MASK_LOWER_LIP: usize = 8;
 /// CANDIDE-3's subnasale (FP 9.15): the top of the mouth's window.
 const MASK_SUBNASALE: usize = 6;
 /// The lips' gap is looked for up to this far above and below the mask's mouth ...
@@ -25,6 +33,7 @@ pub const STEP: f64 = 0.0005;
 /// seen from the front lies this far behind the lips (about 20 mm: lips that meet inside
 /// the mouth, as the ICT head's do, leave a notch more than 12 mm deep), or is not there.
 const OPENING_DEPTH: f64 = 0.2;
+
 const MOUTH_BAND: f64 = 0.05;
 /// Barycentric slack: a ray through an edge or a vertex hits the triangles that share it.
 const ON_EDGE: f64 = 1e-9;
@@ -79,14 +88,16 @@ pub fn mouth_opening(positions: &[Vec3], triangles: &[[u32; 3]], fitted: &Fitted
     let samples = ((top - bottom) / STEP).max(0.0) as usize + 1;
     let height = |k: usize| bottom + k as f64 * STEP;
     let depths: Vec<Option<f64>> = (0..samples).map(|k| front_z(&crossing, height(k))).collect();
-    let lips = depths.iter().flatten().copied().fold(f64::NEG_INFINITY, f64::max);
+    let at_mouth = (((mouth - bottom) / STEP).round().max(0.0) as usize).min(samples - 1);
+    // The lips' depth is the fitted mask's: it lies on closed lips, and in front of an
+    // open mouth's gap (its lips are closed).
+    let lips = f64::from(base[MASK_UPPER_LIP].z.max(base[MASK_LOWER_LIP].z));
     let open = |k: usize| depths[k].is_none_or(|z| z < lips - OPENING_DEPTH);
     let closed = MouthOpening {
         bottom: mouth,
         top: mouth,
     };
     // The run through the mouth's own height (under the chin the surface falls away too).
-    let at_mouth = (((mouth - bottom) / STEP).round().max(0.0) as usize).min(samples - 1);
     let band = (MOUTH_BAND / STEP) as usize;
     let Some(inside) =
         (at_mouth.saturating_sub(band)..=(at_mouth + band).min(samples - 1)).find(|&k| open(k))
@@ -142,8 +153,9 @@ mod tests {
     use crate::fit::Fit;
     use crate::mask::Mask;
 
-    /// Two lips as flat slabs facing +z in the mask frame (identity pose), a gap of `gap`
-    /// mask units between them at the CANDIDE mouth's height, and a back wall 0.5 behind.
+    /// Two lips as flat slabs facing +z in the mask frame (identity pose) at the mask's lip
+    /// depth, a gap of `gap` mask units between them at the CANDIDE mouth's height, and a
+    /// back wall 0.5 behind.
     fn lips(gap: f64) -> (Vec<Vec3>, Vec<[u32; 3]>, FittedMask) {
         let mask = Mask::candide3();
         let fit = Fit {
@@ -154,6 +166,7 @@ mod tests {
         };
         let fitted = FittedMask::new(mask, fit);
         let mouth = f64::from(fitted.base[INNER_LIP_MID_UPPER].y);
+        let lip = lip_depth(&fitted);
         let mut positions = Vec::new();
         let mut triangles = Vec::new();
         let mut quad = |x0: f64, x1: f64, y0: f64, y1: f64, z: f64| {
@@ -164,10 +177,31 @@ mod tests {
             triangles.push([at, at + 1, at + 2]);
             triangles.push([at, at + 2, at + 3]);
         };
-        quad(-0.3, 0.3, mouth + gap / 2.0, mouth + 0.1, 0.1);
-        quad(-0.3, 0.3, mouth - 0.2, mouth - gap / 2.0, 0.1);
-        quad(-0.3, 0.3, mouth - 0.2, mouth + 0.1, -0.4);
+        quad(-0.3, 0.3, mouth + gap / 2.0, mouth + 0.1, lip);
+        quad(-0.3, 0.3, mouth - 0.2, mouth - gap / 2.0, lip);
+        quad(-0.3, 0.3, mouth - 0.2, mouth + 0.1, lip - 0.5);
         (positions, triangles, fitted)
+    }
+
+    fn lip_depth(fitted: &FittedMask) -> f64 {
+        f64::from(fitted.base[MASK_UPPER_LIP].z.max(fitted.base[MASK_LOWER_LIP].z))
+    }
+
+    /// A nose 30 mm in front of the lips, from just above the mask's upper lip to just
+    /// below its subnasale: inside the mouth's window, as when a fit's subnasale sits high.
+    fn with_nose(positions: &mut Vec<Vec3>, triangles: &mut Vec<[u32; 3]>, fitted: &FittedMask) {
+        let (low, high) = (
+            fitted.base[MASK_UPPER_LIP].y + 0.005,
+            fitted.base[MASK_SUBNASALE].y - 0.005,
+        );
+        assert!(high - low > 0.01, "{low} {high}");
+        let z = (lip_depth(fitted) + 0.3) as f32;
+        let at = positions.len() as u32;
+        for (x, y) in [(-0.1, low), (0.1, low), (0.1, high), (-0.1, high)] {
+            positions.push(Vec3::new(x, y, z));
+        }
+        triangles.push([at, at + 1, at + 2]);
+        triangles.push([at, at + 2, at + 3]);
     }
 
     #[test]
@@ -186,9 +220,23 @@ mod tests {
         assert!(mouth_opening(&positions, &triangles, &fitted).is_closed());
         // A gap with a wall 0.1 behind the lips (10 mm): a notch, not an opening.
         let (mut positions, triangles, fitted) = lips(0.05);
+        let lip = lip_depth(&fitted);
         for p in positions[8..].iter_mut() {
-            p.z = 0.0;
+            p.z = (lip - 0.1) as f32;
         }
         assert!(mouth_opening(&positions, &triangles, &fitted).is_closed());
+    }
+
+    #[test]
+    fn a_nose_in_front_of_the_lips_opens_no_mouth() {
+        let (mut positions, mut triangles, fitted) = lips(0.0);
+        with_nose(&mut positions, &mut triangles, &fitted);
+        let opening = mouth_opening(&positions, &triangles, &fitted);
+        assert!(opening.is_closed(), "{opening:?}");
+        // An open mouth under the same nose is measured as without it.
+        let (mut positions, mut triangles, fitted) = lips(0.02);
+        with_nose(&mut positions, &mut triangles, &fitted);
+        let opening = mouth_opening(&positions, &triangles, &fitted);
+        assert!((opening.height() - 0.02).abs() <= 1.5 * STEP, "{opening:?}");
     }
 }
