@@ -1,11 +1,13 @@
 //! How far apart the lips stand on the face's midline, seen from the front: the run of
 //! heights, through the mouth, where a ray along the fitted mask's -z axis meets nothing or
 //! meets the surface far behind the lips. The lips' depth is the fitted mask's outer lip
-//! midpoints': the fit lays them on closed lips, and hangs them in front of an open
-//! mouth's gap. Taken as the frontmost surface up to the mask's subnasale instead, a fit
-//! whose subnasale sat a few millimetres high (a large nose's underside in the window)
-//! read the closed lips of a generated head as 43 mm apart against the nose, so that
-//! registration "closed" them and folded them. Exact ray-triangle tests every
+//! midpoints' (the fit lays them on closed lips, and hangs them in front of an open
+//! mouth's gap), or the frontmost surface up to the mask's subnasale where that lies
+//! behind them. The frontmost surface alone was a large nose's underside whenever a fit's
+//! subnasale sat a few millimetres high, and read the closed lips of a generated head as
+//! 43 mm apart, so that registration "closed" them and folded them; the mask's lips alone
+//! stood up to 8 mm in front of some heads' lips and read their notch as a gap. Exact
+//! ray-triangle tests every
 //! [`STEP`] (about 0.05 mm), so a gap of a few tenths of a millimetre shows; zero for lips
 //! that meet, however deep the notch between them. The fit report's "lips apart at rest"
 //! and the calibration that closes such a mouth (`crate::deform::mouth_calibration`)
@@ -89,9 +91,11 @@ pub fn mouth_opening(positions: &[Vec3], triangles: &[[u32; 3]], fitted: &Fitted
     let height = |k: usize| bottom + k as f64 * STEP;
     let depths: Vec<Option<f64>> = (0..samples).map(|k| front_z(&crossing, height(k))).collect();
     let at_mouth = (((mouth - bottom) / STEP).round().max(0.0) as usize).min(samples - 1);
-    // The lips' depth is the fitted mask's: it lies on closed lips, and in front of an
-    // open mouth's gap (its lips are closed).
-    let lips = f64::from(base[MASK_UPPER_LIP].z.max(base[MASK_LOWER_LIP].z));
+    // The lips' depth: the fitted mask's, which lies on closed lips and in front of an open
+    // mouth's gap, or the frontmost surface in the window if that lies behind it (a mask
+    // whose lips stand in front of the head's).
+    let frontmost = depths.iter().flatten().copied().fold(f64::NEG_INFINITY, f64::max);
+    let lips = f64::from(base[MASK_UPPER_LIP].z.max(base[MASK_LOWER_LIP].z)).min(frontmost);
     let open = |k: usize| depths[k].is_none_or(|z| z < lips - OPENING_DEPTH);
     let closed = MouthOpening {
         bottom: mouth,

@@ -5,7 +5,7 @@
 use std::time::Instant;
 
 use super::Member;
-use crate::fit::{fit_automatically, FittedMask};
+use crate::fit::{fit_automatically, mouth_opening, FittedMask};
 use crate::mask::Mask;
 
 /// What the automatic fit made of a member.
@@ -31,6 +31,10 @@ pub struct Measures {
     pub worst_vertex: u32,
     /// Guessed over true mm per unit, minus one.
     pub scale_error: f32,
+    /// How far apart the fit reads the lips at rest (mm, true scale; the fit report's
+    /// `inner_lip_gap_mm`). Every member's lips meet, so more than 2 mm is a misreading
+    /// that registration would "close" by raising the jaw into them.
+    pub lips_apart_mm: f32,
     /// The fit's own score: the mask's mean capped distance to the surface, mm (true scale).
     pub surface_mm: f32,
     /// How sure the learned model was that it saw a face, and how far the fit's marked
@@ -52,7 +56,12 @@ pub fn measure(member: &Member, mask: &Mask) -> Outcome {
         let score = automatic.score;
         let guessed_mm = automatic.fit.mm_per_unit;
         let reading = automatic.reading;
-        let neutral = FittedMask::new(mask.clone(), automatic.fit).neutral;
+        let fitted = FittedMask::new(mask.clone(), automatic.fit);
+        let lips_apart_mm = mouth_opening(&member.head.positions, &member.head.triangles, &fitted).height()
+            as f32
+            * scale
+            * member.mm_per_unit;
+        let neutral = fitted.neutral;
         let distances: Vec<f32> = member
             .reference
             .iter()
@@ -73,6 +82,7 @@ pub fn measure(member: &Member, mask: &Mask) -> Outcome {
             landmark_max_mm: distances.iter().copied().fold(0.0, f32::max),
             worst_vertex: member.reference.get(worst).map_or(0, |&(vertex, _)| vertex),
             scale_error: guessed_mm / member.mm_per_unit - 1.0,
+            lips_apart_mm,
             surface_mm: score as f32 * scale * member.mm_per_unit,
             face_probability: reading.face_probability,
             marks_mean_mm: reading.marks_mean_mm / guessed_mm * member.mm_per_unit,
