@@ -3,15 +3,14 @@
 //! meets the surface far behind the lips. The lips' depth is the fitted mask's outer lip
 //! midpoints' (the fit lays them on closed lips, and hangs them in front of an open
 //! mouth's gap), or the frontmost surface up to the mask's subnasale where that lies
-//! behind them. The frontmost surface alone was a large nose's underside whenever a fit's
-//! subnasale sat a few millimetres high, and read the closed lips of a generated head as
-//! 43 mm apart, so that registration "closed" them and folded them; the mask's lips alone
-//! stood up to 8 mm in front of some heads' lips and read their notch as a gap. Exact
-//! ray-triangle tests every
-//! [`STEP`] (about 0.05 mm), so a gap of a few tenths of a millimetre shows; zero for lips
-//! that meet, however deep the notch between them. The fit report's "lips apart at rest"
-//! and the calibration that closes such a mouth (`crate::deform::mouth_calibration`)
-//! both read it.
+//! behind them (a mask whose lips stand in front of the head's). The frontmost surface
+//! alone was a large nose's underside whenever a fit's subnasale sat a few millimetres
+//! high, and read the closed lips of a generated head as 43 mm apart, so that
+//! registration "closed" them and folded them. Exact ray-triangle tests every [`STEP`]
+//! (about 0.05 mm), so a gap of a few tenths of a millimetre shows; zero for lips that
+//! meet, however deep the notch between them. The fit report's "lips apart at rest" and
+//! the calibration that closes such a mouth (`crate::deform::mouth_calibration`) both
+//! read it.
 //!
 //! Everything here is in **mask units** of the fitted mask's frame (x to the face's left,
 //! y up, z out of the face).
@@ -35,7 +34,6 @@ pub const STEP: f64 = 0.0005;
 /// seen from the front lies this far behind the lips (about 20 mm: lips that meet inside
 /// the mouth, as the ICT head's do, leave a notch more than 12 mm deep), or is not there.
 const OPENING_DEPTH: f64 = 0.2;
-
 const MOUTH_BAND: f64 = 0.05;
 /// Barycentric slack: a ray through an edge or a vertex hits the triangles that share it.
 const ON_EDGE: f64 = 1e-9;
