@@ -32,8 +32,9 @@ pub struct Measures {
     /// Guessed over true mm per unit, minus one.
     pub scale_error: f32,
     /// How far apart the fit reads the lips at rest (mm, true scale; the fit report's
-    /// `inner_lip_gap_mm`). Every member's lips meet, so more than 2 mm is a misreading
-    /// that registration would "close" by raising the jaw into them.
+    /// `inner_lip_gap_mm`). The members' own lips stand at most a few millimetres apart
+    /// (2.74 mm on the population); tens of millimetres is a misreading that registration
+    /// would "close" by raising the jaw into lips that meet.
     pub lips_apart_mm: f32,
     /// The fit's own score: the mask's mean capped distance to the surface, mm (true scale).
     pub surface_mm: f32,
