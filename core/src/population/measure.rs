@@ -45,6 +45,13 @@ pub struct Measures {
     pub marks_mean_mm: f32,
     /// Each mark's offset from its mask vertex (mask axes, mm, true scale).
     pub mark_offsets_mm: Vec<(u32, [f32; 3])>,
+    /// The learned reading's face-mesh points (`None`: not seen on the surface) and the
+    /// reference's marked vertices, in the fitted mask's frame (mask units, mask axes):
+    /// what `tools/face_marks/train.py` learns the marks from.
+    pub face_points_mask_units: Vec<Option<[f32; 3]>>,
+    pub reference_mask_units: Vec<(u32, [f32; 3])>,
+    /// Millimetres per mask unit at the true scale.
+    pub mm_per_mask_unit: f32,
 }
 
 /// Fits `member` automatically (scale guessed) and compares it with its reference.
@@ -54,6 +61,8 @@ pub fn measure(member: &Member, mask: &Mask) -> Outcome {
     let seconds = started.elapsed().as_secs_f64();
     let result = fitted.map_err(|e| e.to_string()).map(|automatic| {
         let scale = automatic.fit.pose.scale.x;
+        let to_mask_axes = automatic.fit.pose.rotation().transpose();
+        let pose = automatic.fit.pose;
         let score = automatic.score;
         let guessed_mm = automatic.fit.mm_per_unit;
         let reading = automatic.reading;
@@ -63,22 +72,33 @@ pub fn measure(member: &Member, mask: &Mask) -> Outcome {
             * scale
             * member.mm_per_unit;
         let neutral = fitted.neutral;
-        let distances: Vec<f32> = member
+        // Each reference vertex with the fitted vertex it is compared with: a mirrored
+        // head's left is the mask's right.
+        let references: Vec<(u32, glam::Vec3)> = member
             .reference
             .iter()
-            .map(|&(vertex, reference)| {
-                let vertex = if member.mirrored {
-                    mask.mirror_partner(vertex)
-                } else {
-                    vertex
-                };
-                neutral[vertex as usize].distance(reference) * member.mm_per_unit
+            .map(|&(vertex, reference)| match member.mirrored {
+                true => (mask.mirror_partner(vertex), reference),
+                false => (vertex, reference),
             })
+            .collect();
+        let distances: Vec<f32> = references
+            .iter()
+            .map(|&(vertex, reference)| neutral[vertex as usize].distance(reference) * member.mm_per_unit)
             .collect();
         let worst = (0..distances.len())
             .max_by(|&a, &b| distances[a].total_cmp(&distances[b]))
             .unwrap_or(0);
+        let into_mask = |p: glam::Vec3| (to_mask_axes * (p - pose.translation) / scale).to_array();
+        let face_points_mask_units = reading.points.iter().map(|p| p.map(into_mask)).collect();
+        let reference_mask_units = references
+            .iter()
+            .map(|&(vertex, reference)| (vertex, into_mask(reference)))
+            .collect();
         Measures {
+            face_points_mask_units,
+            reference_mask_units,
+            mm_per_mask_unit: scale * member.mm_per_unit,
             landmark_mean_mm: distances.iter().sum::<f32>() / distances.len() as f32,
             landmark_max_mm: distances.iter().copied().fold(0.0, f32::max),
             worst_vertex: member.reference.get(worst).map_or(0, |&(vertex, _)| vertex),

@@ -13,26 +13,13 @@ use std::sync::OnceLock;
 use glam::Vec3;
 
 use super::conv_net::{ConvNet, Shape};
+use super::face_marks::FaceMarksError;
 use super::onnx_file::read_onnx;
 
 /// The network's input side, pixels.
 pub const CROP_PIXELS: usize = 192;
 /// Points of MediaPipe's face mesh.
 pub const MESH_POINTS: usize = 468;
-
-/// Face-mesh points that are each other's mirror images across the face (the face's right
-/// then its left), and points on the midline (paired with themselves): the outer and inner
-/// eye corners, the outer ends of the eyes' openings, the nose tip, the alar wings, the
-/// mouth corners and the chin, the points the automatic fit reads.
-pub const MIRROR_PAIRS: [(usize, usize); 7] = [
-    (33, 263),
-    (130, 359),
-    (133, 362),
-    (219, 439),
-    (61, 291),
-    (4, 4),
-    (175, 175),
-];
 
 const MODEL: &[u8] = include_bytes!("../../../../data/models/face_landmark.onnx");
 
@@ -42,6 +29,8 @@ pub enum FaceModelError {
     Load(String),
     #[error("the face landmark model failed on a picture: {0}")]
     Run(String),
+    #[error(transparent)]
+    Marks(#[from] FaceMarksError),
 }
 
 /// What the model sees in one picture.

@@ -14,7 +14,8 @@
 use glam::{DVec3, Vec2, Vec3};
 
 use super::depth_map::{DepthMap, View};
-use super::face_model::{read_face, FaceMesh, FaceModelError, CROP_PIXELS, MESH_POINTS, MIRROR_PAIRS};
+use super::face_marks::FaceMarks;
+use super::face_model::{read_face, FaceMesh, FaceModelError, CROP_PIXELS, MESH_POINTS};
 use crate::head::Head;
 
 /// MediaPipe frames a face 1.5 times as wide as its points reach (its
@@ -44,13 +45,6 @@ pub struct LearnedFace {
     pub points: Vec<Option<DVec3>>,
     /// The model's probability that the last picture held a face.
     pub face_probability: f32,
-}
-
-impl LearnedFace {
-    /// The point of face-mesh point `index`, if it was seen on the surface.
-    pub fn point(&self, index: usize) -> Option<DVec3> {
-        self.points.get(index).copied().flatten()
-    }
 }
 
 /// A square of the view: its lower-left corner (lateral, up) and side, head units.
@@ -124,8 +118,9 @@ pub fn read_learned_face(
         return Ok(None);
     };
     let mirrored = read_face(&mirrored_picture(&picture))?;
+    let mirror = &FaceMarks::shipped()?.mirror;
     Ok(Some(on_the_surface(
-        &symmetric_reading(mesh, &mirrored),
+        &symmetric_reading(mesh, &mirrored, mirror),
         &map,
         view,
         frame,
@@ -194,18 +189,13 @@ fn mirrored_picture(picture: &[f32]) -> Vec<f32> {
         .collect()
 }
 
-/// `mesh` with each point of [`MIRROR_PAIRS`] halfway between where it was read and where
-/// its mirror image was read in the mirrored picture (turned back), and the lesser of the
-/// two readings' face logits.
-fn symmetric_reading(mut mesh: FaceMesh, mirrored: &FaceMesh) -> FaceMesh {
-    let turned_back = |k: usize| {
-        let p = mirrored.points[k];
-        Vec3::new(CROP_PIXELS as f32 - p.x, p.y, p.z)
-    };
-    for (right, left) in MIRROR_PAIRS {
-        let (read_right, read_left) = (mesh.points[right], mesh.points[left]);
-        mesh.points[right] = (read_right + turned_back(left)) / 2.0;
-        mesh.points[left] = (read_left + turned_back(right)) / 2.0;
+/// `mesh` with each point halfway between where it was read and where its mirror image
+/// (`mirror`, [`FaceMarks::mirror`]) was read in the mirrored picture (turned back), and
+/// the lesser of the two readings' face logits.
+fn symmetric_reading(mut mesh: FaceMesh, mirrored: &FaceMesh, mirror: &[usize]) -> FaceMesh {
+    for (k, point) in mesh.points.iter_mut().enumerate().take(MESH_POINTS) {
+        let seen = mirrored.points[mirror[k]];
+        *point = (*point + Vec3::new(CROP_PIXELS as f32 - seen.x, seen.y, seen.z)) / 2.0;
     }
     mesh.face_logit = mesh.face_logit.min(mirrored.face_logit);
     mesh
@@ -292,8 +282,7 @@ mod tests {
             (362, 23, 4.5),
             (133, 56, 4.5),
         ] {
-            let off_mm = face
-                .point(point)
+            let off_mm = face.points[point]
                 .unwrap()
                 .distance(marked(&head, &landmarks, mask_vertex))
                 * 10.0;
@@ -315,8 +304,8 @@ mod tests {
         assert!(face.face_probability < 0.5, "{}", face.face_probability);
     }
 
-    /// Reading a picture and its mirror image gives, for every mirror pair, the mirror
-    /// image of reading them the other way round: the symmetric reading has no side.
+    /// Reading a picture and its mirror image gives, for every point, the mirror image of
+    /// reading them the other way round: the symmetric reading has no side.
     #[test]
     fn the_symmetric_reading_is_its_own_mirror_image() {
         let mesh = |seed: f32| FaceMesh {
@@ -326,18 +315,16 @@ mod tests {
             face_logit: seed,
         };
         let (a, b) = (mesh(1.3), mesh(2.9));
-        let ab = symmetric_reading(a.clone(), &b);
-        let ba = symmetric_reading(b, &a);
-        for (right, left) in MIRROR_PAIRS {
-            for (k, partner) in [(right, left), (left, right)] {
-                let p = ab.points[k];
-                let q = ba.points[partner];
-                assert!(
-                    (p.x - (CROP_PIXELS as f32 - q.x)).abs() < 1e-4,
-                    "point {k}: {p} and {q}"
-                );
-                assert!((p.y - q.y).abs() < 1e-4, "point {k}: {p} and {q}");
-            }
+        let mirror = &FaceMarks::shipped().unwrap().mirror;
+        let ab = symmetric_reading(a.clone(), &b, mirror);
+        let ba = symmetric_reading(b, &a, mirror);
+        for (k, &partner) in mirror.iter().enumerate() {
+            let (p, q) = (ab.points[k], ba.points[partner]);
+            assert!(
+                (p.x - (CROP_PIXELS as f32 - q.x)).abs() < 1e-4,
+                "point {k}: {p} and {q}"
+            );
+            assert!((p.y - q.y).abs() < 1e-4, "point {k}: {p} and {q}");
         }
         assert_eq!(ab.face_logit, 1.3);
         let ramp: Vec<f32> = (0..CROP_PIXELS * CROP_PIXELS)

@@ -22,6 +22,7 @@ mod closest_points;
 mod conv_net;
 pub(crate) mod depth_map;
 mod eyes;
+mod face_marks;
 mod face_model;
 mod fissure;
 pub(crate) mod front_image;
@@ -53,14 +54,15 @@ use reading::{read_features, FRONT_IMAGE_CELLS};
 /// A fit whose score (mean capped distance, mask units; 0.045 is about 4.5 mm on a head of
 /// the usual size) is worse than this did not find a face.
 const MAX_SCORE: f64 = 0.045;
-/// A rule-read pin further than this (mask units, about 6 mm: twice the learned marks'
-/// typical distance from the marks people set) from the learned mark for its vertex gives
-/// way to the mark.
+/// A rule-read pin further than this (mask units, about 6 mm; the learned marks lie 1.5-3.5
+/// mm from the vertices people mark, on average by vertex) from the learned mark for its
+/// vertex gives way to the mark.
 const PIN_TOLERANCE: f64 = 0.06;
 /// The rules' fit is kept when its marked vertices lie this close to the learned marks on
-/// average (mask units, about 10 mm). On the population the fits the rules got right lie
-/// 0.02-0.09 from the marks, those they got wrong (the mouth found on the fold under the
-/// lower lip, the chin on the neck) 0.3-0.5: the bound sits in the gap.
+/// average (mask units, about 10 mm). On the population, with one face-mesh point a mark,
+/// the fits the rules got right lay 0.02-0.09 from the marks, those they got wrong (the
+/// mouth found on the fold under the lower lip, the chin on the neck) 0.3-0.5: the bound
+/// sits in the gap.
 const MAX_MARKS_DISAGREEMENT: f64 = 0.1;
 
 #[derive(Debug, thiserror::Error)]
@@ -128,6 +130,10 @@ pub struct FaceReading {
     /// Each mark's offset from its mask vertex: (mask vertex, mark minus vertex in the
     /// mask's own axes, mm at the fit's scale).
     pub mark_offsets_mm: Vec<(u32, [f32; 3])>,
+    /// The learned reading's face-mesh points (head units; `None` where a point was not seen
+    /// on the surface), in MediaPipe's order.
+    #[serde(skip)]
+    pub points: Vec<Option<Vec3>>,
 }
 
 /// The features the automatic fit found and pinned the mask to, besides the nose tip and
@@ -243,6 +249,7 @@ pub fn fit_automatically_unless(
             seen_from: marked_from,
             marks,
             face_probability,
+            points,
         }) = read_learned(head, mask, &surface, &used, &midline, laid, winding).map_err(|e| match e {
             LearnedError::Model(source) => model_error(source),
             LearnedError::Solve(source) => solve_error(source),
@@ -270,7 +277,7 @@ pub fn fit_automatically_unless(
             )
             .map_err(solve_error)?;
             if marks_disagreement(mask, &laid.solution, &marks) <= MAX_MARKS_DISAGREEMENT {
-                let reading = (marks, face_probability);
+                let reading = (marks, face_probability, points);
                 chosen = Some(((laid, seen_from, image, merged, found), reading, candidate));
                 break;
             }
@@ -283,11 +290,12 @@ pub fn fit_automatically_unless(
             outer_eye_corners_on_skin: false,
             mouth_corners: MouthCorners::AtBothEnds,
         };
-        let reading = (marks.clone(), face_probability);
+        let reading = (marks.clone(), face_probability, points);
         chosen = Some(((marked, marked_from, image, marks, found), reading, candidate));
         break;
     }
-    let Some(((mut best, seen_from, image, mut pins, mut found), (marks, face_probability), nose)) = chosen
+    let Some(((mut best, seen_from, image, mut pins, mut found), (marks, face_probability, points), nose)) =
+        chosen
     else {
         return Err(AutomaticFitError::NoMouth {
             head: name(),
@@ -343,7 +351,8 @@ pub fn fit_automatically_unless(
         mm_per_unit,
     };
     fit.check_ranges().map_err(range)?;
-    let reading = face_reading(mask, &fit, &marks, face_probability);
+    let mut reading = face_reading(mask, &fit, &marks, face_probability);
+    reading.points = points;
     Ok(AutomaticFit {
         fit,
         forward: (best.solution.similarity.rotation * DVec3::Z).as_vec3(),
@@ -368,6 +377,7 @@ struct LearnedRead {
     seen_from: crate::fit::FitSolution,
     marks: Vec<Pin>,
     face_probability: f32,
+    points: Vec<Option<Vec3>>,
 }
 
 /// The face read by the learned model in front of a laid start, the mask pinned to its
@@ -402,7 +412,8 @@ fn read_learned(
         if face.face_probability < 0.5 {
             return Ok(None);
         }
-        let pins = pins::learned_pins(&face);
+        let model = face_marks::FaceMarks::shipped().map_err(|e| LearnedError::Model(e.into()))?;
+        let pins = pins::learned_pins(model, &face, &seen_from.similarity);
         laid = lay_mask(
             surface,
             mask,
@@ -411,14 +422,18 @@ fn read_learned(
             &with_midline(&pins, midline),
         )
         .map_err(LearnedError::Solve)?;
-        last = Some((seen_from, pins, face.face_probability));
+        let points = face.points.iter().map(|p| p.map(|p| p.as_vec3())).collect();
+        last = Some((seen_from, pins, face.face_probability, points));
     }
-    Ok(last.map(|(seen_from, marks, face_probability)| LearnedRead {
-        laid,
-        seen_from,
-        marks,
-        face_probability,
-    }))
+    Ok(
+        last.map(|(seen_from, marks, face_probability, points)| LearnedRead {
+            laid,
+            seen_from,
+            marks,
+            face_probability,
+            points,
+        }),
+    )
 }
 
 /// How far `fit`'s marked vertices lie from the learned `marks` (mm at the fit's scale).
@@ -440,6 +455,7 @@ fn face_reading(mask: &Mask, fit: &Fit, marks: &[Pin], face_probability: f32) ->
         face_probability,
         marks_mean_mm: total_mm / marks.len().max(1) as f32,
         mark_offsets_mm,
+        points: Vec::new(),
     }
 }
 

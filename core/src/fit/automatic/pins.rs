@@ -6,6 +6,7 @@
 use glam::DVec3;
 
 use super::closest_points::Pin;
+use super::face_marks::FaceMarks;
 use super::learned_reading::LearnedFace;
 use super::mirror_plane::MirrorPlane;
 use super::{eyes, fissure, front_image, profile, FoundFeatures, MouthCorners};
@@ -227,43 +228,32 @@ pub(super) fn with_midline(pins: &[Pin], midline: &[Pin]) -> Vec<Pin> {
     pins.iter().chain(midline).copied().collect()
 }
 
-/// CANDIDE-3 vertices and the MediaPipe face-mesh points that mark the same place: for each
-/// of the ten points the shipped heads' landmark files mark (eye corners, nose tip, alar
-/// wings, mouth corners, chin), the mirror pair of mesh points that lay nearest the marked
-/// vertices on the three shipped heads, on average (docs/FITTING.md, "The learned reading").
-const LEARNED_MARKS: [(u32, usize); 10] = [
-    (MASK_LEFT_EYE_CORNERS[1], 359),
-    (MASK_RIGHT_EYE_CORNERS[1], 130),
-    (MASK_LEFT_EYE_CORNERS[0], 362),
-    (MASK_RIGHT_EYE_CORNERS[0], 133),
-    (MASK_NOSE_TIP, 4),
-    (26, 439),
-    (59, 219),
-    (MASK_MOUTH_CORNERS[0], 291),
-    (MASK_MOUTH_CORNERS[1], 61),
-    (MASK_CHIN, 175),
-];
-
-/// Pins for the marks the learned reading found on the surface. Held in all three
-/// directions: held across the picture only, leaving depth to the surface, 7 of the
-/// population's 82 heads were fitted over 5 mm from their marks against 1
+/// Pins for the marks the learned reading places ([`FaceMarks`]: each marked vertex from
+/// several face-mesh points and an offset), read in front of a fit posed by `similarity`.
+/// Held in all three directions: held across the picture only, leaving depth to the
+/// surface, 7 of the population's 82 heads were fitted over 5 mm from their marks against 1
 /// (docs/FITTING.md, "The learned reading").
-pub(super) fn learned_pins(face: &LearnedFace) -> Vec<Pin> {
-    LEARNED_MARKS
+pub(super) fn learned_pins(model: &FaceMarks, face: &LearnedFace, similarity: &Similarity) -> Vec<Pin> {
+    model
+        .marks
         .iter()
-        .filter_map(|&(vertex, point)| face.point(point).map(|p| Pin::at(vertex, p)))
+        .filter_map(|mark| {
+            mark.predict(&face.points, similarity)
+                .map(|p| Pin::at(mark.mask_vertex, p))
+        })
         .collect()
 }
 
-/// The rule-read `pins`, except that a vertex whose rule pins disagree with its learned pin
-/// by more than `tolerance` (head units, along each rule pin's direction) is pinned where
-/// the learned reading put it when its mirror image on the mask disagrees too: a pair is
-/// read one way or the other, never half and half (one eye corner replaced, the other just
-/// inside the tolerance, turned the mirror-symmetric MakeHuman head's fit by a degree).
-/// Features the rules only guessed or did not find ([`guessed_vertices`]) take the learned
-/// marks whenever there are some: on MakeHuman with eyeballs (eye corners not seen) the
-/// landmark vertices came 3.97 mm from the landmark fit's with the rules' guess and 2.59 mm
-/// with the marks.
+/// The rule-read `pins` and the `learned` marks together: a vertex both pin is held by
+/// both, and lies between them (on the population of `facewire population`, the rules'
+/// pins alone, with the marks only where the rules failed, left 20 of 82 heads within 2 mm
+/// of their references; both together, 60: docs/FITTING.md, "The learned reading").
+/// A vertex whose rule pins disagree with its mark by more than `tolerance` (head units,
+/// along each rule pin's direction) keeps only the mark when its mirror image on the mask
+/// disagrees too: a pair is read one way or the other, never half and half (one eye corner
+/// replaced, the other just inside the tolerance, turned the mirror-symmetric MakeHuman
+/// head's fit by a degree). Features the rules only guessed or did not find
+/// ([`guessed_vertices`]) keep only their marks.
 pub(super) fn agreeing_pins(
     mask: &Mask,
     pins: &[Pin],
@@ -282,11 +272,12 @@ pub(super) fn agreeing_pins(
         })
     };
     let replaced = |vertex: u32| {
-        guessed.contains(&vertex) || disagrees(vertex) && disagrees(mask.mirror_partner(vertex))
+        learned.iter().any(|l| l.vertex == vertex)
+            && (guessed.contains(&vertex) || disagrees(vertex) && disagrees(mask.mirror_partner(vertex)))
     };
     pins.iter()
-        .filter(|p| !(learned.iter().any(|l| l.vertex == p.vertex) && replaced(p.vertex)))
-        .chain(learned.iter().filter(|l| replaced(l.vertex)))
+        .filter(|p| !replaced(p.vertex))
+        .chain(learned)
         .copied()
         .collect()
 }
@@ -401,11 +392,16 @@ mod tests {
     fn a_pair_is_replaced_only_when_both_sides_disagree() {
         let mask = Mask::candide3();
         let corners = found(true, MouthCorners::AtBothEnds);
-        // One side 0.1 off, the other 0.01: both rule pins kept.
+        // One side 0.1 off, the other 0.01: both rule pins kept, each beside its mark.
         let (rule, learned) = mouth_pins([0.25, -0.25], [0.35, -0.26]);
         assert_eq!(
             pinned_x(&agreeing_pins(&mask, &rule, &corners, &learned, 0.05)),
-            pinned_x(&rule)
+            vec![
+                (31, 0.25, false),
+                (31, 0.35, true),
+                (64, -0.25, false),
+                (64, -0.26, true)
+            ]
         );
         // Both sides off: both learned marks, held in every direction.
         let (rule, learned) = mouth_pins([0.25, -0.25], [0.35, -0.33]);
@@ -423,7 +419,8 @@ mod tests {
         assert_eq!(pinned_x(&merged), vec![(31, 0.26, true), (64, -0.24, true)]);
         let merged = agreeing_pins(&mask, &[], &found(true, MouthCorners::NotFound), &learned, 0.05);
         assert_eq!(pinned_x(&merged), vec![(31, 0.26, true), (64, -0.24, true)]);
-        // Eye corners not pinned by the rules take no mouth marks' place.
+        // Eye corners not pinned by the rules take no mouth rule pin's place: each mouth
+        // corner keeps its rule pin beside its mark.
         let merged = agreeing_pins(
             &mask,
             &rule,
@@ -431,6 +428,14 @@ mod tests {
             &learned,
             0.05,
         );
-        assert_eq!(pinned_x(&merged), pinned_x(&rule));
+        assert_eq!(
+            pinned_x(&merged),
+            vec![
+                (31, 0.25, false),
+                (31, 0.26, true),
+                (64, -0.25, false),
+                (64, -0.24, true)
+            ]
+        );
     }
 }
