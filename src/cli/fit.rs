@@ -80,8 +80,9 @@ fn automatic(args: &Args, head: &Head, mask: &Mask) -> CliResult {
         .transpose()?;
     let from_format = format_mm_per_unit(&args.head);
     let found: AutomaticFit = fit_automatically(head, mask, given.or(from_format))?;
-    let report = fit_report(head, mask, &found.fit);
-    let file = write_fit(args, &found.fit, mask)?;
+    let notes: Vec<String> = found.warnings.iter().map(|w| w.message()).collect();
+    let report = fit_report(head, mask, &found.fit).with_fit_notes(&notes);
+    let file = write_fit(args, &found.fit, mask, notes)?;
     let source = match (found.mm_per_unit_from_pupils, given) {
         (true, _) => "63 mm pupil separation",
         (false, Some(_)) => "command line",
@@ -191,9 +192,13 @@ fn write_fit(
     args: &Args,
     fit: &Fit,
     mask: &Mask,
+    warnings: Vec<String>,
 ) -> Result<FitFile, Box<dyn std::error::Error + Send + Sync>> {
     let head_name = args.head.file_name().map(|n| n.to_string_lossy().into_owned());
-    let file = FitFile::from_fit(fit, mask, head_name);
+    let file = FitFile {
+        warnings,
+        ..FitFile::from_fit(fit, mask, head_name)
+    };
     write_atomic(&args.out, file.to_toml().as_bytes())
         .map_err(|e| format!("cannot write {}: {e}", args.out.display()))?;
     Ok(file)
@@ -249,7 +254,7 @@ fn from_landmarks(args: &Args, landmarks_path: &FilePath, head: &Head, mask: &Ma
     let (before_residuals, _) = measure(&before.shape, before.pose);
     let (after_residuals, fit) = measure(&after.shape, after.pose);
 
-    let file = write_fit(args, &fit, mask)?;
+    let file = write_fit(args, &fit, mask, Vec::new())?;
     if args.json {
         return print_json(&Report {
             fit: file,

@@ -147,14 +147,14 @@ type Keep = fn(&Outcome) -> bool;
 /// The table, then a summary per source and for the held-out members.
 pub fn table(outcomes: &[Outcome]) -> String {
     let mut out = String::new();
-    out.push_str("| head | held out | vertices | refused | landmark vertices mean / max (mm) | scale error | mask to surface (mm) | face seen | off the marks (mm) | time (s) |\n");
-    out.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
+    out.push_str("| head | held out | vertices | refused | landmark vertices mean / max (mm) | scale error | mask to surface (mm) | face seen | off the marks (mm) | warned | time (s) |\n");
+    out.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
     for o in outcomes {
         let held = if o.held_out { "yes" } else { "" };
         let _ = match &o.result {
             Ok(m) => writeln!(
                 out,
-                "| {} | {held} | {} | | {:.2} / {:.1} | {:+.1} % | {:.2} | {:.2} | {:.2} | {:.2} |",
+                "| {} | {held} | {} | | {:.2} / {:.1} | {:+.1} % | {:.2} | {:.2} | {:.2} | {} | {:.2} |",
                 o.member,
                 o.vertices,
                 m.landmark_mean_mm,
@@ -163,11 +163,12 @@ pub fn table(outcomes: &[Outcome]) -> String {
                 m.surface_mm,
                 m.face_probability,
                 m.marks_mean_mm,
+                if m.warnings.is_empty() { "" } else { "yes" },
                 o.seconds
             ),
             Err(e) => writeln!(
                 out,
-                "| {} | {held} | {} | {} | | | | | | {:.2} |",
+                "| {} | {held} | {} | {} | | | | | | | {:.2} |",
                 o.member,
                 o.vertices,
                 e.replace('|', "/"),
@@ -175,8 +176,8 @@ pub fn table(outcomes: &[Outcome]) -> String {
             ),
         };
     }
-    out.push_str("\n| members | heads | refused | mean over 5 mm | mean within 2 mm | mean within 3 mm | median mean (mm) | worst mean (mm) | scale within 5 % | slowest (s) |\n");
-    out.push_str("|---|---|---|---|---|---|---|---|---|---|\n");
+    out.push_str("\n| members | heads | refused | mean over 5 mm (not warned) | warned | mean within 2 mm | mean within 3 mm | median mean (mm) | worst mean (mm) | scale within 5 % | slowest (s) |\n");
+    out.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
     let groups: [(&str, Keep); 5] = [
         ("all", |_| true),
         ("ict", |o| o.family == "ict" && !o.held_out),
@@ -196,10 +197,15 @@ pub fn table(outcomes: &[Outcome]) -> String {
         let median = means.get(means.len() / 2).copied().unwrap_or(f32::NAN);
         let worst = means.last().copied().unwrap_or(f32::NAN);
         let scale_ok = fitted.iter().filter(|m| m.scale_error.abs() <= 0.05).count();
+        let warned = fitted.iter().filter(|m| !m.warnings.is_empty()).count();
+        let over_5_silent = fitted
+            .iter()
+            .filter(|m| m.landmark_mean_mm > 5.0 && m.warnings.is_empty())
+            .count();
         let slowest = group.iter().map(|o| o.seconds).fold(0.0, f64::max);
         let _ = writeln!(
             out,
-            "| {name} | {} | {} | {} | {} | {} | {median:.2} | {worst:.2} | {scale_ok} | {slowest:.2} |",
+            "| {name} | {} | {} | {} ({over_5_silent}) | {warned} | {} | {} | {median:.2} | {worst:.2} | {scale_ok} | {slowest:.2} |",
             group.len(),
             group.len() - fitted.len(),
             count(&|m| m > 5.0),

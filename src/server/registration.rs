@@ -84,7 +84,8 @@ pub fn register(
     }
     stage(0.2)?;
     let mask = Mask::candide3();
-    let fit = FitFile::parse("fit.toml", &input.fit_toml)?.resolve("fit.toml", &mask)?;
+    let fit_file = FitFile::parse("fit.toml", &input.fit_toml)?;
+    let fit = fit_file.resolve("fit.toml", &mask)?;
     stage(0.3)?;
     let registration = Registration::try_new(head, FittedMask::new(mask, fit))?;
     stage(0.9)?;
@@ -125,7 +126,8 @@ pub fn register(
     let fit_report = FitReport {
         mouth_closed: reg.mouth_calibration,
         ..crate::fit::report(&reg.head, &reg.fitted)
-    };
+    }
+    .with_fit_notes(&fit_file.warnings);
     let closed = reg.mouth_calibration.map(|c| {
         format!(
             "the inner lips were {:.1} mm apart at rest: registration closed them, raising the lower lip {:.1} mm",
@@ -215,7 +217,11 @@ pub fn fit_automatically(
     let head = read_head(obj, &mut budget)?;
     let mask = Mask::candide3();
     let found = crate::fit::fit_automatically_unless(&head, &mask, mm_per_unit, cancel)?;
-    Ok(FitFile::from_fit(&found.fit, &mask, None).to_toml())
+    let file = FitFile {
+        warnings: found.warnings.iter().map(|w| w.message()).collect(),
+        ..FitFile::from_fit(&found.fit, &mask, None)
+    };
+    Ok(file.to_toml())
 }
 
 /// Solves a fit from a `.landmarks.toml` text for a registration request (blocking).

@@ -23,6 +23,7 @@ fn kinds(report: &FitReport) -> Vec<&'static str> {
             FitWarning::FarFromSurface { .. } => "far",
             FitWarning::NoHeadUnder { .. } => "past edge",
             FitWarning::LipsApartAtRest { .. } => "lips apart",
+            FitWarning::FromFit { .. } => "from the fit",
         })
         .collect()
 }

@@ -259,6 +259,51 @@ async fn a_head_with_its_lips_apart_is_closed_at_registration() {
     assert!(moved > 100, "{moved} vertices moved");
 }
 
+/// A fit that disagrees with itself says so: on ICT identity 41's face cut (a population
+/// member, 6.1 mm from its reference) the face's shape could not be read where the learned
+/// reader saw the face, and the fit follows the reader alone. The warning is kept in the fit
+/// file, in head info's `fit.warnings` and in the fit report (`from_fit`).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_automatic_fit_that_disagrees_with_itself_is_registered_with_a_warning() {
+    use facewire::population::{self, Maker};
+    let spec = population::members()
+        .into_iter()
+        .find(|m| m.name() == "ict seed 41 (sigma 1), face cut")
+        .unwrap();
+    let member = Maker::new(&crate::common::repo_path("data"))
+        .unwrap()
+        .make(&spec)
+        .unwrap();
+    let mut obj = Vec::new();
+    facewire::head::obj::write(&mut obj, &[], &member.head.positions, &member.head.triangles).unwrap();
+    let router = app(AppState::new(memory_config()).unwrap());
+    let body = serde_json::json!({"id": "cut", "obj": String::from_utf8(obj).unwrap()});
+    let info = register_and_wait(&router, body, None).await;
+    assert_eq!(info["status"], "ready", "{info}");
+    // Beside the face cut's own warnings (mask vertices past the mesh's edge).
+    let said = info["fit"]["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|w| w.as_str())
+        .find(|w| w.starts_with("automatic fit: "))
+        .unwrap_or_else(|| panic!("{info}"));
+    assert!(
+        said.starts_with("automatic fit: the face's shape (its profile, lips and eyes) could not be read"),
+        "{said}"
+    );
+    let (status, report) = call_json(&router, Method::GET, "/v1/heads/cut/fit", Body::empty()).await;
+    assert_eq!(status, StatusCode::OK, "{report}");
+    let warning = report["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|w| w["kind"] == "from_fit")
+        .unwrap_or_else(|| panic!("{report}"));
+    assert_eq!(warning["message"], said, "{report}");
+    assert_eq!(warning["note"], said, "{report}");
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_head_with_neither_fit_nor_landmarks_is_fitted_automatically() {
     let router = app(AppState::new(memory_config()).unwrap());

@@ -36,6 +36,10 @@ pub struct FitFile {
     pub rotation_deg: [f32; 3],
     pub scale: f32,
     pub translation: [f32; 3],
+    /// What the fit's maker asks a person to check (the automatic fit's warnings,
+    /// [`crate::fit::AutomaticFitWarning`]); the fit report repeats them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
     #[serde(default)]
     pub shape_units: BTreeMap<String, f32>,
     #[serde(default, rename = "nudge", skip_serializing_if = "Vec::is_empty")]
@@ -104,6 +108,15 @@ impl FitFile {
         let _ = writeln!(out, "rotation_deg = {}", vec3(self.rotation_deg, 4));
         let _ = writeln!(out, "scale = {}", trim_float(self.scale, 6));
         let _ = writeln!(out, "translation = {}", vec3(self.translation, 6));
+        if !self.warnings.is_empty() {
+            let quoted: Vec<String> = self
+                .warnings
+                .iter()
+                .map(|w| toml::Value::String(w.clone()).to_string())
+                .collect();
+            let _ = writeln!(out, "# what the fit's maker asks a person to check");
+            let _ = writeln!(out, "warnings = [{}]", quoted.join(", "));
+        }
         let _ = writeln!(out, "\n[shape_units]");
         for (name, value) in &self.shape_units {
             let _ = writeln!(out, "{name} = {}", trim_float(*value, 4));
@@ -200,6 +213,7 @@ impl FitFile {
                     offset: offset.to_array(),
                 })
                 .collect(),
+            warnings: Vec::new(),
         }
     }
 }
@@ -260,6 +274,25 @@ offset = [0.0, 0.01, 0.0]
             .pose
             .rotation_rad
             .abs_diff_eq(fit.pose.rotation_rad, 1e-6));
+    }
+
+    /// The automatic fit's warnings travel in the file, before its tables, and back.
+    #[test]
+    fn warnings_round_trip_through_toml() {
+        let file = FitFile {
+            warnings: vec!["check the \"chin\"".into(), "and the eyes".into()],
+            ..FitFile::parse("sample", SAMPLE).unwrap()
+        };
+        let text = file.to_toml();
+        assert!(
+            text.find("warnings").unwrap() < text.find("[shape_units]").unwrap(),
+            "{text}"
+        );
+        assert_eq!(FitFile::parse("again", &text).unwrap(), file);
+        assert!(!FitFile::parse("sample", SAMPLE)
+            .unwrap()
+            .to_toml()
+            .contains("warnings"));
     }
 
     #[test]

@@ -23,8 +23,8 @@ use crate::mask::{fap, FapuValues, Mask, MaskPose};
 
 pub use anchors::{anchor_mask, Anchors};
 pub use automatic::{
-    fit_automatically, fit_automatically_unless, AutomaticFit, AutomaticFitError, EyeKind, FoundFeatures,
-    MouthCorners,
+    fit_automatically, fit_automatically_unless, AutomaticFit, AutomaticFitError, AutomaticFitWarning,
+    EyeKind, FoundFeatures, MouthCorners,
 };
 pub use file::{FitFile, FitFileError, Nudge};
 pub use from_landmarks::{fit_from_landmarks, FitError, LandmarkFit};

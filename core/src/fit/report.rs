@@ -47,6 +47,9 @@ pub enum FitWarning {
     },
     /// The head's inner lips (at the mask's inner-lip middle) are `gap_mm` apart at rest.
     LipsApartAtRest { gap_mm: f32 },
+    /// What the fit's maker asked a person to check (the fit file's `warnings`: the
+    /// automatic fit's, [`crate::fit::AutomaticFitWarning`]).
+    FromFit { note: String },
 }
 
 impl FitWarning {
@@ -71,6 +74,7 @@ impl FitWarning {
                 region.name(),
                 mask_vertices.len()
             ),
+            FitWarning::FromFit { note } => note.clone(),
             FitWarning::LipsApartAtRest { gap_mm } => {
                 format!("the inner lips are {gap_mm:.1} mm apart at rest: registering the head closes them (raising the jaw until they meet) so that p, b and m can")
             }
@@ -98,6 +102,20 @@ pub struct FitReport {
     /// For a registered head given with its lips apart: how registration closed them (the
     /// rest of the report is then about the closed head). `None` from [`report`].
     pub mouth_closed: Option<MouthCalibration>,
+}
+
+impl FitReport {
+    /// The report with the notes a fit file carries (its `warnings`) added to its warnings.
+    pub fn with_fit_notes(mut self, notes: &[String]) -> FitReport {
+        self.warnings.extend(notes.iter().map(|note| {
+            let warning = FitWarning::FromFit { note: note.clone() };
+            Warning {
+                message: warning.message(),
+                warning,
+            }
+        }));
+        self
+    }
 }
 
 /// The report of `fitted` on `head`.
@@ -214,5 +232,9 @@ mod tests {
             mask_vertices: vec![0, 1],
         };
         assert!(edge.message().starts_with("forehead and cheeks: 2 mask vertices"));
+        let note = FitWarning::FromFit {
+            note: "automatic fit: check it".into(),
+        };
+        assert_eq!(note.message(), "automatic fit: check it");
     }
 }

@@ -117,6 +117,42 @@ pub struct AutomaticFit {
     pub found: FoundFeatures,
     /// How the fit agrees with the learned reading of the face.
     pub reading: FaceReading,
+    /// What a person should check before using the fit.
+    pub warnings: Vec<AutomaticFitWarning>,
+}
+
+/// Something about an automatic fit that a person should check: the fit disagrees with
+/// itself. On the population (docs/FITTING.md, "On a population") 5 of 82 fits warned,
+/// among them the one more than 5 mm from its reference.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum AutomaticFitWarning {
+    /// The face's shape (profile, lips, eyes) was read in front of the learned reader's fit
+    /// but put the marked vertices more than [`MAX_MARKS_DISAGREEMENT`] from its marks on
+    /// average: the fit follows the learned reader alone.
+    ShapeDisagreesWithReader,
+    /// The face's shape could not be read in front of the learned reader's fit (no profile,
+    /// lips or eyes where it put them): the fit follows the learned reader alone.
+    ShapeNotRead,
+}
+
+impl AutomaticFitWarning {
+    /// The warning as a sentence.
+    pub fn message(&self) -> String {
+        let why = match self {
+            AutomaticFitWarning::ShapeDisagreesWithReader => format!(
+                "the face's shape (its profile, lips and eyes) put the marked points more than {:.0} mm \
+                 from where the learned face reader saw them",
+                MAX_MARKS_DISAGREEMENT * 100.0
+            ),
+            AutomaticFitWarning::ShapeNotRead => {
+                "the face's shape (its profile, lips and eyes) could not be read where the learned face \
+                 reader saw the face"
+                    .to_string()
+            }
+        };
+        format!("automatic fit: {why}, so the fit follows the reader alone: check it, or give landmarks")
+    }
 }
 
 /// The learned reading the fit was checked against: how sure the model was that it saw a
@@ -134,6 +170,12 @@ pub struct FaceReading {
     /// on the surface), in MediaPipe's order.
     #[serde(skip)]
     pub points: Vec<Option<Vec3>>,
+    /// Each marked vertex the rules read too: how far the rules put it from its mark (mm at
+    /// the fit's scale, along the rule pins' directions, the farthest).
+    pub rules_off_marks_mm: Vec<(u32, f32)>,
+    /// The rules' reading agreed with the marks and was used; otherwise the fit is the
+    /// marks' own.
+    pub rules_kept: bool,
 }
 
 /// The features the automatic fit found and pinned the mask to, besides the nose tip and
@@ -257,15 +299,25 @@ pub fn fit_automatically_unless(
         else {
             continue;
         };
+        let mut reading = Reading {
+            marks,
+            face_probability,
+            points,
+            rules_off_marks: Vec::new(),
+            rules_read: false,
+            rules_kept: false,
+        };
         if let Some((_, seen_from, image, rule_pins, found)) =
             read_features(head, mask, &surface, &used, &midline, marked.clone(), winding)
                 .map_err(solve_error)?
         {
+            reading.rules_read = true;
+            reading.rules_off_marks = pins::rule_pins_off_marks(&rule_pins, &reading.marks);
             let merged = pins::agreeing_pins(
                 mask,
                 &rule_pins,
                 &found,
-                &marks,
+                &reading.marks,
                 PIN_TOLERANCE * seen_from.similarity.scale,
             );
             let laid = lay_mask(
@@ -276,8 +328,8 @@ pub fn fit_automatically_unless(
                 &with_midline(&merged, &midline),
             )
             .map_err(solve_error)?;
-            if marks_disagreement(mask, &laid.solution, &marks) <= MAX_MARKS_DISAGREEMENT {
-                let reading = (marks, face_probability, points);
+            if marks_disagreement(mask, &laid.solution, &reading.marks) <= MAX_MARKS_DISAGREEMENT {
+                reading.rules_kept = true;
                 chosen = Some(((laid, seen_from, image, merged, found), reading, candidate));
                 break;
             }
@@ -290,13 +342,11 @@ pub fn fit_automatically_unless(
             outer_eye_corners_on_skin: false,
             mouth_corners: MouthCorners::AtBothEnds,
         };
-        let reading = (marks.clone(), face_probability, points);
+        let marks = reading.marks.clone();
         chosen = Some(((marked, marked_from, image, marks, found), reading, candidate));
         break;
     }
-    let Some(((mut best, seen_from, image, mut pins, mut found), (marks, face_probability, points), nose)) =
-        chosen
-    else {
+    let Some(((mut best, seen_from, image, mut pins, mut found), reading, nose)) = chosen else {
         return Err(AutomaticFitError::NoMouth {
             head: name(),
             nose_tip: nose.tip,
@@ -351,8 +401,12 @@ pub fn fit_automatically_unless(
         mm_per_unit,
     };
     fit.check_ranges().map_err(range)?;
-    let mut reading = face_reading(mask, &fit, &marks, face_probability);
-    reading.points = points;
+    let warnings = match (reading.rules_kept, reading.rules_read) {
+        (true, _) => Vec::new(),
+        (false, true) => vec![AutomaticFitWarning::ShapeDisagreesWithReader],
+        (false, false) => vec![AutomaticFitWarning::ShapeNotRead],
+    };
+    let reading = face_reading(mask, &fit, reading);
     Ok(AutomaticFit {
         fit,
         forward: (best.solution.similarity.rotation * DVec3::Z).as_vec3(),
@@ -361,6 +415,7 @@ pub fn fit_automatically_unless(
         mm_per_unit_from_pupils: from_pupils,
         found,
         reading,
+        warnings,
     })
 }
 
@@ -436,11 +491,26 @@ fn read_learned(
     )
 }
 
-/// How far `fit`'s marked vertices lie from the learned `marks` (mm at the fit's scale).
-fn face_reading(mask: &Mask, fit: &Fit, marks: &[Pin], face_probability: f32) -> FaceReading {
+/// What the learned reading gave for the chosen start, and how the rules' reading agreed.
+struct Reading {
+    marks: Vec<Pin>,
+    face_probability: f32,
+    points: Vec<Option<Vec3>>,
+    /// Each marked vertex the rules pinned too: how far its rule pins lie from its mark
+    /// (head units, along each pin's direction, the farthest).
+    rules_off_marks: Vec<(u32, f64)>,
+    /// The rules read the face in front of the marks' fit.
+    rules_read: bool,
+    /// The fit with the rules' pins lay on the marks and was kept.
+    rules_kept: bool,
+}
+
+/// How far `fit`'s marked vertices lie from the learned marks (mm at the fit's scale).
+fn face_reading(mask: &Mask, fit: &Fit, reading: Reading) -> FaceReading {
     let neutral = FittedMask::new(mask.clone(), fit.clone()).neutral;
     let to_mask_axes = fit.pose.rotation().transpose();
-    let mark_offsets_mm: Vec<(u32, [f32; 3])> = marks
+    let mark_offsets_mm: Vec<(u32, [f32; 3])> = reading
+        .marks
         .iter()
         .map(|pin| {
             let offset = (pin.point - neutral[pin.vertex as usize].as_dvec3()).as_vec3();
@@ -452,10 +522,16 @@ fn face_reading(mask: &Mask, fit: &Fit, marks: &[Pin], face_probability: f32) ->
         .map(|(_, offset)| glam::Vec3::from(*offset).length())
         .sum();
     FaceReading {
-        face_probability,
-        marks_mean_mm: total_mm / marks.len().max(1) as f32,
+        face_probability: reading.face_probability,
+        marks_mean_mm: total_mm / reading.marks.len().max(1) as f32,
         mark_offsets_mm,
-        points: Vec::new(),
+        points: reading.points,
+        rules_off_marks_mm: reading
+            .rules_off_marks
+            .iter()
+            .map(|&(vertex, apart)| (vertex, apart as f32 * fit.mm_per_unit))
+            .collect(),
+        rules_kept: reading.rules_kept,
     }
 }
 

@@ -264,11 +264,9 @@ pub(super) fn agreeing_pins(
     let guessed = guessed_vertices(found);
     let disagrees = |vertex: u32| {
         learned.iter().filter(|l| l.vertex == vertex).any(|l| {
-            pins.iter().filter(|p| p.vertex == vertex).any(|p| {
-                let off = l.point - p.point;
-                let along = p.along.map_or(off.length(), |d| off.dot(d).abs());
-                along > tolerance
-            })
+            pins.iter()
+                .filter(|p| p.vertex == vertex)
+                .any(|p| along_distance(p, l.point) > tolerance)
         })
     };
     let replaced = |vertex: u32| {
@@ -280,6 +278,27 @@ pub(super) fn agreeing_pins(
         .chain(learned)
         .copied()
         .collect()
+}
+
+/// Each vertex both the rules and the marks pin: how far its rule pins lie from its mark
+/// (head units, along each rule pin's direction; the farthest of its rule pins).
+pub(super) fn rule_pins_off_marks(pins: &[Pin], learned: &[Pin]) -> Vec<(u32, f64)> {
+    learned
+        .iter()
+        .filter_map(|l| {
+            pins.iter()
+                .filter(|p| p.vertex == l.vertex)
+                .map(|p| along_distance(p, l.point))
+                .reduce(f64::max)
+                .map(|apart| (l.vertex, apart))
+        })
+        .collect()
+}
+
+/// How far `point` lies from `pin` along the pin's direction (everywhere, when it has none).
+fn along_distance(pin: &Pin, point: DVec3) -> f64 {
+    let off = point - pin.point;
+    pin.along.map_or(off.length(), |d| off.dot(d).abs())
 }
 
 /// The vertices the rules pinned from a guess or not at all although their feature has a
