@@ -13,7 +13,6 @@ use std::sync::OnceLock;
 use glam::Vec3;
 
 use super::conv_net::{ConvNet, Shape};
-use super::face_marks::FaceMarksError;
 use super::onnx_file::read_onnx;
 
 /// The network's input side, pixels.
@@ -29,8 +28,9 @@ pub enum FaceModelError {
     Load(String),
     #[error("the face landmark model failed on a picture: {0}")]
     Run(String),
-    #[error(transparent)]
-    Marks(#[from] FaceMarksError),
+    /// The learned marks (`face_marks.rs`) did not load: the message names the file.
+    #[error("the learned face marks could not be loaded: {0}")]
+    Marks(String),
 }
 
 /// What the model sees in one picture.

@@ -118,7 +118,9 @@ pub fn read_learned_face(
         return Ok(None);
     };
     let mirrored = read_face(&mirrored_picture(&picture))?;
-    let mirror = &FaceMarks::shipped()?.mirror;
+    let mirror = &FaceMarks::shipped()
+        .map_err(|e| FaceModelError::Marks(e.to_string()))?
+        .mirror;
     Ok(Some(on_the_surface(
         &symmetric_reading(mesh, &mirrored, mirror),
         &map,

@@ -467,7 +467,8 @@ fn read_learned(
         if face.face_probability < 0.5 {
             return Ok(None);
         }
-        let model = face_marks::FaceMarks::shipped().map_err(|e| LearnedError::Model(e.into()))?;
+        let model = face_marks::FaceMarks::shipped()
+            .map_err(|e| LearnedError::Model(FaceModelError::Marks(e.to_string())))?;
         let pins = pins::learned_pins(model, &face, &seen_from.similarity);
         laid = lay_mask(
             surface,
