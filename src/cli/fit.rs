@@ -64,6 +64,9 @@ struct AutomaticReport {
     mm_per_unit_source: &'static str,
     /// The unit `mm_per_unit` is near, when it is near one.
     unit_guess: Option<&'static str>,
+    /// What 63 mm pupils gave, when the unit was guessed (`mm_per_unit` is the standard
+    /// unit within 15 % of it, when there is one).
+    pupils_mm_per_unit: Option<f32>,
     /// The direction the face looks, head frame.
     forward: [f32; 3],
     /// The nose tip found, head units.
@@ -93,6 +96,7 @@ fn automatic(args: &Args, head: &Head, mask: &Mask) -> CliResult {
             fit: file,
             mm_per_unit_source: source,
             unit_guess: found.unit_name(),
+            pupils_mm_per_unit: found.pupils_mm_per_unit,
             forward: found.forward.to_array(),
             nose_tip: found.nose_tip.to_array(),
             found: found.found,
@@ -107,9 +111,13 @@ fn automatic(args: &Args, head: &Head, mask: &Mask) -> CliResult {
         mask_name(&args.mask),
         args.head.display(),
     );
-    let unit = found
-        .unit_name()
-        .map_or_else(String::new, |name| format!(", so the head is probably in {name}"));
+    let unit = match (found.pupils_mm_per_unit, found.unit_name()) {
+        (Some(measured), Some(name)) if measured != found.fit.mm_per_unit => {
+            format!(" gave {measured:.4}, within 15 % of {name}: taken as {name}")
+        }
+        (_, Some(name)) => format!(", so the head is probably in {name}"),
+        (_, None) => String::new(),
+    };
     println!(
         "mm per head unit: {:.4} ({source}{unit}); scale {:.5} head units per mask unit",
         found.fit.mm_per_unit, found.fit.pose.scale.x

@@ -316,15 +316,33 @@ fn a_head_turned_to_look_along_x_is_fitted_as_before() {
 fn the_units_are_guessed_from_the_pupils() {
     let mask = Mask::candide3();
     let (head, _, _) = shipped(HEADS[2].0, HEADS[2].1);
-    assert_eq!(
-        fit_automatically(&head, &mask, None).unwrap().unit_name(),
-        Some("centimetres")
-    );
-    for (factor, unit) in [(10.0, "millimetres"), (0.01, "metres")] {
+    // The ICT head is in centimetres; its pupils put the unit 2.3 % small, and the guess is
+    // taken as the standard unit within 15 % of it.
+    let found = fit_automatically(&head, &mask, None).unwrap();
+    assert_eq!(found.unit_name(), Some("centimetres"));
+    assert_eq!(found.fit.mm_per_unit, 10.0);
+    let pupils = found.pupils_mm_per_unit.unwrap();
+    assert!((9.6..9.9).contains(&pupils), "{pupils}");
+    for (factor, unit, mm) in [
+        (10.0, "millimetres", 1.0),
+        (0.01, "metres", 1000.0),
+        (1.0 / 2.54, "inches", 25.4),
+    ] {
         let scaled = transformed(&head, |p| p * factor);
         let found = fit_automatically(&scaled, &mask, None).unwrap();
         assert_eq!(found.unit_name(), Some(unit), "{}", found.fit.mm_per_unit);
+        assert_eq!(found.fit.mm_per_unit, mm);
     }
+    // Far from every standard unit, the pupils' figure stands.
+    let odd = transformed(&head, |p| p * 0.2);
+    let found = fit_automatically(&odd, &mask, None).unwrap();
+    assert_eq!(found.unit_name(), None, "{}", found.fit.mm_per_unit);
+    assert_eq!(Some(found.fit.mm_per_unit), found.pupils_mm_per_unit);
+    assert!(
+        (48.0..50.0).contains(&found.fit.mm_per_unit),
+        "{}",
+        found.fit.mm_per_unit
+    );
     let given = fit_automatically(&head, &mask, Some(10.0)).unwrap();
     assert_eq!(given.fit.mm_per_unit, 10.0);
     assert!(!given.mm_per_unit_from_pupils);

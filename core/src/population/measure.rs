@@ -29,8 +29,11 @@ pub struct Measures {
     pub landmark_max_mm: f32,
     /// The landmark mask vertex furthest from the reference's.
     pub worst_vertex: u32,
-    /// Guessed over true mm per unit, minus one.
+    /// Guessed over true mm per unit, minus one (the standard unit the pupils' guess was
+    /// taken as, when it was).
     pub scale_error: f32,
+    /// What 63 mm pupils alone gave, over the true mm per unit, minus one.
+    pub pupils_scale_error: f32,
     /// How far apart the fit reads the lips at rest (mm, true scale; the fit report's
     /// `inner_lip_gap_mm`). The members' own lips stand at most a few millimetres apart
     /// (2.74 mm on the population); tens of millimetres is a misreading that registration
@@ -71,6 +74,7 @@ pub fn measure(member: &Member, mask: &Mask) -> Outcome {
         let pose = automatic.fit.pose;
         let score = automatic.score;
         let guessed_mm = automatic.fit.mm_per_unit;
+        let pupils_mm = automatic.pupils_mm_per_unit.unwrap_or(guessed_mm);
         let reading = automatic.reading;
         let warnings = automatic.warnings;
         let fitted = FittedMask::new(mask.clone(), automatic.fit);
@@ -117,6 +121,7 @@ pub fn measure(member: &Member, mask: &Mask) -> Outcome {
             landmark_max_mm: distances.iter().copied().fold(0.0, f32::max),
             worst_vertex: member.reference.get(worst).map_or(0, |&(vertex, _)| vertex),
             scale_error: guessed_mm / member.mm_per_unit - 1.0,
+            pupils_scale_error: pupils_mm / member.mm_per_unit - 1.0,
             lips_apart_mm,
             surface_mm: score as f32 * scale * member.mm_per_unit,
             face_probability: reading.face_probability,
