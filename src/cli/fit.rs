@@ -9,7 +9,7 @@ use crate::atomic::write_atomic;
 use crate::fit::limits::{in_range, MM_PER_UNIT_RANGE};
 use crate::fit::{
     fit_automatically, fit_from_landmarks, report, residuals, solve_fit, AutomaticFit, EyeKind, Fit, FitFile,
-    FitReport, FittedMask, FoundFeatures, Landmarks, MouthCorners, Residuals, SolveOptions,
+    FitReport, FittedMask, FoundFeatures, Landmarks, MouthCorners, Residuals, SolveOptions, UNIT_SNAP,
 };
 use crate::head::Head;
 use crate::mask::Mask;
@@ -113,7 +113,8 @@ fn automatic(args: &Args, head: &Head, mask: &Mask) -> CliResult {
     );
     let unit = match (found.pupils_mm_per_unit, found.unit_name()) {
         (Some(measured), Some(name)) if measured != found.fit.mm_per_unit => {
-            format!(" gave {measured:.4}, within 15 % of {name}: taken as {name}")
+            let within = UNIT_SNAP * 100.0;
+            format!(" gave {measured:.4}, within {within:.0} % of {name}: taken as {name}")
         }
         (_, Some(name)) => format!(", so the head is probably in {name}"),
         (_, None) => String::new(),

@@ -24,7 +24,7 @@ use crate::mask::{fap, FapuValues, Mask, MaskPose};
 pub use anchors::{anchor_mask, Anchors};
 pub use automatic::{
     fit_automatically, fit_automatically_unless, AutomaticFit, AutomaticFitError, AutomaticFitWarning,
-    EyeKind, FoundFeatures, MouthCorners,
+    EyeKind, FoundFeatures, MouthCorners, UNIT_SNAP,
 };
 pub use file::{FitFile, FitFileError, Nudge};
 pub use from_landmarks::{fit_from_landmarks, FitError, LandmarkFit};

@@ -50,10 +50,6 @@ pub struct Measures {
     pub mark_offsets_mm: Vec<(u32, [f32; 3])>,
     /// What the fit asks a person to check ([`crate::fit::AutomaticFitWarning`]).
     pub warnings: Vec<crate::fit::AutomaticFitWarning>,
-    /// How far the rules put each marked vertex from its mark (mm, true scale), and whether
-    /// the rules' reading was used.
-    pub rules_off_marks_mm: Vec<(u32, f32)>,
-    pub rules_kept: bool,
     /// The learned reading's face-mesh points (`None`: not seen on the surface) and the
     /// reference's marked vertices, in the fitted mask's frame (mask units, mask axes):
     /// what `tools/face_marks/train.py` learns the marks from.
@@ -108,12 +104,6 @@ pub fn measure(member: &Member, mask: &Mask) -> Outcome {
             .collect();
         Measures {
             warnings,
-            rules_off_marks_mm: reading
-                .rules_off_marks_mm
-                .iter()
-                .map(|&(vertex, mm)| (vertex, mm / guessed_mm * member.mm_per_unit))
-                .collect(),
-            rules_kept: reading.rules_kept,
             face_points_mask_units,
             reference_mask_units,
             mm_per_mask_unit: scale * member.mm_per_unit,

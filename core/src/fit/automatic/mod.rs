@@ -145,7 +145,7 @@ impl AutomaticFitWarning {
     pub fn message(&self) -> String {
         let why = match self {
             AutomaticFitWarning::ShapeDisagreesWithReader => format!(
-                "the face's shape (its profile, lips and eyes) put the marked points more than {:.0} mm \
+                "the face's shape (its profile, lips and eyes) put the marked points more than about {:.0} mm \
                  from where the learned face reader saw them",
                 MAX_MARKS_DISAGREEMENT * 100.0
             ),
@@ -174,12 +174,6 @@ pub struct FaceReading {
     /// on the surface), in MediaPipe's order.
     #[serde(skip)]
     pub points: Vec<Option<Vec3>>,
-    /// Each marked vertex the rules read too: how far the rules put it from its mark (mm at
-    /// the fit's scale, along the rule pins' directions, the farthest).
-    pub rules_off_marks_mm: Vec<(u32, f32)>,
-    /// The rules' reading agreed with the marks and was used; otherwise the fit is the
-    /// marks' own.
-    pub rules_kept: bool,
 }
 
 /// The features the automatic fit found and pinned the mask to, besides the nose tip and
@@ -319,7 +313,6 @@ pub fn fit_automatically_unless(
             marks,
             face_probability,
             points,
-            rules_off_marks: Vec::new(),
             rules_read: false,
             rules_kept: false,
         };
@@ -328,7 +321,6 @@ pub fn fit_automatically_unless(
                 .map_err(solve_error)?
         {
             reading.rules_read = true;
-            reading.rules_off_marks = pins::rule_pins_off_marks(&rule_pins, &reading.marks);
             let merged = pins::agreeing_pins(
                 mask,
                 &rule_pins,
@@ -515,9 +507,6 @@ struct Reading {
     marks: Vec<Pin>,
     face_probability: f32,
     points: Vec<Option<Vec3>>,
-    /// Each marked vertex the rules pinned too: how far its rule pins lie from its mark
-    /// (head units, along each pin's direction, the farthest).
-    rules_off_marks: Vec<(u32, f64)>,
     /// The rules read the face in front of the marks' fit.
     rules_read: bool,
     /// The fit with the rules' pins lay on the marks and was kept.
@@ -545,12 +534,6 @@ fn face_reading(mask: &Mask, fit: &Fit, reading: Reading) -> FaceReading {
         marks_mean_mm: total_mm / reading.marks.len().max(1) as f32,
         mark_offsets_mm,
         points: reading.points,
-        rules_off_marks_mm: reading
-            .rules_off_marks
-            .iter()
-            .map(|&(vertex, apart)| (vertex, apart as f32 * fit.mm_per_unit))
-            .collect(),
-        rules_kept: reading.rules_kept,
     }
 }
 

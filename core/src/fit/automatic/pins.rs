@@ -286,21 +286,6 @@ pub(super) fn agreeing_pins(
         .collect()
 }
 
-/// Each vertex both the rules and the marks pin: how far its rule pins lie from its mark
-/// (head units, along each rule pin's direction; the farthest of its rule pins).
-pub(super) fn rule_pins_off_marks(pins: &[Pin], learned: &[Pin]) -> Vec<(u32, f64)> {
-    learned
-        .iter()
-        .filter_map(|l| {
-            pins.iter()
-                .filter(|p| p.vertex == l.vertex)
-                .map(|p| along_distance(p, l.point))
-                .reduce(f64::max)
-                .map(|apart| (l.vertex, apart))
-        })
-        .collect()
-}
-
 /// How far `point` lies from `pin` along the pin's direction (everywhere, when it has none).
 fn along_distance(pin: &Pin, point: DVec3) -> f64 {
     let off = point - pin.point;
