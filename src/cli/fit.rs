@@ -9,7 +9,8 @@ use crate::atomic::write_atomic;
 use crate::fit::limits::{in_range, MM_PER_UNIT_RANGE};
 use crate::fit::{
     fit_automatically, fit_from_landmarks, report, residuals, solve_fit, AutomaticFit, EyeKind, Fit, FitFile,
-    FitReport, FittedMask, FoundFeatures, Landmarks, MouthCorners, Residuals, SolveOptions, UNIT_SNAP,
+    FitReport, FittedMask, FoundFeatures, Landmarks, MouthCorners, Residuals, SolveOptions,
+    PUPILS_RELATIVE_SD, UNIT_SNAP,
 };
 use crate::head::Head;
 use crate::mask::Mask;
@@ -67,6 +68,8 @@ struct AutomaticReport {
     /// What 63 mm pupils gave, when the unit was guessed (`mm_per_unit` is the standard
     /// unit within 15 % of it, when there is one).
     pupils_mm_per_unit: Option<f32>,
+    /// Its uncertainty when it was guessed: 1 sd as a share of it (people's pupils differ).
+    pupils_relative_sd: Option<f32>,
     /// The direction the face looks, head frame.
     forward: [f32; 3],
     /// The nose tip found, head units.
@@ -97,6 +100,7 @@ fn automatic(args: &Args, head: &Head, mask: &Mask) -> CliResult {
             mm_per_unit_source: source,
             unit_guess: found.unit_name(),
             pupils_mm_per_unit: found.pupils_mm_per_unit,
+            pupils_relative_sd: found.pupils_mm_per_unit.map(|_| PUPILS_RELATIVE_SD),
             forward: found.forward.to_array(),
             nose_tip: found.nose_tip.to_array(),
             found: found.found,
@@ -113,8 +117,14 @@ fn automatic(args: &Args, head: &Head, mask: &Mask) -> CliResult {
     );
     let unit = match (found.pupils_mm_per_unit, found.unit_name()) {
         (Some(measured), Some(name)) if measured != found.fit.mm_per_unit => {
-            let within = UNIT_SNAP * 100.0;
-            format!(" gave {measured:.4}, within {within:.0} % of {name}: taken as {name}")
+            let (sd, within) = (PUPILS_RELATIVE_SD * 100.0, UNIT_SNAP * 100.0);
+            format!(
+                " gave {measured:.4} +/- {sd:.0} % (1 sd), within {within:.0} % of {name}: taken as {name}"
+            )
+        }
+        (Some(measured), None) => {
+            let sd = PUPILS_RELATIVE_SD * 100.0;
+            format!(" gave {measured:.4} +/- {sd:.0} % (1 sd), near no standard unit")
         }
         (_, Some(name)) => format!(", so the head is probably in {name}"),
         (_, None) => String::new(),

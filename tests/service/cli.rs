@@ -175,7 +175,7 @@ fn fit_without_landmarks_finds_the_face_and_guesses_the_units() {
     // The pupils' guess (9.77 mm per unit: the ICT head's pupils are 64.5 mm apart) is
     // taken as the standard unit near it.
     assert!(
-        stdout.contains("within 15 % of centimetres: taken as centimetres"),
+        stdout.contains("+/- 6 % (1 sd), within 15 % of centimetres: taken as centimetres"),
         "{stdout}"
     );
     assert!(
@@ -205,6 +205,8 @@ fn fit_without_landmarks_finds_the_face_and_guesses_the_units() {
     assert_eq!(report["unit_guess"], "centimetres");
     let pupils = report["pupils_mm_per_unit"].as_f64().unwrap();
     assert!((9.0..10.5).contains(&pupils), "{report}");
+    // The uncertainty measured on the population (docs/FITTING.md, "Units").
+    assert_eq!(report["pupils_relative_sd"].as_f64(), Some(0.061), "{report}");
     assert_eq!(
         report["found"],
         serde_json::json!({

@@ -7,6 +7,7 @@
 
 mod anchors;
 pub(crate) mod automatic;
+mod face_lengths;
 mod file;
 mod from_landmarks;
 mod landmarks;
@@ -24,8 +25,9 @@ use crate::mask::{fap, FapuValues, Mask, MaskPose};
 pub use anchors::{anchor_mask, Anchors};
 pub use automatic::{
     fit_automatically, fit_automatically_unless, AutomaticFit, AutomaticFitError, AutomaticFitWarning,
-    EyeKind, FoundFeatures, MouthCorners, UNIT_SNAP,
+    EyeKind, FoundFeatures, MouthCorners, PUPILS_RELATIVE_SD, UNIT_SNAP,
 };
+pub use face_lengths::{FaceLengths, FACE_LENGTHS};
 pub use file::{FitFile, FitFileError, Nudge};
 pub use from_landmarks::{fit_from_landmarks, FitError, LandmarkFit};
 pub use landmarks::{Landmark, LandmarkError, Landmarks};

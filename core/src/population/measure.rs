@@ -5,7 +5,7 @@
 use std::time::Instant;
 
 use super::Member;
-use crate::fit::{fit_automatically, mouth_opening, FittedMask};
+use crate::fit::{fit_automatically, mouth_opening, FaceLengths, FittedMask};
 use crate::mask::Mask;
 
 /// What the automatic fit made of a member.
@@ -57,6 +57,9 @@ pub struct Measures {
     pub reference_mask_units: Vec<(u32, [f32; 3])>,
     /// Millimetres per mask unit at the true scale.
     pub mm_per_mask_unit: f32,
+    /// Lengths across the fitted face (mm, true scale): what `tools/unit_guess/train.py`
+    /// learns the unit guess from.
+    pub face_lengths_mm: FaceLengths,
 }
 
 /// Fits `member` automatically (scale guessed) and compares it with its reference.
@@ -78,6 +81,7 @@ pub fn measure(member: &Member, mask: &Mask) -> Outcome {
             as f32
             * scale
             * member.mm_per_unit;
+        let face_lengths_mm = FaceLengths::measure(&fitted.base).scaled(scale * member.mm_per_unit);
         let neutral = fitted.neutral;
         // Each reference vertex with the fitted vertex it is compared with: a mirrored
         // head's left is the mask's right.
@@ -107,6 +111,7 @@ pub fn measure(member: &Member, mask: &Mask) -> Outcome {
             face_points_mask_units,
             reference_mask_units,
             mm_per_mask_unit: scale * member.mm_per_unit,
+            face_lengths_mm,
             landmark_mean_mm: distances.iter().sum::<f32>() / distances.len() as f32,
             landmark_max_mm: distances.iter().copied().fold(0.0, f32::max),
             worst_vertex: member.reference.get(worst).map_or(0, |&(vertex, _)| vertex),

@@ -12,6 +12,7 @@
 //! compare fairly (a mask shrunk onto a small patch is not a better fit).
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::super::report::edge_vertices;
 use super::super::umeyama::Similarity;
@@ -207,9 +208,12 @@ impl<'a> Surface<'a> {
     ) {
         pairs.clear();
         distances.clear();
-        for &j in used {
-            let p = posed[j as usize];
-            if let Some(s) = self.head.surface.closest_point(p.as_vec3()) {
+        // The queries are independent: spread over the cores, gathered in `used`'s order.
+        let found: Vec<Option<(u32, DVec3, f64)>> = used
+            .par_iter()
+            .map(|&j| {
+                let p = posed[j as usize];
+                let s = self.head.surface.closest_point(p.as_vec3())?;
                 let target = if self.past_the_edge(j, s.triangle) {
                     let [a, b, c] = self.head.triangles[s.triangle as usize]
                         .map(|v| self.head.positions[v as usize].as_dvec3());
@@ -218,9 +222,12 @@ impl<'a> Surface<'a> {
                 } else {
                     s.point.as_dvec3()
                 };
-                pairs.push((j, target));
-                distances.push(f64::from(s.distance));
-            }
+                Some((j, target, f64::from(s.distance)))
+            })
+            .collect();
+        for (j, target, distance) in found.into_iter().flatten() {
+            pairs.push((j, target));
+            distances.push(distance);
         }
         let mut sorted = distances.clone();
         sorted.sort_by(f64::total_cmp);

@@ -7,6 +7,7 @@
 //! Lengths in head units.
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use crate::head::Head;
 
@@ -50,8 +51,12 @@ pub fn mirror_plane(head: &Head) -> Option<MirrorPlane> {
     }
     let coarse = samples(&head.positions, COARSE_SAMPLES);
     let centre = coarse.iter().copied().sum::<Vec3>() / coarse.len() as f32;
-    let mut scored: Vec<(f32, Vec3)> = hemisphere(NORMALS)
-        .map(|normal| {
+    // The planes are scored, and the best refined, on every core; each result is the
+    // same whatever the cores' timing.
+    let normals: Vec<Vec3> = hemisphere(NORMALS).collect();
+    let mut scored: Vec<(f32, Vec3)> = normals
+        .par_iter()
+        .map(|&normal| {
             let plane = MirrorPlane {
                 point: centre,
                 normal,
@@ -73,7 +78,7 @@ pub fn mirror_plane(head: &Head) -> Option<MirrorPlane> {
     }
     let fine = samples(&head.positions, FINE_SAMPLES);
     starts
-        .into_iter()
+        .into_par_iter()
         .map(|normal| {
             refine(
                 head,

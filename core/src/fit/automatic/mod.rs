@@ -212,10 +212,16 @@ pub const STANDARD_UNITS: [(&str, f32); 5] = [
     ("decimetres", 100.0),
     ("metres", 1000.0),
 ];
+/// How far a unit guessed from 63 mm pupils may be from the true one (1 sd, as a share of
+/// it): people's pupils differ. Measured on the population's development members
+/// (`tools/unit_guess/measure.py`; docs/FITTING.md, "Units"): 6.1 % rms, 7.7 % on the
+/// held-out ones. Lengths across the whole face do no better: faces large in one length
+/// are large in the others.
+pub const PUPILS_RELATIVE_SD: f32 = 0.061;
 /// A unit guessed from the pupils is taken as the standard unit it lies within this share
-/// of. People's pupils are 63 mm apart give or take a few millimetres: on the population
-/// the guess lay within 15 % of the true unit on 81 of 82 heads (standard deviation 6 %),
-/// and the standard units lie at least 2.5 times apart, so no guess is within 15 % of two.
+/// of (about 2.5 [`PUPILS_RELATIVE_SD`]): on the population the guess lay within 15 % of
+/// the true unit on 81 of 82 heads, and the standard units lie at least 2.5 times apart,
+/// so no guess is within 15 % of two.
 pub const UNIT_SNAP: f32 = 0.15;
 
 /// The standard unit `mm_per_unit` lies within [`UNIT_SNAP`] of, if any.

@@ -4,6 +4,7 @@
 //! similarity alone, and the closest few are laid in full by iterated closest points.
 
 use glam::DMat3;
+use rayon::prelude::*;
 
 use super::closest_points::{lay_mask, screen_start, Laid, Pin, Surface};
 use super::depth_map::{NoseCandidate, View};
@@ -35,9 +36,8 @@ pub(super) fn lay_starts(
     solve_error: &dyn Fn(SolveError) -> AutomaticFitError,
 ) -> Result<Vec<(Laid, View, NoseCandidate)>, AutomaticFitError> {
     let mask_tip = mask.vertices[MASK_NOSE_TIP as usize].as_dvec3();
-    let mut screened: Vec<(Laid, View, NoseCandidate)> = Vec::new();
+    let mut placed: Vec<(Similarity, View, NoseCandidate)> = Vec::new();
     for (view, noses) in views {
-        go_on()?;
         for view in [*view, view.upside_down()] {
             let rotation = DMat3::from_cols(
                 view.lateral.as_dvec3(),
@@ -54,22 +54,42 @@ pub(super) fn lay_starts(
                         scale,
                         translation: tip - scale * (rotation * mask_tip),
                     };
-                    let pins = with_midline(&[Pin::at(MASK_NOSE_TIP, tip)], midline);
-                    let laid = screen_start(surface, mask, used, start, &pins).map_err(solve_error)?;
-                    screened.push((laid, view, *candidate));
+                    placed.push((start, view, *candidate));
                 }
             }
         }
     }
+    // Each start is screened and laid on its own, so they are spread over the cores; the
+    // results come back in the order the starts were placed, whatever the cores' timing.
+    let nose_pins = |candidate: &NoseCandidate| {
+        with_midline(&[Pin::at(MASK_NOSE_TIP, candidate.tip.as_dvec3())], midline)
+    };
+    go_on()?;
+    let mut screened = placed
+        .par_iter()
+        .map(|(start, view, candidate)| {
+            let laid = screen_start(surface, mask, used, *start, &nose_pins(candidate))?;
+            Ok((laid, *view, *candidate))
+        })
+        .collect::<Result<Vec<(Laid, View, NoseCandidate)>, SolveError>>()
+        .map_err(solve_error)?;
     screened.sort_by(|a, b| a.0.score.total_cmp(&b.0.score));
-    let mut starts = Vec::with_capacity(LAID_STARTS);
-    for (screen, view, candidate) in screened.into_iter().take(LAID_STARTS) {
-        go_on()?;
-        let tip = candidate.tip.as_dvec3();
-        let pins = with_midline(&[Pin::at(MASK_NOSE_TIP, tip)], midline);
-        let laid = lay_mask(surface, mask, used, screen.solution.similarity, &pins).map_err(solve_error)?;
-        starts.push((laid, view, candidate));
-    }
+    screened.truncate(LAID_STARTS);
+    go_on()?;
+    let mut starts = screened
+        .par_iter()
+        .map(|(screen, view, candidate)| {
+            let laid = lay_mask(
+                surface,
+                mask,
+                used,
+                screen.solution.similarity,
+                &nose_pins(candidate),
+            )?;
+            Ok((laid, *view, *candidate))
+        })
+        .collect::<Result<Vec<(Laid, View, NoseCandidate)>, SolveError>>()
+        .map_err(solve_error)?;
     starts.sort_by(|a, b| a.0.score.total_cmp(&b.0.score));
     Ok(starts)
 }
