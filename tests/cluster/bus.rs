@@ -826,6 +826,81 @@ async fn a_node_frozen_while_its_stream_was_taken_over_relays_nothing_when_it_wa
     drop(first);
 }
 
+/// The same freeze, with the new holder frozen too as soon as it has taken the lease, so
+/// that nothing of the new lease has reached node 3 when node 1 wakes: node 1 finds the
+/// lease gone before it relays the frames its socket held, and node 3's viewer sees none
+/// of them. (Seen once before the check, under load: node 1's frame 19 reached node 3
+/// before node 2's first frame.)
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_woken_node_checks_its_lease_before_relaying_what_it_held() {
+    use async_nats::jetstream;
+    let nats = NatsServer::start();
+    let (n1, n2, n3) = three_nodes_with_the_head(&nats).await;
+    let leases = jetstream::new(async_nats::connect(nats.url()).await.unwrap())
+        .get_key_value("facewire_producers")
+        .await
+        .unwrap();
+    let key = format!("{HEAD}.{STREAM}");
+    let revision = || async { leases.entry(&key).await.unwrap().map_or(0, |e| e.revision) };
+    let mut on_n3 = viewer(&n3).await;
+    let mut first = producer(&n1).await;
+    for seq in 0..10 {
+        produce(&mut first, seq).await;
+    }
+    while next_seq(&mut on_n3, Duration::from_secs(5)).await != Some(9) {}
+    signal(&n1, "STOP");
+    let held = revision().await;
+    for seq in 10..20 {
+        first
+            .send(Message::Text(moving_jaw_line(seq).into()))
+            .await
+            .unwrap();
+    }
+    // Node 2 takes the lease over (node 1 does not answer its liveness check), then
+    // freezes before it has anything to relay.
+    let mut second = producer(&n2).await;
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while revision().await == held {
+        assert!(Instant::now() < deadline, "node 2 did not take the lease over");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    signal(&n2, "STOP");
+    signal(&n1, "CONT");
+    // Node 1 reads what its socket held; whatever it would relay has time to arrive.
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while dropped(&n1, "lease_lost").await < 1.0 {
+        assert!(
+            Instant::now() < deadline,
+            "node 1 dropped nothing of its lost lease"
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    signal(&n2, "CONT");
+    for seq in 100..140 {
+        produce(&mut second, seq).await;
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    let mut seen = Vec::new();
+    while seen.last() != Some(&139) {
+        match next_message(&mut on_n3).await {
+            Some(Message::Binary(bytes)) => seen.push(decode(&bytes).unwrap().header.seq),
+            Some(Message::Text(text)) => {
+                if let ServerMessage::End { reason, .. } = serde_json::from_str(text.as_str()).unwrap() {
+                    panic!("ended ({reason}) after {seen:?}");
+                }
+            }
+            other => panic!("expected frames, got {other:?} after {seen:?}"),
+        }
+    }
+    assert!(seen.iter().all(|&s| s >= 100), "{seen:?}");
+    println!(
+        "node 1 dropped {} messages of its lost lease after waking",
+        dropped(&n1, "lease_lost").await
+    );
+    drop(first);
+}
+
 /// A voice alone, as Opus packets on node 1, animates the head for a viewer on node 2.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_face_derived_from_a_voice_on_one_node_is_seen_on_another() {

@@ -331,6 +331,13 @@ impl Leases {
     fn hold(&self, key: String, (made_s, revision): (i64, u64), cancel_producer: CancellationToken) -> Lease {
         let released = CancellationToken::new();
         let fence = Arc::new(AtomicU64::new(fence_token(made_s, revision)));
+        let check = Arc::new(LeaseCheck {
+            kv: self.kv.clone(),
+            value: self.value(&key),
+            key: key.clone(),
+            confirmed_at_stall: AtomicU64::new(0),
+            lost: std::sync::atomic::AtomicBool::new(false),
+        });
         self.held.lock().expect("held lock").insert(key.clone());
         tokio::spawn(keep(
             Held {
@@ -346,7 +353,59 @@ impl Leases {
             released.clone(),
             cancel_producer,
         ));
-        Lease { released, fence }
+        Lease {
+            released,
+            fence,
+            check,
+        }
+    }
+}
+
+/// Asks the bucket whether a lease is still this node's: what a node that was stalled
+/// (frozen, or starved of CPU past a liveness check) does before it relays anything more,
+/// since another node may have taken the lease over meanwhile and the others may not have
+/// seen a message of the new lease yet to fence the old one by.
+pub struct LeaseCheck {
+    kv: kv::Store,
+    key: String,
+    /// This node's sealed value for the key.
+    value: Bytes,
+    /// The last stall ([`super::relay`]'s count) after which the lease was confirmed.
+    confirmed_at_stall: AtomicU64,
+    /// Found taken over: nothing more is relayed under it.
+    lost: std::sync::atomic::AtomicBool,
+}
+
+impl LeaseCheck {
+    /// Whether the lease may still be relayed under after stall number `stall` (stalls
+    /// counted from 1): asked of the bucket once per stall; `true` while NATS does not
+    /// answer (the lease's refresh decides then, as it does without a stall).
+    pub async fn held_after(&self, stall: u64) -> bool {
+        if self.lost.load(Ordering::Acquire) {
+            return false;
+        }
+        if self.confirmed_at_stall.load(Ordering::Acquire) >= stall {
+            return true;
+        }
+        let ours = match self.kv.entry(&self.key).await {
+            // Another node's value: taken over. Removed or released: nobody else holds it,
+            // and the lease's refresh takes it back.
+            Ok(Some(entry)) => entry.operation != kv::Operation::Put || entry.value == self.value,
+            Ok(None) => true,
+            Err(e) => {
+                tracing::debug!(key = %self.key, error = %e, "lease not checked after a stall");
+                true
+            }
+        };
+        match ours {
+            true => self.confirmed_at_stall.fetch_max(stall, Ordering::AcqRel),
+            false => {
+                tracing::warn!(key = %self.key, "after a stall the producer lease is another node's; relaying nothing more under it");
+                self.lost.store(true, Ordering::Release);
+                0
+            }
+        };
+        ours
     }
 }
 
@@ -358,11 +417,17 @@ pub struct Lease {
     /// is made later), so other nodes drop what an earlier holder still
     /// relays after losing it.
     fence: Arc<AtomicU64>,
+    check: Arc<LeaseCheck>,
 }
 
 impl Lease {
     pub fn fence(&self) -> u64 {
         self.fence.load(Ordering::Acquire)
+    }
+
+    /// What asks whether the lease is still this node's after a stall.
+    pub fn check(&self) -> Arc<LeaseCheck> {
+        self.check.clone()
     }
 }
 

@@ -10,16 +10,24 @@
 //! owns the publishing, so one node's frames keep their order, and a queue full because
 //! NATS is away drops frames (counted in `facewire_bus_dropped_total{code="queue_full"}`)
 //! instead of holding a producer up.
+//!
+//! A node that was stalled (frozen, or starved of the CPU) for longer than [`STALL`] may
+//! have missed a liveness check and lost a lease it still relays under, before the other
+//! nodes have a message of the new lease to fence the old one by: after a stall, each
+//! lease is confirmed with the bucket before anything more is published under it, and
+//! what a lost lease still sends is dropped (`code="lease_lost"`).
 
 use std::future::Future;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use async_nats::HeaderMap;
 use bytes::Bytes;
 use futures_util::StreamExt;
 use tokio::sync::mpsc;
 
-use super::lease::Lease;
+use super::lease::{Lease, LeaseCheck};
 use super::seal::Seal;
 use super::{ClusterError, PREFIX};
 use crate::mask::Mask;
@@ -42,6 +50,11 @@ const MAX_HOP_US: u64 = 60_000_000;
 /// Messages waiting to be published, over all of this node's producers: 1 s of 64
 /// streams at 30 fps, each with 50 audio chunks a second in two codecs.
 const QUEUE: usize = 8192;
+/// A gap this long in the stall watch's ticks (or since its last tick, seen by the
+/// publisher) is a stall: half of the time a liveness check waits for an answer.
+const STALL: Duration = Duration::from_millis(500);
+/// How often the stall watch ticks.
+const STALL_TICK: Duration = Duration::from_millis(100);
 /// Subject kinds: `facewire.<kind>.<head>.<stream>`.
 const PARAMS: &str = "params";
 const AUDIO: &str = "audio";
@@ -54,7 +67,61 @@ fn subject(kind: &str, head: &str, stream: &str) -> String {
 struct Outgoing {
     subject: Arc<str>,
     fence: u64,
+    lease: Arc<LeaseCheck>,
     body: Body,
+}
+
+/// Counts the process's stalls: a task ticks every [`STALL_TICK`] and counts a gap longer
+/// than [`STALL`]; the publisher counts one too when the last tick is that old (it may run
+/// first after the process wakes).
+struct StallWatch {
+    started: Instant,
+    /// When the watch last ticked, ms since `started`.
+    last_tick_ms: AtomicU64,
+    stalls: AtomicU64,
+}
+
+impl StallWatch {
+    fn start() -> Arc<StallWatch> {
+        let watch = Arc::new(StallWatch {
+            started: Instant::now(),
+            last_tick_ms: AtomicU64::new(0),
+            stalls: AtomicU64::new(0),
+        });
+        let ticking = Arc::downgrade(&watch);
+        tokio::spawn(async move {
+            let mut ticks = tokio::time::interval(STALL_TICK);
+            ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+            loop {
+                ticks.tick().await;
+                let Some(watch) = ticking.upgrade() else { return };
+                watch.stalled_now();
+                watch.last_tick_ms.store(watch.now_ms(), Ordering::Release);
+            }
+        });
+        watch
+    }
+
+    fn now_ms(&self) -> u64 {
+        self.started.elapsed().as_millis() as u64
+    }
+
+    /// The number of stalls so far, counting one now if the last tick is older than
+    /// [`STALL`] (it is then set to now, so one gap counts once).
+    fn stalled_now(&self) -> u64 {
+        let now = self.now_ms();
+        let last = self.last_tick_ms.load(Ordering::Acquire);
+        let gap = Duration::from_millis(now.saturating_sub(last));
+        if gap > STALL
+            && self
+                .last_tick_ms
+                .compare_exchange(last, now, Ordering::AcqRel, Ordering::Acquire)
+                .is_ok()
+        {
+            return self.stalls.fetch_add(1, Ordering::AcqRel) + 1;
+        }
+        self.stalls.load(Ordering::Acquire)
+    }
 }
 
 enum Body {
@@ -77,7 +144,8 @@ impl Outbox {
         telemetry: Arc<Telemetry>,
     ) -> Outbox {
         let (queue, outgoing) = mpsc::channel(QUEUE);
-        tokio::spawn(publish(client, seal, mask, outgoing, telemetry.clone()));
+        let stalls = StallWatch::start();
+        tokio::spawn(publish(client, seal, mask, outgoing, stalls, telemetry.clone()));
         Outbox { queue, telemetry }
     }
 
@@ -88,6 +156,7 @@ impl Outbox {
             audio_subject: subject(AUDIO, head, stream).into(),
             queue: self.queue.clone(),
             telemetry: self.telemetry.clone(),
+            check: lease.check(),
             lease,
         }
     }
@@ -100,6 +169,7 @@ pub struct BusRelay {
     queue: mpsc::Sender<Outgoing>,
     telemetry: Arc<Telemetry>,
     lease: Lease,
+    check: Arc<LeaseCheck>,
 }
 
 impl BusRelay {
@@ -107,6 +177,7 @@ impl BusRelay {
         let outgoing = Outgoing {
             subject: subject.clone(),
             fence: self.lease.fence(),
+            lease: self.check.clone(),
             body,
         };
         if self.queue.try_send(outgoing).is_err() {
@@ -138,10 +209,22 @@ async fn publish(
     seal: Arc<Seal>,
     mask: Arc<Mask>,
     mut outgoing: mpsc::Receiver<Outgoing>,
+    stalls: Arc<StallWatch>,
     telemetry: Arc<Telemetry>,
 ) {
     let mut line = Vec::new();
-    while let Some(Outgoing { subject, fence, body }) = outgoing.recv().await {
+    while let Some(Outgoing {
+        subject,
+        fence,
+        lease,
+        body,
+    }) = outgoing.recv().await
+    {
+        let stall = stalls.stalled_now();
+        if stall > 0 && !lease.held_after(stall).await {
+            telemetry.bus_dropped("lease_lost");
+            continue;
+        }
         let mut headers = HeaderMap::new();
         headers.insert(LEASE, fence.to_string().as_str());
         let payload = match body {
