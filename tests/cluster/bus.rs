@@ -765,6 +765,24 @@ async fn without_a_key_the_bus_is_still_held_to_a_producers_rules() {
     assert!(hops <= 60.0 + count, "hop sum {hops} s over {count} frames");
 }
 
+/// The seqs of the frames `viewer` receives up to frame `last`; panics on the stream's end
+/// or anything but frames.
+async fn seqs_until(viewer: &mut Socket, last: u64) -> Vec<u64> {
+    let mut seen = Vec::new();
+    while seen.last() != Some(&last) {
+        match next_message(viewer).await {
+            Some(Message::Binary(bytes)) => seen.push(decode(&bytes).unwrap().header.seq),
+            Some(Message::Text(text)) => {
+                if let ServerMessage::End { reason, .. } = serde_json::from_str(text.as_str()).unwrap() {
+                    panic!("ended ({reason}) after {seen:?}");
+                }
+            }
+            other => panic!("expected frames, got {other:?} after {seen:?}"),
+        }
+    }
+    seen
+}
+
 /// Sends `signal` (`STOP`, `CONT`) to a node's process.
 fn signal(server: &Server, signal: &str) {
     let pid = server.pid().expect("a child process").to_string();
@@ -805,18 +823,7 @@ async fn a_node_frozen_while_its_stream_was_taken_over_relays_nothing_when_it_wa
         produce(&mut second, seq).await;
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
-    let mut seen = Vec::new();
-    while seen.last() != Some(&139) {
-        match next_message(&mut on_n3).await {
-            Some(Message::Binary(bytes)) => seen.push(decode(&bytes).unwrap().header.seq),
-            Some(Message::Text(text)) => {
-                if let ServerMessage::End { reason, .. } = serde_json::from_str(text.as_str()).unwrap() {
-                    panic!("ended ({reason}) after {seen:?}");
-                }
-            }
-            other => panic!("expected frames, got {other:?} after {seen:?}"),
-        }
-    }
+    let seen = seqs_until(&mut on_n3, 139).await;
     assert!(seen.iter().all(|&s| s >= 100), "{seen:?}");
     assert!(seen.windows(2).all(|w| w[0] < w[1]), "{seen:?}");
     println!(
@@ -881,18 +888,7 @@ async fn a_woken_node_checks_its_lease_before_relaying_what_it_held() {
         produce(&mut second, seq).await;
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
-    let mut seen = Vec::new();
-    while seen.last() != Some(&139) {
-        match next_message(&mut on_n3).await {
-            Some(Message::Binary(bytes)) => seen.push(decode(&bytes).unwrap().header.seq),
-            Some(Message::Text(text)) => {
-                if let ServerMessage::End { reason, .. } = serde_json::from_str(text.as_str()).unwrap() {
-                    panic!("ended ({reason}) after {seen:?}");
-                }
-            }
-            other => panic!("expected frames, got {other:?} after {seen:?}"),
-        }
-    }
+    let seen = seqs_until(&mut on_n3, 139).await;
     assert!(seen.iter().all(|&s| s >= 100), "{seen:?}");
     println!(
         "node 1 dropped {} messages of its lost lease after waking",
