@@ -378,8 +378,9 @@ pub struct LeaseCheck {
 
 impl LeaseCheck {
     /// Whether the lease may still be relayed under after stall number `stall` (stalls
-    /// counted from 1): asked of the bucket once per stall; `true` while NATS does not
-    /// answer (the lease's refresh decides then, as it does without a stall).
+    /// counted from 1): asked of the bucket once per stall, waiting at most
+    /// [`LIVENESS_TIMEOUT`]; `true` when NATS does not answer (the lease's refresh decides
+    /// then, as it does without a stall), and not asked again until the next stall.
     pub async fn held_after(&self, stall: u64) -> bool {
         if self.lost.load(Ordering::Acquire) {
             return false;
@@ -387,13 +388,17 @@ impl LeaseCheck {
         if self.confirmed_at_stall.load(Ordering::Acquire) >= stall {
             return true;
         }
-        let ours = match self.kv.entry(&self.key).await {
+        let ours = match tokio::time::timeout(LIVENESS_TIMEOUT, self.kv.entry(&self.key)).await {
             // Another node's value: taken over. Removed or released: nobody else holds it,
             // and the lease's refresh takes it back.
-            Ok(Some(entry)) => entry.operation != kv::Operation::Put || entry.value == self.value,
-            Ok(None) => true,
-            Err(e) => {
+            Ok(Ok(Some(entry))) => entry.operation != kv::Operation::Put || entry.value == self.value,
+            Ok(Ok(None)) => true,
+            Ok(Err(e)) => {
                 tracing::debug!(key = %self.key, error = %e, "lease not checked after a stall");
+                true
+            }
+            Err(_) => {
+                tracing::debug!(key = %self.key, "lease not checked after a stall: NATS did not answer in time");
                 true
             }
         };

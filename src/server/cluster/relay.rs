@@ -374,3 +374,23 @@ fn read<'a>(message: &'a async_nats::Message, seal: &Seal, mask: &Mask) -> Resul
         body,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A runtime whose one thread is held (as a frozen or starved process's is) shows one
+    /// stall, counted once whoever sees it first; a runtime that ticks shows none.
+    #[tokio::test(flavor = "current_thread")]
+    async fn a_held_runtime_is_one_stall_and_a_ticking_one_none() {
+        let watch = StallWatch::start();
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        assert_eq!(watch.stalled_now(), 0, "ticking every {STALL_TICK:?}");
+        std::thread::sleep(STALL + Duration::from_millis(200));
+        assert_eq!(watch.stalled_now(), 1);
+        assert_eq!(watch.stalled_now(), 1, "one gap counts once");
+        // The ticker, running again, finds its own gap already counted.
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        assert_eq!(watch.stalled_now(), 1);
+    }
+}
