@@ -783,6 +783,24 @@ async fn seqs_until(viewer: &mut Socket, last: u64) -> Vec<u64> {
     seen
 }
 
+/// A producer on `node` sends frames 0-9 (seen by `viewer`); then the node is frozen and
+/// frames 10-19 wait in its socket. The producer's socket, to keep open.
+async fn freeze_holding_frames(node: &Server, viewer: &mut Socket) -> Socket {
+    let mut socket = producer(node).await;
+    for seq in 0..10 {
+        produce(&mut socket, seq).await;
+    }
+    while next_seq(viewer, Duration::from_secs(5)).await != Some(9) {}
+    signal(node, "STOP");
+    for seq in 10..20 {
+        socket
+            .send(Message::Text(moving_jaw_line(seq).into()))
+            .await
+            .unwrap();
+    }
+    socket
+}
+
 /// Sends `signal` (`STOP`, `CONT`) to a node's process.
 fn signal(server: &Server, signal: &str) {
     let pid = server.pid().expect("a child process").to_string();
@@ -798,20 +816,8 @@ async fn a_node_frozen_while_its_stream_was_taken_over_relays_nothing_when_it_wa
     let nats = NatsServer::start();
     let (n1, n2, n3) = three_nodes_with_the_head(&nats).await;
     let mut on_n3 = viewer(&n3).await;
-    let mut first = producer(&n1).await;
-    for seq in 0..10 {
-        produce(&mut first, seq).await;
-    }
-    while next_seq(&mut on_n3, Duration::from_secs(5)).await != Some(9) {}
-    signal(&n1, "STOP");
-    // Frames sent to the frozen node wait in its socket ...
-    for seq in 10..20 {
-        first
-            .send(Message::Text(moving_jaw_line(seq).into()))
-            .await
-            .unwrap();
-    }
-    // ... while the producer moves on: node 2 takes the lease over (node 1 does not
+    let first = freeze_holding_frames(&n1, &mut on_n3).await;
+    // The producer moves on: node 2 takes the lease over (node 1 does not
     // answer its liveness check).
     let mut second = producer(&n2).await;
     for seq in 100..110 {
@@ -850,19 +856,8 @@ async fn a_woken_node_checks_its_lease_before_relaying_what_it_held() {
     let key = format!("{HEAD}.{STREAM}");
     let revision = || async { leases.entry(&key).await.unwrap().map_or(0, |e| e.revision) };
     let mut on_n3 = viewer(&n3).await;
-    let mut first = producer(&n1).await;
-    for seq in 0..10 {
-        produce(&mut first, seq).await;
-    }
-    while next_seq(&mut on_n3, Duration::from_secs(5)).await != Some(9) {}
-    signal(&n1, "STOP");
+    let first = freeze_holding_frames(&n1, &mut on_n3).await;
     let held = revision().await;
-    for seq in 10..20 {
-        first
-            .send(Message::Text(moving_jaw_line(seq).into()))
-            .await
-            .unwrap();
-    }
     // Node 2 takes the lease over (node 1 does not answer its liveness check), then
     // freezes before it has anything to relay.
     let mut second = producer(&n2).await;

@@ -18,7 +18,7 @@
 
 use std::collections::HashSet;
 use std::future::Future;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -336,7 +336,7 @@ impl Leases {
             value: self.value(&key),
             key: key.clone(),
             confirmed_at_stall: AtomicU64::new(0),
-            lost: std::sync::atomic::AtomicBool::new(false),
+            lost: AtomicBool::new(false),
         });
         self.held.lock().expect("held lock").insert(key.clone());
         tokio::spawn(keep(
@@ -373,7 +373,7 @@ pub struct LeaseCheck {
     /// The last stall ([`super::relay`]'s count) after which the lease was confirmed.
     confirmed_at_stall: AtomicU64,
     /// Found taken over: nothing more is relayed under it.
-    lost: std::sync::atomic::AtomicBool,
+    lost: AtomicBool,
 }
 
 impl LeaseCheck {
@@ -402,14 +402,12 @@ impl LeaseCheck {
                 true
             }
         };
-        match ours {
-            true => self.confirmed_at_stall.fetch_max(stall, Ordering::AcqRel),
-            false => {
-                tracing::warn!(key = %self.key, "after a stall the producer lease is another node's; relaying nothing more under it");
-                self.lost.store(true, Ordering::Release);
-                0
-            }
-        };
+        if ours {
+            self.confirmed_at_stall.fetch_max(stall, Ordering::AcqRel);
+        } else {
+            tracing::warn!(key = %self.key, "after a stall the producer lease is another node's; relaying nothing more under it");
+            self.lost.store(true, Ordering::Release);
+        }
         ours
     }
 }

@@ -156,7 +156,6 @@ impl Outbox {
             audio_subject: subject(AUDIO, head, stream).into(),
             queue: self.queue.clone(),
             telemetry: self.telemetry.clone(),
-            check: lease.check(),
             lease,
         }
     }
@@ -169,7 +168,6 @@ pub struct BusRelay {
     queue: mpsc::Sender<Outgoing>,
     telemetry: Arc<Telemetry>,
     lease: Lease,
-    check: Arc<LeaseCheck>,
 }
 
 impl BusRelay {
@@ -177,7 +175,7 @@ impl BusRelay {
         let outgoing = Outgoing {
             subject: subject.clone(),
             fence: self.lease.fence(),
-            lease: self.check.clone(),
+            lease: self.lease.check(),
             body,
         };
         if self.queue.try_send(outgoing).is_err() {
