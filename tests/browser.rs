@@ -380,6 +380,11 @@ async fn check_the_page(browser: &Browser) {
         check_the_replay(browser, &url, Duration::from_secs(120)).await;
         return;
     }
+    if std::env::var_os("FACEWIRE_CUTAWAY_ONLY").is_some() {
+        let (_demo, url) = start_demo();
+        check_the_cut_away_reads_back(browser, &url, Duration::from_secs(120)).await;
+        return;
+    }
     if std::env::var_os("FACEWIRE_PHONE_ONLY").is_some() {
         let (_demo, url) = start_demo();
         check_the_page_on_a_phone(browser, &url, Duration::from_secs(120)).await;
@@ -472,6 +477,7 @@ async fn check_the_page(browser: &Browser) {
     check_the_lips_read(browser, &url, long).await;
     check_the_element_embeds(browser, &url, long).await;
     check_the_replay(browser, &url, long).await;
+    check_the_cut_away_reads_back(browser, &url, long).await;
     check_the_inner_mouth_close_up(browser, &url, long).await;
     check_a_stalled_stream(browser, &url, long).await;
     check_a_head_posted_with_no_fit(browser, &url, long).await;
@@ -1029,8 +1035,9 @@ async fn check_the_tongue(browser: &Browser, url: &str, long: Duration) {
 }
 
 /// Pixels of a screenshot (base64 PNG) within 3 of each of the flat section colours the
-/// cut-away draws (web/render.js: skin, tongue, teeth and gums, sRGB), with the mean x and
-/// the topmost y (0 at the top) of the tongue's, decoded by the page.
+/// cut-away draws (web/render.js: skin, tongue, teeth and gums, sRGB), with the topmost y
+/// (0 at the top) of the tongue's and the mean x of its pixels in that row and the next
+/// two (where the tongue is highest), decoded by the page.
 async fn section_pixels(browser: &Browser, shot: &str) -> Value {
     browser
         .js(&format!(
@@ -1040,13 +1047,13 @@ async fn section_pixels(browser: &Browser, shot: &str) -> Value {
              const d = g.getImageData(0, 0, c.width, c.height).data; \
              const want = {{ skin: [0.72, 0.36, 0.34], tongue: [0.592, 0.264, 0.288], \
                teeth: [0.744, 0.72, 0.656], gums: [0.624, 0.32, 0.336] }}; \
-             const out = {{ total: c.width * c.height, tongueX: 0, tongueTop: c.height }}; \
+             const out = {{ total: c.width * c.height, topX: 0, tongueTop: null }}; let top = 0; \
              for (const k in want) out[k] = 0; \
              for (let i = 0; i < d.length; i += 4) {{ for (const k in want) {{ \
                if (want[k].every((v, j) => Math.abs(d[i + j] - Math.round(v * 255)) <= 3)) {{ \
-                 out[k]++; if (k === 'tongue') {{ const p = i / 4; out.tongueX += p % c.width; \
-                 out.tongueTop = Math.min(out.tongueTop, Math.floor(p / c.width)); }} }} }} }} \
-             out.tongueX = out.tongue ? out.tongueX / out.tongue : null; window.sectionCount = out; }}; \
+                 out[k]++; if (k === 'tongue') {{ const p = i / 4, y = Math.floor(p / c.width); \
+                 out.tongueTop ??= y; if (y <= out.tongueTop + 2) {{ out.topX += p % c.width; top++; }} }} }} }} }} \
+             out.topX = top ? out.topX / top : null; window.sectionCount = out; }}; \
              img.src = 'data:image/png;base64,{shot}';"
         ))
         .await;
@@ -1064,8 +1071,6 @@ async fn section_pixels(browser: &Browser, shot: &str) -> Value {
 /// in section, on a stream of the test's own holding "d" (DD) and then "k" (kk): the
 /// tongue's section moves back for k. The front look shows no section. The see-through
 /// skin and a turned cut draw without complaint, and the URL keeps the look.
-/// `FACEWIRE_SCREENSHOTS=DIR` keeps the two pictures (`DIR/cutaway-{DD,kk}.png.base64`;
-/// docs/img/cutaway-*.png are them).
 async fn check_the_cut_away(browser: &Browser, url: &str, long: Duration) {
     let first = r#"{"seq":0,"t":0,"viseme":{"oculus":"DD"}}"#;
     let mut producer = watch_the_ict_mouth(browser, url, "cut", "&view=cutaway", first, long).await;
@@ -1087,25 +1092,20 @@ async fn check_the_cut_away(browser: &Browser, url: &str, long: Duration) {
     let kk = browser.screenshot("#canvas-0").await;
     let kk_pixels = section_pixels(browser, &kk).await;
     println!("cut-away section pixels: d {dd_pixels}, k {kk_pixels}");
-    if let Some(dir) = std::env::var_os("FACEWIRE_SCREENSHOTS") {
-        for (name, shot) in [("DD", &dd), ("kk", &kk)] {
-            let path = std::path::Path::new(&dir).join(format!("cutaway-{name}.png.base64"));
-            std::fs::write(path, shot).unwrap();
-        }
-    }
     for pixels in [&dd_pixels, &kk_pixels] {
         let share = |k: &str| pixels[k].as_f64().unwrap() / pixels["total"].as_f64().unwrap();
         assert!(share("skin") > 0.02, "the skin's section is shown: {pixels}");
         assert!(share("tongue") > 0.002, "the tongue's section is shown: {pixels}");
     }
     // The side view looks from the head's left: its front is on the left of the picture.
+    // The tongue is highest at its tip for d, at its back for k.
     let (dd_x, kk_x) = (
-        dd_pixels["tongueX"].as_f64().unwrap(),
-        kk_pixels["tongueX"].as_f64().unwrap(),
+        dd_pixels["topX"].as_f64().unwrap(),
+        kk_pixels["topX"].as_f64().unwrap(),
     );
     assert!(
         kk_x > dd_x,
-        "the tongue is further back for k: x {kk_x:.1} against {dd_x:.1} for d"
+        "the tongue is highest further back for k: x {kk_x:.1} against {dd_x:.1} for d"
     );
     let message = browser.js(&text_of("message-0")).await;
     assert_eq!(message, "", "the page complains: {message}");
@@ -1141,6 +1141,146 @@ async fn check_the_cut_away(browser: &Browser, url: &str, long: Duration) {
         "no section in the front look: {front_pixels}"
     );
     producer.close(None).await.unwrap();
+}
+
+/// The frames of the syllable stream that hold a t or d: its label starts with t or d and
+/// the tongue tip is raised to at least 90 % of the alveolar stop's 900 counts (the
+/// consonant's closure, not the approach to it or the release into the vowel).
+fn alveolar_stop_frames() -> Vec<u64> {
+    let text = std::fs::read_to_string(common::data("streams/syllables.jsonl")).unwrap();
+    text.lines()
+        .map(|line| serde_json::from_str::<Value>(line).unwrap())
+        .filter(|f| {
+            let label = f["label"].as_str().unwrap_or("");
+            let tip = f["fap"]["raise_tongue_tip"].as_f64().unwrap_or(0.0);
+            (label.starts_with('t') || label.starts_with('d')) && tip >= 810.0
+        })
+        .map(|f| f["seq"].as_u64().unwrap())
+        .collect()
+}
+
+/// Measures the cut-away view 1 shows now, as drawn: draws it, reads its pixels back
+/// (`gl.readPixels`, the picture as the screen gets it) and finds the tongue's and the
+/// gums' flat section colours (web/render.js; the ICT head's lower gums are in its tongue
+/// part, drawn as gums where the server's `tongue.bin` says a vertex is not the tongue).
+/// Returns the tongue's tip (its front-most pixel: the side view looks from the head's
+/// left, so the front is on the left; x, y from the bottom), the shortest distance in the
+/// picture from it to a gums pixel, in pixels, the pixels per mm at the cut, the scale
+/// bar's length in pixels and in mm, and both colours' pixel counts.
+const TONGUE_TO_GUMS_JS: &str = "const v = window.facewireViews()[0]; v.draw(window.facewireCamera, true); \
+     const r = v.renderer; const gl = r.gl; const w = gl.drawingBufferWidth, h = gl.drawingBufferHeight; \
+     const d = new Uint8Array(w * h * 4); gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, d); \
+     const is = (p, c) => c.every((x, j) => Math.abs(d[p * 4 + j] - Math.round(x * 255)) <= 3); \
+     const TONGUE = [0.592, 0.264, 0.288], GUMS = [0.624, 0.32, 0.336]; \
+     let tongue = 0, gums = []; let tip = null; \
+     for (let y = 0; y < h; y++) for (let x = 0; x < w; x++) { const p = y * w + x; \
+       if (is(p, TONGUE)) { tongue++; if (!tip || x < tip[0]) tip = [x, y]; } else if (is(p, GUMS)) gums.push([x, y]); } \
+     let best = Infinity; \
+     if (tip) for (const [gx, gy] of gums) best = Math.min(best, (tip[0] - gx) ** 2 + (tip[1] - gy) ** 2); \
+     return { px: Math.sqrt(best), tip, pxPerMm: r.cssPixelsPerMm * (window.devicePixelRatio || 1), tongue, gums: gums.length, \
+       bar: document.getElementById('scalebar-0').getBoundingClientRect().width, barMm: Number(document.getElementById('scalebar-0').dataset.mm) };";
+
+/// The cut-away read back: the demo's recording of the syllables replayed in the mouth's
+/// cut-away, paused on every frame that holds a t or d, each picture read back: the
+/// tongue's tip within 2 mm of the gums behind the upper incisors (the alveolar ridge) in
+/// the picture, at the scale bar's scale, and within 1 mm of what the geometry says
+/// (`facewire compare`'s `tongue_tip_to_gums_mm` on the same head, stream and default
+/// algorithm, under 1 mm on each); on the open "a" after t and after d, the tip seen at
+/// least 10 mm lower than on any t or d frame, where the geometry has it over 10 mm from
+/// the gums.
+/// `FACEWIRE_SCREENSHOTS=DIR` keeps "ta" and "ka" (`DIR/cutaway-{ta,ka}.png.base64`;
+/// docs/img/cutaway.png is them side by side).
+async fn check_the_cut_away_reads_back(browser: &Browser, url: &str, long: Duration) {
+    let stops = alveolar_stop_frames();
+    assert_eq!(
+        stops.len(),
+        12,
+        "two frames for each of ta ti tu da di du: {stops:?}"
+    );
+    // The open a of "ta" and "da", four frames after each's last closure frame.
+    let open: Vec<u64> = [stops[1] + 4, stops[7] + 4].to_vec();
+    let frames: Vec<u64> = stops.iter().chain(&open).copied().collect();
+    // The geometry of those frames alone (each frame deforms on its own), as `facewire
+    // compare` measures it: by seq.
+    let mut measured = frames.clone();
+    measured.sort_unstable();
+    let geometry = tokio::task::spawn_blocking(move || {
+        let text = std::fs::read_to_string(common::data("streams/syllables.jsonl")).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        let dir = tempfile::tempdir().unwrap();
+        let stream = dir.path().join("stops.jsonl");
+        let picked: Vec<&str> = measured.iter().map(|&seq| lines[seq as usize]).collect();
+        std::fs::write(&stream, picked.join("\n") + "\n").unwrap();
+        let head = std::sync::Arc::new(common::ict_head());
+        let basis = facewire::stream::ArkitBasis::shipped();
+        let algorithms = facewire::report::parse_algorithms("V").unwrap();
+        let input = facewire::report::CompareInput {
+            head: &head,
+            stream: &stream,
+            basis: &basis,
+            algorithms: &algorithms,
+            targets: &[],
+        };
+        let comparison = facewire::report::compare(&input, &mut |_| {}).unwrap();
+        let rows = &comparison.algorithms[0].contact;
+        assert_eq!(rows.len(), measured.len());
+        measured
+            .iter()
+            .zip(rows)
+            .map(|(&seq, row)| (seq, row.contact.tongue_tip_to_gums_mm))
+            .collect::<std::collections::HashMap<u64, f32>>()
+    });
+    open_the_paused_replay(browser, url, "&view=cutaway", long).await;
+    let geometry = geometry.await.unwrap();
+    let mut lowest_stop_tip = f64::INFINITY;
+    for &frame in &frames {
+        seek_the_replay(browser, frame, long).await;
+        let seen = browser.js(TONGUE_TO_GUMS_JS).await;
+        let pixels_per_mm = seen["pxPerMm"].as_f64().unwrap();
+        let picture_mm = seen["px"].as_f64().unwrap() / pixels_per_mm;
+        let geometry_mm = f64::from(geometry[&frame]);
+        println!(
+            "cut-away frame {frame}: tongue to ridge {picture_mm:.2} mm in the picture, {geometry_mm:.2} mm in the geometry ({seen})"
+        );
+        assert!(
+            seen["tongue"].as_u64().unwrap() > 100 && seen["gums"].as_u64().unwrap() > 100,
+            "frame {frame}: the sections are not in the picture: {seen}"
+        );
+        // The scale bar says what the picture's scale is.
+        let bar_mm = seen["bar"].as_f64().unwrap() / pixels_per_mm;
+        assert!(
+            (bar_mm - seen["barMm"].as_f64().unwrap()).abs() < 0.1,
+            "the scale bar is {bar_mm:.2} mm long, labelled {}",
+            seen["barMm"]
+        );
+        let tip_y = seen["tip"][1].as_f64().unwrap();
+        if open.contains(&frame) {
+            assert!(geometry_mm > 10.0, "frame {frame}: {geometry_mm} mm");
+            let drop_mm = (lowest_stop_tip - tip_y) / pixels_per_mm;
+            assert!(
+                drop_mm >= 10.0,
+                "frame {frame}: an open a, the tip only {drop_mm:.1} mm lower than for t, d"
+            );
+        } else {
+            lowest_stop_tip = lowest_stop_tip.min(tip_y);
+            assert!(geometry_mm < 1.0, "frame {frame}: {geometry_mm} mm");
+            assert!(
+                picture_mm <= 2.0 && (picture_mm - geometry_mm).abs() <= 1.0,
+                "frame {frame}: the tongue tip {picture_mm:.2} mm from the ridge in the cut-away, {geometry_mm:.2} in the geometry"
+            );
+        }
+    }
+    // docs/img/cutaway.png: "ta" on its first closure frame and "ka" with the tongue's back
+    // raised (frame 111, FAP 46 at its 500).
+    if let Some(dir) = std::env::var_os("FACEWIRE_SCREENSHOTS") {
+        for (name, frame) in [("ta", stops[0]), ("ka", 111)] {
+            seek_the_replay(browser, frame, long).await;
+            tokio::time::sleep(Duration::from_millis(500)).await;
+            let shot = browser.screenshot("#canvas-0").await;
+            let path = std::path::Path::new(&dir).join(format!("cutaway-{name}.png.base64"));
+            std::fs::write(path, shot).unwrap();
+        }
+    }
 }
 
 /// The heat-map's scale: hidden until the heat-map is on, then picked, shown in the
@@ -1744,15 +1884,12 @@ async fn check_the_element_embeds(browser: &Browser, url: &str, long: Duration) 
 /// The seq of the frame view 1 shows now, or null before any.
 const SHOWN_SEQ_JS: &str = "return document.getElementById('view-0')?.dataset.seq ?? null";
 
-/// Replay of the demo's recording of the syllables (`?replay=syllables`): the transport
-/// bar pauses it, its scrubber seeks and its buttons step, each landing on the frame asked
-/// for exactly (the frame's `seq` is its index in the recording); a label looped at a
-/// quarter of the pace shows only that label's frames, the first and the last among them,
-/// about four times as far apart as recorded; and the URL keeps the replay.
-async fn check_the_replay(browser: &Browser, url: &str, long: Duration) {
+/// Opens the demo's recording of the syllables on the ICT head in the mouth close-up
+/// (`more`: further URL parameters), waits for its first frames and pauses it.
+async fn open_the_paused_replay(browser: &Browser, url: &str, more: &str, long: Duration) {
     wait_ready(url, "ict", long).await;
     browser
-        .open(&format!("{url}?head=ict&replay=syllables&mouth=1"))
+        .open(&format!("{url}?head=ict&replay=syllables&mouth=1{more}"))
         .await;
     browser
         .wait_for(
@@ -1772,15 +1909,34 @@ async fn check_the_replay(browser: &Browser, url: &str, long: Duration) {
             long,
         )
         .await;
-    let seek = |frame: u64| {
-        format!(
+}
+
+/// Seeks the paused replay to `frame` with the scrubber and waits until view 1 shows it.
+async fn seek_the_replay(browser: &Browser, frame: u64, long: Duration) {
+    browser
+        .js(&format!(
             "const p = document.getElementById('replay-position'); p.value = '{frame}'; \
              p.dispatchEvent(new Event('input'))"
+        ))
+        .await;
+    browser
+        .wait_for(
+            &format!("frame {frame} shown"),
+            &format!("return document.getElementById('view-0').dataset.seq === '{frame}'"),
+            long,
         )
-    };
-    browser.js(&seek(100)).await;
+        .await;
+}
+
+/// Replay of the demo's recording of the syllables (`?replay=syllables`): the transport
+/// bar pauses it, its scrubber seeks and its buttons step, each landing on the frame asked
+/// for exactly (the frame's `seq` is its index in the recording); a label looped at a
+/// quarter of the pace shows only that label's frames, the first and the last among them,
+/// about four times as far apart as recorded; and the URL keeps the replay.
+async fn check_the_replay(browser: &Browser, url: &str, long: Duration) {
+    open_the_paused_replay(browser, url, "", long).await;
+    seek_the_replay(browser, 100, long).await;
     let shown = |frame: u64| format!("return document.getElementById('view-0').dataset.seq === '{frame}'");
-    browser.wait_for("frame 100 shown", &shown(100), long).await;
     browser.click("#replay-forward").await;
     browser.wait_for("frame 101 shown", &shown(101), long).await;
     browser.click("#replay-back").await;

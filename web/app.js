@@ -17,7 +17,7 @@
 
 import { attachPointerControls, handleCameraKey, OrbitCamera } from "./camera.js";
 import { LiveChart } from "./chart.js";
-import { parseLipTint, parseMesh } from "./decode.js";
+import { parseVertexWeights, parseMesh } from "./decode.js";
 import { fitOutcome, fitPaths } from "./fit.js";
 import { Nodes } from "./nodes.js";
 import { DEFAULT_HEAT_MAX, Panel } from "./panel.js";
@@ -102,7 +102,7 @@ const chart = new LiveChart(byId("chart"));
 const replayBar = new ReplayBar((message) => page.panels.forEach((panel) => panel.control(message)));
 const meshes = new Map();
 /** Lip weights by URL, as `meshes`. */
-const lipTints = new Map();
+const vertexWeights = new Map();
 let framedMesh = null;
 /**
  * The fit report's fetches: `seen` is the chosen head's status when the last one started
@@ -135,19 +135,19 @@ function loadMesh(url) {
   return meshes.get(url);
 }
 
-/** Lip weights by URL (the snapshot's `lip_tint`), fetched once and shared by both views. */
-function loadLipTint(url, vertexCount) {
-  if (!lipTints.has(url)) {
+/** Vertex weights by URL (the snapshot's `lip_tint`, a part's `tongue_proper`), fetched once and shared by both views. */
+function loadWeights(url, vertexCount) {
+  if (!vertexWeights.has(url)) {
     const promise = nodes.fetch(url).then((response) => {
       if (!response.ok) {
         throw new Error(`HTTP ${response.status}`);
       }
-      return response.arrayBuffer().then((buffer) => parseLipTint(buffer, vertexCount));
+      return response.arrayBuffer().then((buffer) => parseVertexWeights(buffer, vertexCount));
     });
-    promise.catch(() => lipTints.delete(url));
-    lipTints.set(url, promise);
+    promise.catch(() => vertexWeights.delete(url));
+    vertexWeights.set(url, promise);
   }
-  return lipTints.get(url);
+  return vertexWeights.get(url);
 }
 
 /** The lip controls as `page.lips` has them; the strength only matters for a tint. */
@@ -478,7 +478,7 @@ function addPanel(algorithm, heat, heatMax) {
     algorithms: page.algorithms,
     chart,
     loadMesh,
-    loadLipTint,
+    loadWeights,
     lips: page.lips,
     onMesh: (url, mesh, mouth) => {
       if (framedMesh !== url) {

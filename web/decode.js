@@ -10,7 +10,7 @@
 // returns a promise.
 
 const MESH_MAGIC = "FWM1";
-const LIP_TINT_MAGIC = "FWL1";
+const VERTEX_WEIGHTS_MAGIC = "FWL1";
 const FWF1_MAGIC = "FWF1";
 const FWF2_MAGIC = "FWF2";
 const AUDIO_MAGIC = "FWA1";
@@ -194,12 +194,13 @@ export function parseMesh(buffer) {
 }
 
 /**
- * `lips.bin` (FWL1): how much each rest-mesh vertex is lip, 0 to 1, as a Float32Array
- * (one per vertex). `vertexCount`: the rest mesh's, which the weights must match.
+ * `lips.bin` or a tongue part's `tongue.bin` (FWL1): how much each vertex of a mesh is lip
+ * (or tongue), 0 to 1, as a Float32Array (one per vertex). `vertexCount`: the mesh's, which
+ * the weights must match.
  */
-export function parseLipTint(buffer, vertexCount) {
+export function parseVertexWeights(buffer, vertexCount) {
   const r = new Reader(new Uint8Array(buffer));
-  r.magic(LIP_TINT_MAGIC);
+  r.magic(VERTEX_WEIGHTS_MAGIC);
   const count = r.u32("vertex count");
   if (buffer.byteLength !== 8 + count) {
     throw new DecodeError("vertex count", 4, `${count} vertices need ${8 + count} bytes, got ${buffer.byteLength}`);

@@ -11,7 +11,7 @@ import {
   decodeFrame,
   DecodeError,
   motionMatrix,
-  parseLipTint,
+  parseVertexWeights,
   parseMesh,
   readFrameHeader,
 } from "./decode.js";
@@ -125,10 +125,10 @@ for (const [i, c] of cases.malformedMeshes.entries()) {
   await throwsOn(parseMesh, c.bytes, c.field, `malformed mesh ${i} (${c.name})`);
 }
 
-const lips = parseLipTint(bufferOf(cases.lipTint.bytes), cases.lipTint.vertexCount);
+const lips = parseVertexWeights(bufferOf(cases.lipTint.bytes), cases.lipTint.vertexCount);
 same([...lips], cases.lipTint.expected, "lip tint");
 for (const c of cases.malformedLipTints) {
-  await throwsOn((buffer) => parseLipTint(buffer, cases.lipTint.vertexCount), c.bytes, c.field, `malformed lip tint (${c.name})`);
+  await throwsOn((buffer) => parseVertexWeights(buffer, cases.lipTint.vertexCount), c.bytes, c.field, `malformed lip tint (${c.name})`);
 }
 
 if (failures.length > 0) {

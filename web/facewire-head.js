@@ -25,7 +25,7 @@
 // facewire page or the protocol (proto/PROTOCOL.md).
 
 import { attachPointerControls, handleCameraKey, OrbitCamera } from "./camera.js";
-import { parseLipTint, parseMesh } from "./decode.js";
+import { parseVertexWeights, parseMesh } from "./decode.js";
 import { HeadView } from "./head-view.js";
 import { Nodes, parseNodes } from "./nodes.js";
 
@@ -160,7 +160,7 @@ export class FacewireHead extends HTMLElement {
       canvas: this.canvas,
       nodes,
       loadMesh: (url) => cached(absolute(url), parseMesh),
-      loadLipTint: (url, vertexCount) => cached(absolute(url), (buffer) => parseLipTint(buffer, vertexCount)),
+      loadWeights: (url, vertexCount) => cached(absolute(url), (buffer) => parseVertexWeights(buffer, vertexCount)),
       handlers: {
         onState: (state, detail) => this.stateChanged(state, detail),
         onMesh: (url, mesh, mouth) => {

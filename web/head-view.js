@@ -48,8 +48,9 @@ const ignore = () => {};
 export class HeadView {
   /**
    * `canvas`: where the head is drawn; `nodes`: the Nodes (nodes.js) sockets go to;
-   * `loadMesh(url)` and `loadLipTint(url, vertexCount)`: promises of a parsed mesh and of
-   * a head's lip weights (decode.js), which the caller may share between views; `sound`:
+   * `loadMesh(url)` and `loadWeights(url, vertexCount)`: promises of a parsed mesh and of
+   * a mesh's vertex weights (decode.js: the lips of the head, the tongue of its tongue
+   * part), which the caller may share between views; `sound`:
    * the Sound (sound.js) frames wait for while it plays, and `audio`: the codec this view
    * asks for and feeds the sound with, or null. `handlers`, each optional:
    * - `onState(state, detail)`: the socket's state (stream.js);
@@ -65,11 +66,11 @@ export class HeadView {
    * - `onProblem(text)`: something people should read (an unreadable frame, a mesh that
    *   does not match).
    */
-  constructor({ canvas, nodes, loadMesh, loadLipTint, sound = null, audio = null, handlers = {} }) {
+  constructor({ canvas, nodes, loadMesh, loadWeights, sound = null, audio = null, handlers = {} }) {
     this.nodes = nodes;
     this.node = nodes.index;
     this.loadMesh = loadMesh;
-    this.loadLipTint = loadLipTint;
+    this.loadWeights = loadWeights;
     this.sound = sound;
     this.audio = audio;
     this.on = new Proxy(handlers, { get: (h, name) => h[name] ?? ignore });
@@ -83,6 +84,8 @@ export class HeadView {
     });
     this.mesh = null;
     this.meshUrl = null;
+    /** The frame shown last, on the current mesh. */
+    this.shown = null;
     this.snapshot = null;
     this.pending = [];
     this.lastSeq = null;
@@ -165,6 +168,7 @@ export class HeadView {
       return;
     }
     this.mesh = null;
+    this.shown = null;
     this.meshUrl = snapshot.rest_mesh;
     this.loadMesh(snapshot.rest_mesh).then(
       (mesh) => {
@@ -191,18 +195,30 @@ export class HeadView {
     );
   }
 
-  /** The snapshot's parts (teeth, gums, tongue) and eyes, drawn once their meshes arrive. */
+  /**
+   * The snapshot's parts (teeth, gums, tongue) and eyes, drawn once their meshes (and the
+   * tongue part's `tongue_proper` weights, from servers that send them) arrive.
+   */
   loadParts(snapshot) {
     const parts = snapshot.parts ?? [];
     const eyes = snapshot.eyes ?? [];
     this.on.onParts(parts, eyes);
-    Promise.all([...parts, ...eyes].map((p) => this.loadMesh(p.mesh))).then(
-      (meshes) => {
+    const tongueOf = (part, mesh) => (part.tongue_proper ? this.loadWeights(part.tongue_proper, mesh.vertexCount) : null);
+    const loaded = Promise.all([...parts, ...eyes].map((p) => this.loadMesh(p.mesh))).then((meshes) =>
+      Promise.all(parts.map((p, i) => tongueOf(p, meshes[i]))).then((tongues) => [meshes, tongues]),
+    );
+    loaded.then(
+      ([meshes, tongues]) => {
         if (snapshot.rest_mesh !== this.meshUrl) {
           return;
         }
-        this.renderer.setParts(parts.map((p, i) => ({ name: p.name, role: p.role, mesh: meshes[i] })));
+        this.renderer.setParts(
+          parts.map((p, i) => ({ name: p.name, role: p.role, mesh: meshes[i], tongue: tongues[i] })),
+        );
         this.renderer.setEyes(eyes.map((eye, i) => ({ eye, mesh: meshes[parts.length + i] })));
+        if (this.shown) {
+          this.shapeParts(this.shown);
+        }
         this.on.onPartsLoaded();
         this.needsDraw = true;
       },
@@ -219,7 +235,7 @@ export class HeadView {
       this.on.onLips("none");
       return;
     }
-    this.loadLipTint(snapshot.lip_tint, mesh.vertexCount).then(
+    this.loadWeights(snapshot.lip_tint, mesh.vertexCount).then(
       (weights) => {
         if (snapshot.rest_mesh !== this.meshUrl) {
           return;
@@ -363,18 +379,27 @@ export class HeadView {
     }
     applyFrame(this.mesh.positions, frame, this.positions);
     this.renderer.setPositions(this.positions);
+    this.renderer.setMotion(motionMatrix(frame.head), motionMatrix(frame.jaw));
+    this.shown = frame;
+    this.shapeParts(frame);
+    this.renderer.setHeat(frame.face, this.heatScale);
+    this.needsDraw = true;
+    this.on.onShown(frame, saidBy(frame));
+  }
+
+  /**
+   * The tongue's shape and the eyes' turns of `frame`, on the parts and eyes loaded now:
+   * again when they load after the frame was shown (a paused replay, a still stream).
+   */
+  shapeParts(frame) {
     const problem = this.renderer.setTongue(frame.tongue, frame.tongue?.step);
     if (problem) {
       this.on.onProblem(problem);
     }
-    this.renderer.setMotion(motionMatrix(frame.head), motionMatrix(frame.jaw));
     const eyeProblem = this.renderer.setEyeMotions(frame.eyes);
     if (eyeProblem) {
       this.on.onProblem(eyeProblem);
     }
-    this.renderer.setHeat(frame.face, this.heatScale);
-    this.needsDraw = true;
-    this.on.onShown(frame, saidBy(frame));
   }
 
   /** Draws when something changed (or `force`), with `camera` (camera.js). */

@@ -22,6 +22,8 @@ const STALL_MS = 2000;
 const FOLD_BEND_DEG = 30;
 /** Coloured by folds, a vertex whose triangles turned this far (degrees) tops the ramp. */
 const FOLDS_RAMP_TOP_DEG = 90;
+/** The lengths the scale bar may show, mm. */
+const SCALE_LENGTHS_MM = [1, 2, 5, 10, 20, 50, 100];
 
 const STATE_TEXT = {
   connecting: "Connecting",
@@ -52,8 +54,8 @@ function foldsText(folds) {
 export class Panel {
   /**
    * `index`: 0 or 1; `algorithms`: the /v1/algorithms list; `loadMesh(url)`: a promise of
-   * a parsed mesh; `loadLipTint(url, vertexCount)`: a promise of a head's lip weights
-   * (decode.js parseLipTint); `lips`: how the lips are drawn (render.js setLips);
+   * a parsed mesh; `loadWeights(url, vertexCount)`: a promise of a mesh's vertex weights
+   * (decode.js parseVertexWeights: the lips, the tongue part's tongue); `lips`: how the lips are drawn (render.js setLips);
    * `onMesh(url, mesh)`: a mesh is shown; `onSettings()`: the user changed
    * this view's algorithm or heat-map; `onReplay(message)`: where a replay stands;
    * `onRecording(recording)`: the snapshot's `replay` (the recording replayed), or null; `nodes`: the page's Nodes (nodes.js), shared by
@@ -67,7 +69,7 @@ export class Panel {
     algorithms,
     chart,
     loadMesh,
-    loadLipTint,
+    loadWeights,
     onMesh,
     onSettings,
     onReplay,
@@ -138,7 +140,7 @@ export class Panel {
       canvas,
       nodes,
       loadMesh,
-      loadLipTint,
+      loadWeights,
       sound,
       audio,
       handlers: {
@@ -338,6 +340,26 @@ export class Panel {
 
   draw(camera, force) {
     this.view.draw(camera, force);
+    this.showScale(this.view.renderer.cssPixelsPerMm);
+  }
+
+  /**
+   * The scale bar of the side and cut-away looks: the shortest of SCALE_LENGTHS_MM that
+   * is at least 40 CSS pixels long at the cut plane; hidden in the other looks.
+   */
+  showScale(pixelsPerMm) {
+    const { scale, scalebar, scalelabel } = this.parts;
+    const mm = pixelsPerMm ? SCALE_LENGTHS_MM.find((l) => l * pixelsPerMm >= 40) : undefined;
+    scale.hidden = mm === undefined;
+    if (mm === undefined) {
+      return;
+    }
+    const width = `${(mm * pixelsPerMm).toFixed(1)}px`;
+    if (scalebar.style.width !== width) {
+      scalebar.style.width = width;
+      scalebar.dataset.mm = String(mm);
+      scalelabel.textContent = `${mm} mm`;
+    }
   }
 
   /** Steers this view's replay (head-view.js control). */

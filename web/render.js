@@ -22,7 +22,7 @@ uniform mat4 u_projection;
 in vec3 a_position;
 in vec3 a_normal;
 in float a_heat;
-in float a_lip; // how much the vertex is lip, 0 to 1 (0 for the parts, which have none)
+in float a_lip; // how much the vertex is lip (tongue, in a tongue part), 0 to 1; 0 elsewhere
 out vec3 v_position;
 out vec3 v_rest; // the vertex before any motion, head units: where an eye's iris is
 out vec3 v_normal;
@@ -56,9 +56,11 @@ uniform vec2 u_eye_radii;
 // no cut.
 uniform vec4 u_clip;
 uniform vec3 u_section; // sRGB
+uniform vec3 u_lip_section; // sRGB, where v_lip x u_lip_strength is over 1/2
 uniform float u_alpha; // 1 but for a see-through skin
 // The lips: their albedo (sRGB) mixed into u_albedo by v_lip x strength, and a rim light
-// of this strength on them. u_flat >= 0 draws flat grey u_flat, white where lip, unlit.
+// of this strength on them (a tongue part's tongue is its "lip", rim 0). u_flat >= 0
+// draws flat grey u_flat, white where lip, unlit.
 uniform vec3 u_lip_albedo;
 uniform float u_lip_strength;
 uniform float u_lip_rim;
@@ -94,11 +96,11 @@ void main() {
   bool cut = dot(u_clip.xyz, u_clip.xyz) > 0.0;
   if (cut && dot(u_clip.xyz, v_position) + u_clip.w > 0.0) discard;
   if (cut && !gl_FrontFacing) {
-    out_colour = vec4(u_section, 1.0);
+    out_colour = vec4(v_lip * u_lip_strength > 0.5 ? u_lip_section : u_section, 1.0);
     return;
   }
   if (u_flat >= 0.0) {
-    out_colour = vec4(mix(vec3(u_flat), vec3(1.0), v_lip), u_alpha);
+    out_colour = vec4(mix(vec3(u_flat), vec3(1.0), v_lip * u_lip_strength), u_alpha);
     return;
   }
   float length_n = length(v_normal);
@@ -163,7 +165,10 @@ const SEE_THROUGH_ALPHA = 0.3;
 /** The looks a view can have (`view=` in the page's URL). */
 export const LOOKS = ["front", "side", "cutaway", "see-through"];
 
-/** A part's material: a tongue by its role, teeth and gums by their names, else teeth. */
+/**
+ * A part's material: a tongue by its role (gums where the server says a vertex is not the
+ * tongue itself), teeth and gums by their names, else teeth.
+ */
 function partAlbedo(name, role) {
   if (role === "tongue") {
     return TONGUE;
@@ -252,6 +257,7 @@ export class HeadRenderer {
       eyeRadii: gl.getUniformLocation(program, "u_eye_radii"),
       clip: gl.getUniformLocation(program, "u_clip"),
       section: gl.getUniformLocation(program, "u_section"),
+      lipSection: gl.getUniformLocation(program, "u_lip_section"),
       alpha: gl.getUniformLocation(program, "u_alpha"),
       lipAlbedo: gl.getUniformLocation(program, "u_lip_albedo"),
       lipStrength: gl.getUniformLocation(program, "u_lip_strength"),
@@ -280,6 +286,13 @@ export class HeadRenderer {
     /** How the lips are drawn (setLips): one of LIP_MODES and the tint's strength, 0 to 1. */
     this.lips = { mode: "tint", strength: 1 };
     this.cutCentre = [0, 0, 0];
+    /** Millimetres per head unit of the rest mesh (setMesh). */
+    this.mmPerUnit = 1;
+    /**
+     * In the side and cut-away looks, how many CSS pixels one millimetre spans where the
+     * cut plane is, as last drawn (the scale bar's length); null in the other looks.
+     */
+    this.cssPixelsPerMm = null;
     gl.enable(gl.DEPTH_TEST);
     gl.blendFunc(gl.SRC_ALPHA, gl.ONE_MINUS_SRC_ALPHA);
   }
@@ -302,7 +315,7 @@ export class HeadRenderer {
   }
 
   /**
-   * How much each rest-mesh vertex is lip (decode.js parseLipTint), or null when the
+   * How much each rest-mesh vertex is lip (decode.js parseVertexWeights), or null when the
    * server says nothing (every vertex skin).
    */
   setLipTint(weights) {
@@ -350,6 +363,19 @@ export class HeadRenderer {
     return new Float32Array([...normal, -(normal[0] * point[0] + normal[1] * point[1] + normal[2] * point[2])]);
   }
 
+  /**
+   * CSS pixels per millimetre at the cut centre for `view` and `projection`: the side and
+   * cut-away cameras look along the cut's normal, so the whole cut plane is at about this
+   * scale.
+   */
+  pixelsPerMmAtCut(view, projection) {
+    const modelView = multiply(view, this.model);
+    const c = this.cutCentre;
+    const depth = -(modelView[2] * c[0] + modelView[6] * c[1] + modelView[10] * c[2] + modelView[14]);
+    const pixelsPerUnit = (projection[5] * this.canvas.clientHeight) / 2 / depth;
+    return pixelsPerUnit / this.mmPerUnit;
+  }
+
   attribute(name, size, vao = this.vao) {
     const gl = this.gl;
     const buffer = gl.createBuffer();
@@ -365,6 +391,7 @@ export class HeadRenderer {
   /** A new rest mesh (from decode.js parseMesh): buffers sized for it, shown at rest. */
   setMesh(mesh) {
     const gl = this.gl;
+    this.mmPerUnit = mesh.mmPerUnit;
     this.indices = mesh.indices;
     this.normals = new Float32Array(mesh.positions.length);
     gl.bindVertexArray(this.vao);
@@ -388,22 +415,42 @@ export class HeadRenderer {
   }
 
   /**
-   * The head's parts: `[{ name, role, mesh }]`, meshes from parseMesh (shared, never
-   * written). They are rigid: positions and normals go to the GPU once, and each frame
-   * only moves them, except the tongue, which a frame may also shape (setTongue).
+   * The head's parts: `[{ name, role, mesh, tongue }]`, meshes from parseMesh (shared,
+   * never written); `tongue`, for a tongue part whose server says which of its vertices
+   * are the tongue itself (decode.js parseVertexWeights), else absent: those are drawn as
+   * tongue and the rest (gums, the floor of the mouth) as gums. They are rigid: positions
+   * and normals go to the GPU once, and each frame only moves them, except the tongue,
+   * which a frame may also shape (setTongue).
    */
   setParts(parts) {
     this.parts.forEach((part) => this.release(part));
     this.shapedPart = null;
-    this.parts = parts.map(({ name, role, mesh }) => ({
-      ...this.upload(mesh, role === "tongue"),
-      role,
-      albedo: partAlbedo(name, role),
-      mesh,
-      // A shaped part's positions (made on its first shaping), rewritten whenever the part
-      // is shaped or put back at rest.
-      positions: null,
-    }));
+    this.parts = parts.map(({ name, role, mesh, tongue }) => {
+      const uploaded = this.upload(mesh, role === "tongue");
+      if (tongue) {
+        uploaded.buffers.push(this.vertexWeights(uploaded.vao, tongue));
+      }
+      const albedo = partAlbedo(name, role);
+      return {
+        ...uploaded,
+        role,
+        albedo: tongue ? GUMS : albedo,
+        tongueAlbedo: tongue ? albedo : null,
+        mesh,
+        // A shaped part's positions (made on its first shaping), rewritten whenever the
+        // part is shaped or put back at rest.
+        positions: null,
+      };
+    });
+  }
+
+  /** A per-vertex weight (a_lip) for a part's vertex array: its buffer. */
+  vertexWeights(vao, weights) {
+    const gl = this.gl;
+    const buffer = this.attribute("a_lip", 1, vao);
+    gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
+    gl.bufferData(gl.ARRAY_BUFFER, weights, gl.STATIC_DRAW);
+    return buffer;
   }
 
   /**
@@ -587,6 +634,8 @@ export class HeadRenderer {
       return;
     }
     const { view, projection } = camera.matrices(this.canvas.width / this.canvas.height, this.cameraTurn());
+    const fromTheSide = this.look.mode === "side" || this.look.mode === "cutaway";
+    this.cssPixelsPerMm = fromTheSide ? this.pixelsPerMmAtCut(view, projection) : null;
     const seeThrough = this.look.mode === "see-through";
     gl.useProgram(this.program);
     gl.uniformMatrix4fv(this.uniforms.view, false, view);
@@ -594,19 +643,22 @@ export class HeadRenderer {
     gl.uniform4fv(this.uniforms.clip, this.clipPlane(view));
     gl.uniform1f(this.uniforms.alpha, 1);
     const region = this.lips.mode === "region";
-    const lipLook = LIP_LOOKS[this.lips.mode];
-    gl.uniform3fv(this.uniforms.lipAlbedo, lipLook.lip);
-    gl.uniform1f(this.uniforms.lipStrength, this.lips.strength);
-    gl.uniform1f(this.uniforms.lipRim, lipLook.rim);
     if (!seeThrough) {
       this.drawSkin();
     }
     gl.uniform1f(this.uniforms.heatScale, 0);
     gl.uniform1f(this.uniforms.flat, region ? REGION_PART_GREY : -1);
+    // A tongue part's tongue is its "lip": its own albedo and section, no rim; none in the
+    // lip region's look, where every part is one flat grey.
+    gl.uniform1f(this.uniforms.lipStrength, region ? 0 : 1);
+    gl.uniform1f(this.uniforms.lipRim, 0);
     for (const part of this.parts) {
       gl.uniformMatrix4fv(this.uniforms.model, false, part.role === "skull" ? this.model : this.jawModel);
       gl.uniform3fv(this.uniforms.albedo, part.albedo);
       gl.uniform3fv(this.uniforms.section, sectionOf(part.albedo));
+      const tongue = part.tongueAlbedo ?? part.albedo;
+      gl.uniform3fv(this.uniforms.lipAlbedo, tongue);
+      gl.uniform3fv(this.uniforms.lipSection, sectionOf(tongue));
       gl.bindVertexArray(part.vao);
       gl.drawElements(gl.TRIANGLES, part.count, gl.UNSIGNED_INT, 0);
     }
@@ -634,9 +686,14 @@ export class HeadRenderer {
     gl.bindVertexArray(null);
   }
 
-  /** The deformed skin, with the heat-map when one is on. */
+  /** The deformed skin, with the heat-map when one is on, and the lips in their look. */
   drawSkin() {
     const gl = this.gl;
+    const lipLook = LIP_LOOKS[this.lips.mode];
+    gl.uniform3fv(this.uniforms.lipAlbedo, lipLook.lip);
+    gl.uniform3fv(this.uniforms.lipSection, SKIN_SECTION);
+    gl.uniform1f(this.uniforms.lipStrength, this.lips.mode === "region" ? 1 : this.lips.strength);
+    gl.uniform1f(this.uniforms.lipRim, lipLook.rim);
     gl.uniformMatrix4fv(this.uniforms.model, false, this.model);
     gl.uniform1f(this.uniforms.heatScale, this.heatScale);
     gl.uniform1f(this.uniforms.flat, this.lips.mode === "region" && this.heatScale === 0 ? 0 : -1);

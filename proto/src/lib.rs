@@ -9,7 +9,9 @@
 //! - [`param_frame`]: the binary per-frame message a producer may send instead of JSON,
 //!   `FWP2` or the frozen `FWP1`.
 //! - [`mesh`]: the binary rest mesh a viewer downloads once.
-//! - [`lip_tint`]: where the rest mesh's lips are, for drawing them in their own colour.
+//! - [`vertex_weights`]: a weight per vertex of a mesh (`FWL1`): where the rest mesh's lips
+//!   are, which of a tongue part's vertices are the tongue itself, for drawing each in its
+//!   own colour.
 //! - [`audio_chunk`]: a piece of a stream's voice on its timeline (`FWA1`), from producers
 //!   and to viewers.
 //!
@@ -20,13 +22,13 @@
 pub mod audio_chunk;
 pub mod codes;
 mod delta_block;
-pub mod lip_tint;
 pub mod mesh;
 pub mod messages;
 pub mod param_frame;
 mod reader;
 mod sections;
 mod varint;
+pub mod vertex_weights;
 pub mod viewer_frame;
 mod writer;
 

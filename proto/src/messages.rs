@@ -105,6 +105,11 @@ pub struct PartInfo {
     /// before it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub closed_pieces: Option<u32>,
+    /// For the part the tongue's shapes move: which of its vertices are the tongue itself
+    /// rather than gums or the floor of the mouth (`tongue.bin`, FWL1, a weight per part
+    /// vertex). Absent for other parts and from servers before it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tongue_proper: Option<String>,
 }
 
 /// An eyeball of a head: a rigid mesh that turns about its centre with the gaze and moves

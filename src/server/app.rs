@@ -54,6 +54,10 @@ pub fn app(state: AppState) -> Router {
             get(heads::part_mesh_bin).route_layer(viewer()),
         )
         .route(
+            "/v1/heads/{id}/parts/{part}/tongue.bin",
+            get(heads::part_tongue_bin).route_layer(viewer()),
+        )
+        .route(
             "/v1/heads/{id}/mesh.obj",
             get(heads::mesh_obj).route_layer(viewer()),
         )

@@ -37,6 +37,9 @@ pub struct ReadyHead {
     pub lips_bin: Bytes,
     /// `mesh.bin` of each part, in `animated.parts` order, then of each eyeball.
     pub part_bins: Vec<Bytes>,
+    /// `tongue.bin` (FWL1) of the part the tongue's shapes move, by its index in
+    /// `animated.parts`: which of its vertices are the tongue itself.
+    pub tongue_bin: Option<(usize, Bytes)>,
     /// The fit's residuals and warnings, for head info.
     pub fit: FitSummary,
     /// The whole fit report, for `GET /v1/heads/{id}/fit`.
@@ -49,10 +52,12 @@ pub struct ReadyHead {
 impl ReadyHead {
     /// The parts as the snapshot and head info list them.
     pub fn part_infos(&self, head_id: &str) -> Vec<PartInfo> {
+        let tongue_part = self.tongue_bin.as_ref().map(|(index, _)| *index);
         self.animated
             .parts
             .iter()
-            .map(|p| PartInfo {
+            .enumerate()
+            .map(|(index, p)| PartInfo {
                 name: p.name.clone(),
                 role: p.role.name().to_string(),
                 vertices: p.mesh.positions.len() as u32,
@@ -60,6 +65,8 @@ impl ReadyHead {
                 mesh: format!("/v1/heads/{head_id}/parts/{}/mesh.bin", p.name),
                 split_from: p.split_from.clone(),
                 closed_pieces: Some(p.closed_pieces as u32),
+                tongue_proper: (tongue_part == Some(index))
+                    .then(|| format!("/v1/heads/{head_id}/parts/{}/tongue.bin", p.name)),
             })
             .collect()
     }
@@ -96,6 +103,12 @@ impl ReadyHead {
             .chain(animated.eyes.iter().map(|e| e.name.as_str()))
             .position(|n| n == name)?;
         self.part_bins.get(index)
+    }
+
+    /// `tongue.bin` of part `name`, when the tongue's shapes move it.
+    pub fn tongue_bin(&self, name: &str) -> Option<&Bytes> {
+        let (index, bin) = self.tongue_bin.as_ref()?;
+        (self.animated.parts[*index].name == name).then_some(bin)
     }
 }
 

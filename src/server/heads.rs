@@ -303,6 +303,19 @@ pub async fn part_mesh_bin(
     Ok(([(header::CONTENT_TYPE, "application/octet-stream")], bin.clone()).into_response())
 }
 
+/// `GET /v1/heads/{id}/parts/{part}/tongue.bin`: which of the tongue part's vertices are
+/// the tongue itself (`FWL1`).
+pub async fn part_tongue_bin(
+    State(state): State<AppState>,
+    Path((id, part)): Path<(String, String)>,
+) -> Result<Response, ApiError> {
+    let ready = state.registry.head(&id)?.ready()?;
+    let bin = ready
+        .tongue_bin(&part)
+        .ok_or_else(|| ApiError::NotFound(format!("tongue weights of part {part} of head {id}")))?;
+    Ok(([(header::CONTENT_TYPE, "application/octet-stream")], bin.clone()).into_response())
+}
+
 /// `GET /v1/heads/{id}/fit`: the fit report.
 pub async fn fit_report(
     State(state): State<AppState>,

@@ -18,9 +18,9 @@ use crate::deform::Registration;
 use crate::fit::{AutomaticFitError, FitError, FitFile, FitFileError, FitReport, FittedMask, Landmarks};
 use crate::head::{obj, raster_cost, Head, MeshBudget, ObjError, OverBudget, RasterCostError};
 use crate::mask::Mask;
-use facewire_proto::lip_tint::LipTint;
 use facewire_proto::mesh::RestMesh;
 use facewire_proto::messages::FitSummary;
+use facewire_proto::vertex_weights::VertexWeights;
 
 #[derive(Debug, thiserror::Error)]
 pub enum RegistrationError {
@@ -103,11 +103,21 @@ pub fn register(
     };
     let rest_bin = mesh_bin(&reg.head);
     let lips_bin = Bytes::from(
-        LipTint {
+        VertexWeights {
             weights: lip_tint(reg),
         }
         .encode(),
     );
+    let tongue_bin = animated.tongue.as_ref().map(|(index, shaper)| {
+        let weights = shaper
+            .free_vertices()
+            .iter()
+            .map(|&free| if free { 255 } else { 0 });
+        let bin = VertexWeights {
+            weights: weights.collect(),
+        };
+        (*index, Bytes::from(bin.encode()))
+    });
     let part_bins = animated
         .parts
         .iter()
@@ -149,6 +159,7 @@ pub fn register(
         rest_bin,
         lips_bin,
         part_bins,
+        tongue_bin,
         fit,
         fit_report,
         fit_pictures: Default::default(),

@@ -1,6 +1,6 @@
 //! Parts of a head (teeth, gums, tongue): roles given or inferred, registered over HTTP,
-//! served as meshes, listed in head info and the snapshot, stored and reloaded, placed on
-//! the wire by the jaw's motion.
+//! served as meshes (and which of the tongue part's vertices are the tongue), listed in
+//! head info and the snapshot, stored and reloaded, placed on the wire by the jaw's motion.
 
 use crate::common::service::{connect, ict_parts, ict_request, next_frame, next_json, Server};
 use crate::common::{data, ict_head, register};
@@ -10,6 +10,7 @@ use facewire::head::{Head, PartRole};
 use facewire::server::Config;
 use facewire_proto::mesh::RestMesh;
 use facewire_proto::messages::{HeadInfo, ServerMessage};
+use facewire_proto::vertex_weights::VertexWeights;
 use futures_util::SinkExt;
 use glam::{Quat, Vec3};
 use serde_json::{json, Value};
@@ -154,6 +155,45 @@ async fn parts_register_serve_travel_and_survive_a_restart() {
         .await
         .unwrap();
     assert_eq!(missing.status(), 404);
+    // The tongue part says which of its vertices are the tongue itself: as the library's
+    // tongue shaper has them; no other part has such weights.
+    let tongue_bins: Vec<(&str, &str)> = info
+        .parts
+        .iter()
+        .filter_map(|p| Some((p.name.as_str(), p.tongue_proper.as_deref()?)))
+        .collect();
+    assert_eq!(
+        tongue_bins,
+        [(
+            "gums_lower_tongue",
+            "/v1/heads/ict/parts/gums_lower_tongue/tongue.bin"
+        )]
+    );
+    let bytes = reqwest::get(server.http(tongue_bins[0].1))
+        .await
+        .unwrap()
+        .bytes()
+        .await
+        .unwrap();
+    let weights = VertexWeights::decode(&bytes).unwrap().weights;
+    let animated = ict_head();
+    let (_, shaper) = animated.tongue.as_ref().expect("the ICT head has a tongue");
+    let expected: Vec<u8> = shaper
+        .free_vertices()
+        .iter()
+        .map(|&f| if f { 255 } else { 0 })
+        .collect();
+    assert_eq!(weights, expected);
+    let tongue = weights.iter().filter(|&&w| w == 255).count();
+    assert!(
+        tongue > 100 && tongue < weights.len() - 100,
+        "{tongue} of {} vertices the tongue itself: the part also holds the lower gums",
+        weights.len()
+    );
+    let not_a_tongue = reqwest::get(server.http("/v1/heads/ict/parts/teeth_upper/tongue.bin"))
+        .await
+        .unwrap();
+    assert_eq!(not_a_tongue.status(), 404);
 
     // The snapshot lists them; a jaw drop's frame carries the jaw's motion.
     let mut viewer = connect(&server.ws("/v1/heads/ict/streams/main/view?format=fwf2")).await;

@@ -442,7 +442,7 @@ async fn heads_survive_a_restart() {
         .bytes()
         .await
         .unwrap();
-    let lips = facewire_proto::lip_tint::LipTint::decode(&lips).unwrap();
+    let lips = facewire_proto::vertex_weights::VertexWeights::decode(&lips).unwrap();
     assert_eq!(lips.weights.len(), 4352);
     let lip = lips.weights.iter().filter(|&&w| w == 255).count();
     assert!((50..1000).contains(&lip), "{lip} vertices are all lip");

@@ -12,7 +12,7 @@ use crate::common::repo_path;
 use std::process::Command;
 
 use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
-use facewire_proto::lip_tint::LipTint;
+use facewire_proto::vertex_weights::VertexWeights;
 use facewire_proto::viewer_frame::{
     decode, EyeMotion, FrameContent, FrameEncoder, FrameHeader, FrameLayout, FrameViseme, LipFolds,
     LipRoughness, RigidMotion,
@@ -586,7 +586,7 @@ fn cases() -> Value {
     let mesh = mesh_bin(&positions, &triangles, 50.3);
     let out_of_range = mesh_bin(&positions, &[[0, 1, 4]], 50.3);
     let short = mesh[..mesh.len() - 4].to_vec();
-    let lips = LipTint {
+    let lips = VertexWeights {
         weights: vec![0, 1, 128, 255],
     };
     json!({
@@ -616,7 +616,7 @@ fn cases() -> Value {
         },
         "malformedLipTints": [
             { "name": "short", "bytes": lips.encode()[..10].to_vec(), "field": "vertex count" },
-            { "name": "another mesh's", "bytes": LipTint { weights: vec![0; 5] }.encode(), "field": "vertex count" },
+            { "name": "another mesh's", "bytes": VertexWeights { weights: vec![0; 5] }.encode(), "field": "vertex count" },
             { "name": "mesh, not lips", "bytes": mesh, "field": "magic" },
         ],
     })
