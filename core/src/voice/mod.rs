@@ -1,16 +1,19 @@
 //! Voices: the speech that goes with a parameter stream, as mono 16-bit samples on the
 //! stream's own timeline (seconds from its `t = 0`). Read from WAV files ([`wav`]) (Ogg
 //! Opus files, [`ogg_opus`], are read here and decoded by the service) and cut
-//! into the chunks producers send (`FWA1`, proto/PROTOCOL.md). The syllable stream's own
+//! into the chunks producers send (`FWA1`, proto/PROTOCOL.md), or played slower or faster
+//! at the same pitch ([`stretch`]). The syllable stream's own
 //! voice ships in `data/streams/syllables.wav` ([`syllable_voice`]).
 //!
 //! Plain synchronous Rust, as the rest of the core.
 
 mod ogg_opus;
+mod stretch;
 mod syllable_voice;
 mod wav;
 
 pub use ogg_opus::{read_ogg_opus, OggOpus, OggOpusError};
+pub use stretch::{StretchError, STRETCH_SPEEDS};
 pub use syllable_voice::syllable_voice;
 pub use wav::{read_wav, WavError};
 
