@@ -378,6 +378,7 @@ async fn check_the_page(browser: &Browser) {
     if std::env::var_os("FACEWIRE_REPLAY_ONLY").is_some() {
         let (_demo, url) = start_demo();
         check_the_replay(browser, &url, Duration::from_secs(120)).await;
+        check_the_replay_voice(browser, &url, Duration::from_secs(120)).await;
         return;
     }
     if std::env::var_os("FACEWIRE_CUTAWAY_ONLY").is_some() {
@@ -477,6 +478,7 @@ async fn check_the_page(browser: &Browser) {
     check_the_lips_read(browser, &url, long).await;
     check_the_element_embeds(browser, &url, long).await;
     check_the_replay(browser, &url, long).await;
+    check_the_replay_voice(browser, &url, long).await;
     check_the_cut_away_reads_back(browser, &url, long).await;
     check_the_inner_mouth_close_up(browser, &url, long).await;
     check_a_stalled_stream(browser, &url, long).await;
@@ -1884,12 +1886,72 @@ async fn check_the_element_embeds(browser: &Browser, url: &str, long: Duration) 
 /// The seq of the frame view 1 shows now, or null before any.
 const SHOWN_SEQ_JS: &str = "return document.getElementById('view-0')?.dataset.seq ?? null";
 
-/// Opens the demo's recording of the syllables on the ICT head in the mouth close-up
-/// (`more`: further URL parameters), waits for its first frames and pauses it.
-async fn open_the_paused_replay(browser: &Browser, url: &str, more: &str, long: Duration) {
-    wait_ready(url, "ict", long).await;
+/// A replay's voice: the syllables replayed at a quarter of the pace with the sound on
+/// (in a small window, which software WebGL draws fast enough to keep up: the page is
+/// measured, not SwiftShader), the voice slowed (the sound runs at the replay's rate) and
+/// each frame drawn within 15 ms (median) of when its sound is heard.
+async fn check_the_replay_voice(browser: &Browser, url: &str, long: Duration) {
     browser
-        .open(&format!("{url}?head=ict&replay=syllables&mouth=1{more}"))
+        .command("/window/rect", Some(json!({ "width": 800, "height": 600 })))
+        .await;
+    open_the_replay(browser, url, "makehuman", "", long).await;
+    browser
+        .js(
+            "const s = document.getElementById('replay-speed'); s.value = '0.25'; \
+             s.dispatchEvent(new Event('change'));",
+        )
+        .await;
+    browser.click("#sound").await;
+    browser
+        .wait_for(
+            "the replay's voice heard",
+            "return window.facewireSound.heardTime(performance.now())",
+            long,
+        )
+        .await;
+    let rate = browser.js("return window.facewireSound.rate").await;
+    assert_eq!(rate.as_f64(), Some(0.25), "the sound's rate");
+    let logged = browser.js("return window.facewireSound.syncLog.length").await;
+    tokio::time::sleep(Duration::from_secs(5)).await;
+    let offsets = browser
+        .js(&format!(
+            "return window.facewireSound.syncLog.slice({logged}).filter(e => e.view === 0).map(e => e.offsetMs)"
+        ))
+        .await;
+    let mut offsets: Vec<f64> = offsets
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|o| o.as_f64().unwrap())
+        .collect();
+    offsets.sort_by(f64::total_cmp);
+    assert!(
+        offsets.len() >= 15,
+        "only {} frames drawn by their sound in 5 s",
+        offsets.len()
+    );
+    let median = offsets[offsets.len() / 2];
+    let p95 = offsets[(offsets.len() * 95 / 100).min(offsets.len() - 1)];
+    let sound = browser.js(&text_of("sound-0")).await;
+    println!(
+        "replay voice at 0.25x: {} frames, face minus voice median {median:+.1} ms, p95 {p95:+.1} ms; the page: {sound}",
+        offsets.len()
+    );
+    assert!(
+        median.abs() <= 15.0,
+        "face minus voice median {median:+.1} ms at 0.25x"
+    );
+    browser
+        .command("/window/rect", Some(json!({ "width": 1280, "height": 1000 })))
+        .await;
+}
+
+/// Opens the demo's recording of the syllables on `head` (`more`: further URL parameters)
+/// and waits for its first frames.
+async fn open_the_replay(browser: &Browser, url: &str, head: &str, more: &str, long: Duration) {
+    wait_ready(url, head, long).await;
+    browser
+        .open(&format!("{url}?head={head}&replay=syllables{more}"))
         .await;
     browser
         .wait_for(
@@ -1901,6 +1963,12 @@ async fn open_the_paused_replay(browser: &Browser, url: &str, more: &str, long: 
             long,
         )
         .await;
+}
+
+/// Opens the demo's recording of the syllables on the ICT head in the mouth close-up
+/// (`more`: further URL parameters), waits for its first frames and pauses it.
+async fn open_the_paused_replay(browser: &Browser, url: &str, more: &str, long: Duration) {
+    open_the_replay(browser, url, "ict", &format!("&mouth=1{more}"), long).await;
     browser.click("#replay-play").await;
     browser
         .wait_for(

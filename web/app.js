@@ -582,8 +582,9 @@ function drawTarget(now) {
   if (heard === null) {
     return { seq: commonSeq(now) };
   }
-  const between = quantile(drawIntervals, 0.5) ?? page.panels[0].frameIntervalS() * 1e3;
-  return { t: heard + between / 2e3 };
+  const between = quantile(drawIntervals, 0.5) ?? (page.panels[0].frameIntervalS() * 1e3) / sound.rate;
+  // Wall-clock milliseconds, as stream seconds at the sound's rate (a slowed replay's).
+  return { t: heard + (between / 2e3) * sound.rate };
 }
 
 function animate(now) {

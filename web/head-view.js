@@ -79,7 +79,7 @@ export class HeadView {
       onSnapshot: (snapshot) => this.snapshotArrived(snapshot),
       onFrame: (buffer, arrivalUs) => this.frameArrived(buffer, arrivalUs),
       onAudio: (buffer) => this.audioArrived(buffer),
-      onReplay: (message) => this.on.onReplay(message),
+      onReplay: (message) => this.replayMoved(message),
       onState: (state, detail) => this.on.onState(state, detail),
     });
     this.mesh = null;
@@ -110,7 +110,7 @@ export class HeadView {
    * Connects to `stream` of `head`, or with `replay` to that recording of it, with
    * `algorithm` (a letter or spec; the server's default when empty), `heat` (null,
    * "roughness" or "folds") and `token`, on the nodes' current node, moving to the next
-   * one after a lost connection. A replay has no sound.
+   * one after a lost connection. A replay's sound is its recording's voice, if it has one.
    */
   connect({ head, stream, replay = null, algorithm, heat = null, token = "" }) {
     const query = new URLSearchParams({ format: VIEW_FORMAT });
@@ -123,7 +123,7 @@ export class HeadView {
     if (token) {
       query.set("token", token);
     }
-    if (this.audio && !replay) {
+    if (this.audio) {
       query.set("audio", this.audio);
     }
     const path = replay
@@ -282,9 +282,9 @@ export class HeadView {
       this.on.onSkipped(header.seq - this.lastSeq - 1);
     }
     if (this.lastSeq !== null && header.seq <= this.lastSeq) {
-      this.pending = []; // a new producer started the stream over
-      if (this.audio) {
-        this.sound.reset(); // and its timeline
+      this.pending = []; // a new producer started the stream over, or a replay went back
+      if (this.audio && !this.snapshot?.replay) {
+        this.sound.reset(); // and its timeline (a replay's `replay` message restarted it)
       }
     }
     this.lastSeq = header.seq;
@@ -313,6 +313,17 @@ export class HeadView {
   /** The stream's time between frames (median of the last few), seconds; 0 before two frames. */
   frameIntervalS() {
     return quantile(this.intervals, 0.5) ?? 0;
+  }
+
+  /**
+   * Where a replay stands now: every such message starts a new run of its voice (sought,
+   * looped, paused, or at another speed), heard at the replay's speed.
+   */
+  replayMoved(message) {
+    if (this.audio) {
+      this.sound.restart(message.speed);
+    }
+    this.on.onReplay(message);
   }
 
   /** An audio chunk for the sound. */

@@ -257,12 +257,13 @@ export class Panel {
     this.chart.breakLine(this.index, performance.now());
     this.parts.algorithm.textContent = snapshot.algorithm;
     if (this.audio) {
-      this.sound.reset();
-      if (snapshot.replay) {
-        this.soundProblem = "a replay has no voice";
+      this.sound.restart(1);
+      if (snapshot.audio === this.audio) {
+        this.soundProblem = null;
       } else {
-        this.soundProblem =
-          snapshot.audio === this.audio ? null : `this server sends no audio (asked for ${this.audio})`;
+        this.soundProblem = snapshot.replay
+          ? "this recording has no voice"
+          : `this server sends no audio (asked for ${this.audio})`;
       }
     }
   }

@@ -1,7 +1,10 @@
 // sound.js: the stream's voice in the page, and the clock the views draw by. Audio chunks
 // (decode.js decodeAudio) are decoded (Opus by WebCodecs' AudioDecoder; PCM as it comes)
 // and scheduled on one AudioContext at `t + offset`, so the voice plays on the stream's
-// own timeline after a playout delay. The delay follows the jitter of the chunks'
+// own timeline after a playout delay. A replay played slower or faster (restart(rate))
+// sends its voice stretched at the same pitch, each chunk stamped with the recording time
+// of its first sample: `rate` stream seconds go by per second heard, and every place and
+// length on the stream's timeline is divided by it. The delay follows the jitter of the chunks'
 // arrival: it is the spread of their transit times (95th percentile above the fastest)
 // plus a margin, raised at once when a chunk comes too late to play, and lowered only in
 // a quiet chunk (a pause between words), so speech is never cut. heardTime() tells which
@@ -71,12 +74,16 @@ export class Sound {
     this.muted = false;
     this.codec = null;
     this.syncLog = [];
+    /** Stream seconds per second heard: 1 but for a replay played slower or faster. */
+    this.rate = 1;
     this.reset();
   }
 
-  /** Forgets the timeline (a new connection or a stream started over). */
+  /** Forgets the timeline (a stream started over), keeping the rate. */
   reset() {
     this.offset = null;
+    /** The playout delay a run starts with (restart), else the jitter's, seconds. */
+    this.startDelay = null;
     this.transits = [];
     this.pieces = [];
     this.scheduledEnd = 0;
@@ -84,6 +91,20 @@ export class Sound {
     this.decoder = null;
     this.decoding = [];
     this.numbers = { late: 0, lowered: 0 };
+  }
+
+  /**
+   * A new run of the voice (a new connection; a replay sought, looped, paused or played at
+   * another speed): the timeline forgotten, and `rate` stream seconds heard per second
+   * from now on.
+   */
+  restart(rate) {
+    // The playout delay the last run needed is where the next starts: a replay's runs
+    // come over the same connection, with the same jitter.
+    const delay = this.offset === null ? null : this.offset - Math.min(...this.transits);
+    this.reset();
+    this.startDelay = delay;
+    this.rate = rate > 0 ? rate : 1;
   }
 
   /** True once a click started the context and it runs. */
@@ -166,30 +187,35 @@ export class Sound {
     }
   }
 
-  /** Plays `floats` (mono, at `rate` Hz) for stream time `t` after the playout delay. */
+  /**
+   * Plays `floats` (mono, at `rate` Hz) for stream time `t` after the playout delay: on
+   * the context's clock at `u + offset`, `u` the stream time in seconds heard (t / the
+   * sound's rate).
+   */
   schedule(t, rate, floats, serverReceiveUs) {
     const context = this.context;
     const now = context.currentTime;
-    this.transits.push(now - t);
+    const u = t / this.rate;
+    this.transits.push(now - u);
     if (this.transits.length > TRANSIT_WINDOW) {
       this.transits.shift();
     }
     const fastest = Math.min(...this.transits);
     const target = fastest + this.targetDelay();
     if (this.offset === null) {
-      this.offset = target;
+      this.offset = Math.max(target, fastest + (this.startDelay ?? 0));
     }
-    let at = t + this.offset;
+    let at = u + this.offset;
     if (at < now + SCHEDULE_AHEAD_S) {
       // Too late to play: a longer delay from now on (the gap is heard once).
       this.numbers.late += 1;
-      this.offset = Math.max(target, now + SCHEDULE_AHEAD_S + DELAY_MARGIN_S - t);
-      at = t + this.offset;
+      this.offset = Math.max(target, now + SCHEDULE_AHEAD_S + DELAY_MARGIN_S - u);
+      at = u + this.offset;
     } else if (this.offset > target + LOWER_BY_OVER_S && rms(floats) < QUIET_RMS) {
       // More delay than the jitter needs: shorten it in a pause, dropping this quiet chunk's overlap.
       this.numbers.lowered += 1;
-      this.offset = Math.max(target, now + SCHEDULE_AHEAD_S - t);
-      at = t + this.offset;
+      this.offset = Math.max(target, now + SCHEDULE_AHEAD_S - u);
+      at = u + this.offset;
     }
     // Never over audio already scheduled: skip what would overlap.
     let skip = 0;
@@ -205,7 +231,8 @@ export class Sound {
       const start = at + skip / rate;
       source.start(start);
       this.scheduledEnd = start + (floats.length - skip) / rate;
-      this.pieces.push({ start, end: this.scheduledEnd, t: t + skip / rate, serverReceiveUs });
+      const pieceT = t + (skip / rate) * this.rate;
+      this.pieces.push({ start, end: this.scheduledEnd, t: pieceT, rate: this.rate, serverReceiveUs });
       if (this.pieces.length > KEEP_PIECES) {
         this.pieces.shift();
       }
@@ -253,7 +280,7 @@ export class Sound {
         break;
       }
     }
-    return piece.t + (ctxTime - piece.start);
+    return piece.t + (ctxTime - piece.start) * piece.rate;
   }
 
   /**
@@ -264,8 +291,8 @@ export class Sound {
     if (!this.playing) {
       return null;
     }
-    const piece = this.pieces.findLast((p) => p.t <= t + EPSILON_S && t < p.t + (p.end - p.start));
-    return piece ? this.heardAtMs(piece.start + (t - piece.t)) : null;
+    const piece = this.pieces.findLast((p) => p.t <= t + EPSILON_S && t < p.t + (p.end - p.start) * p.rate);
+    return piece ? this.heardAtMs(piece.start + (t - piece.t) / piece.rate) : null;
   }
 
   /**

@@ -240,6 +240,10 @@ pub struct RecordingInfo {
     pub cut: bool,
     /// Each run of frames with the same label, in order.
     pub labels: Vec<RecordingLabel>,
+    /// How long its voice is, seconds, when the stream carried one (a replay then plays
+    /// it). Absent without a voice and from servers before it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub voice_s: Option<f64>,
 }
 
 /// A run of a recording's frames that carry the same label.

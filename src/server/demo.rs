@@ -5,6 +5,7 @@
 use std::time::Duration;
 
 use super::error::ApiError;
+use super::recordings::RecordedVoice;
 use super::schedule::{self, Scheduled, ScheduledProducer};
 use super::store::{HeadMeta, HeadRecord, PartRecord};
 use super::AppState;
@@ -103,7 +104,7 @@ const DEMO_EYES: IdleEyes = IdleEyes { seed: 1 };
 /// (until shutdown), with sequence numbers and timestamps that keep increasing across
 /// loops, the eyes blinking and glancing ([`IdleEyes`]) as they do not in the file. Each
 /// round lasts the 27 syllables' slots; the last frame (at rest, as the first) is the next
-/// round's first. Each head also keeps one round as its recording
+/// round's first. Each head also keeps one round, with its voice, as its recording
 /// [`SYLLABLES_RECORDING`], for replay.
 pub async fn loop_syllables(state: AppState, heads: Vec<String>, stream: String) {
     let frames: Vec<Frame> = syllables::generate(syllables::SHIPPED_FPS).expect("the shipped fps is valid");
@@ -119,6 +120,10 @@ pub async fn loop_syllables(state: AppState, heads: Vec<String>, stream: String)
             frame
         })
         .collect();
+    let recorded_voice = RecordedVoice {
+        start_t_s: 0.0,
+        voice: voice.between(0.0, period),
+    };
     let round = schedule::merge(frames, voice.audio_chunks(0.0).collect());
     // Wait for registration, then hold the producer slot of each stream.
     let mut producers: Vec<ScheduledProducer> = Vec::new();
@@ -130,9 +135,12 @@ pub async fn loop_syllables(state: AppState, heads: Vec<String>, stream: String)
             _ = state.shutdown.cancelled() => return,
             ready = entry.wait_ready(Duration::MAX) => if ready.is_err() { continue },
         }
-        entry
-            .recordings
-            .keep(SYLLABLES_RECORDING, &stream, recorded.clone());
+        entry.recordings.keep(
+            SYLLABLES_RECORDING,
+            &stream,
+            recorded.clone(),
+            Some(recorded_voice.clone()),
+        );
         if let Some(permit) = entry.stream(&stream).ok().and_then(|s| s.claim_producer()) {
             producers.push(ScheduledProducer::new(permit));
         }

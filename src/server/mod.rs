@@ -46,6 +46,7 @@ mod recordings;
 mod registration;
 mod registry;
 mod replay;
+mod replay_voice;
 mod schedule;
 mod socket;
 mod speech_producer;

@@ -20,7 +20,7 @@ const OPUS_COMPLEXITY: i32 = 5;
 /// of a packet can leave; at the load budget (1,000 viewers on 50 streams, with audio),
 /// frames' p99 latency went from 21 to 8 ms and the server from 114 to 99 % of a core
 /// (docs/PERFORMANCE.md "Audio").
-const FRAME_S: f64 = 0.04;
+pub const FRAME_S: f64 = 0.04;
 /// Slack when a chunk starts where the pending samples end, seconds.
 const CONTIGUOUS_S: f64 = 1e-3;
 

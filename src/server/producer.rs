@@ -253,6 +253,7 @@ where
                 }) {
                     Ok((chunk, relayed)) => {
                         permit.publish_audio(relayed);
+                        permit.record_audio(&chunk);
                         state.telemetry.audio_in.inc();
                         transcoder.publish(&chunk, permit, &state.telemetry);
                         let Some(speech) = &mut speech else {

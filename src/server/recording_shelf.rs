@@ -1,9 +1,12 @@
-//! A head's recordings on its node's disk, so that a restart keeps them. Each is two files
-//! in the head's folder: `recordings/<name>.jsonl`, the frames as a facewire JSONL stream
-//! (what `facewire play` and every reader of the format take), and `recordings/<name>.json`,
-//! what the frames do not say (the stream it was recorded from, whether it was cut). Each
-//! file is written whole (temporary file, then renamed), the frames first, so a recording
-//! whose `.json` is there is complete; a leftover without one is skipped and named.
+//! A head's recordings on its node's disk, so that a restart keeps them. Each is two or
+//! three files in the head's folder: `recordings/<name>.jsonl`, the frames as a facewire
+//! JSONL stream (what `facewire play` and every reader of the format take), its voice, if
+//! it has one, as `recordings/<name>.wav` (mono 16-bit PCM, what `facewire play --audio`
+//! takes), and `recordings/<name>.json`, what the frames do not say (the stream it was
+//! recorded from, whether it was cut, where on the frames' timeline the voice starts).
+//! Each file is written whole (temporary file, then renamed), the `.json` last, so a
+//! recording whose `.json` is there is complete; a leftover without one is skipped and
+//! named.
 
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
@@ -12,10 +15,12 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use super::ids::valid_id;
+use super::recordings::RecordedVoice;
 use crate::atomic::write_atomic;
 use crate::mask::Mask;
 use crate::stream::jsonl::{JsonlReader, JsonlWriter};
 use crate::stream::Frame;
+use crate::voice::read_wav;
 
 #[derive(Debug, thiserror::Error)]
 pub enum ShelfError {
@@ -51,13 +56,18 @@ pub struct ShelvedMeta {
     pub stream: String,
     /// Whether the producer sent more than the recording kept.
     pub cut: bool,
+    /// Where the voice (`<name>.wav`) starts on the frames' timeline, seconds; absent
+    /// without a voice.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub voice_start_s: Option<f64>,
 }
 
-/// A recording read back: its name, what its `.json` says and its frames.
+/// A recording read back: its name, what its `.json` says, its frames and its voice.
 pub struct Shelved {
     pub name: String,
     pub meta: ShelvedMeta,
     pub frames: Vec<Frame>,
+    pub voice: Option<RecordedVoice>,
 }
 
 /// One head's recordings folder.
@@ -80,8 +90,19 @@ impl RecordingShelf {
         )
     }
 
-    /// Writes recording `name`, replacing one of that name.
-    pub fn save(&self, name: &str, meta: &ShelvedMeta, frames: &[Frame]) -> Result<(), ShelfError> {
+    fn voice_path(&self, name: &str) -> PathBuf {
+        self.dir.join(format!("{name}.wav"))
+    }
+
+    /// Writes recording `name` (and its voice, when it has one), replacing one of that
+    /// name; `meta.voice_start_s` must say where the voice starts.
+    pub fn save(
+        &self,
+        name: &str,
+        meta: &ShelvedMeta,
+        frames: &[Frame],
+        voice: Option<&RecordedVoice>,
+    ) -> Result<(), ShelfError> {
         std::fs::create_dir_all(&self.dir).map_err(io(&self.dir))?;
         let (frames_path, meta_path) = self.paths(name);
         let mut writer = JsonlWriter::new(Vec::new(), &self.mask);
@@ -90,6 +111,11 @@ impl RecordingShelf {
         }
         let text = writer.into_inner().map_err(|e| invalid(&frames_path, e))?;
         write_atomic(&frames_path, &text).map_err(io(&frames_path))?;
+        if let Some(voice) = voice {
+            let voice_path = self.voice_path(name);
+            let wav = voice.voice.to_wav().map_err(|e| invalid(&voice_path, e))?;
+            write_atomic(&voice_path, &wav).map_err(io(&voice_path))?;
+        }
         let meta_text = serde_json::to_vec_pretty(meta).expect("recording metadata serializes");
         write_atomic(&meta_path, &meta_text).map_err(io(&meta_path))
     }
@@ -97,7 +123,7 @@ impl RecordingShelf {
     /// Removes recording `name`; nothing there is fine.
     pub fn remove(&self, name: &str) -> Result<(), ShelfError> {
         let (frames_path, meta_path) = self.paths(name);
-        for path in [meta_path, frames_path] {
+        for path in [meta_path, frames_path, self.voice_path(name)] {
             match std::fs::remove_file(&path) {
                 Ok(()) => {}
                 Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
@@ -143,10 +169,21 @@ impl RecordingShelf {
         if frames.is_empty() {
             return Err(invalid(&frames_path, "no frames"));
         }
+        let voice = match meta.voice_start_s {
+            None => None,
+            Some(start_t_s) => {
+                let voice_path = self.voice_path(name);
+                let file = std::fs::File::open(&voice_path).map_err(io(&voice_path))?;
+                let voice = read_wav(BufReader::new(file), &voice_path.display().to_string())
+                    .map_err(|e| invalid(&voice_path, e))?;
+                Some(RecordedVoice { start_t_s, voice })
+            }
+        };
         Ok(Shelved {
             name: name.to_string(),
             meta,
             frames,
+            voice,
         })
     }
 }
@@ -173,17 +210,26 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let shelf = RecordingShelf::new(dir.path().join("recordings"), Arc::new(Mask::candide3()));
         let frames: Vec<Frame> = (0..5).map(frame).collect();
+        let voice = RecordedVoice {
+            start_t_s: 0.12,
+            voice: crate::voice::Voice {
+                sample_rate: 24_000,
+                samples: vec![0, 7, -7, i16::MAX, i16::MIN],
+            },
+        };
         let meta = ShelvedMeta {
             stream: "talk".into(),
             cut: true,
+            voice_start_s: Some(voice.start_t_s),
         };
-        shelf.save("lesson", &meta, &frames).unwrap();
+        shelf.save("lesson", &meta, &frames, Some(&voice)).unwrap();
         let (found, problems) = shelf.load_all();
         assert!(problems.is_empty(), "{problems:?}");
         assert_eq!(found.len(), 1);
         assert_eq!(found[0].name, "lesson");
         assert_eq!(found[0].meta, meta);
         assert_eq!(found[0].frames, frames);
+        assert_eq!(found[0].voice.as_ref(), Some(&voice));
         shelf.remove("lesson").unwrap();
         assert!(shelf.load_all().0.is_empty());
         assert_eq!(
@@ -201,8 +247,9 @@ mod tests {
         let meta = ShelvedMeta {
             stream: "talk".into(),
             cut: false,
+            voice_start_s: None,
         };
-        shelf.save("good", &meta, &[frame(0)]).unwrap();
+        shelf.save("good", &meta, &[frame(0)], None).unwrap();
         std::fs::write(
             dir.path().join("broken.json"),
             br#"{"stream":"talk","cut":false}"#,

@@ -1,10 +1,12 @@
 //! A head's recorded streams, for replay: a producer that asks (`record=1`, or a name)
-//! has the parameter frames it sends kept, in order, as a recording of the head, which
-//! viewers then play at their own pace (`super::replay`). Recordings live in memory with
+//! has the parameter frames it sends kept, in order, as a recording of the head, with the
+//! voice it sends (as PCM on the same timeline, Opus decoded), which viewers then play at
+//! their own pace (`super::replay`). Recordings live in memory with
 //! the head; each head holds at most `max_recordings_per_head`, each at most
 //! `max_recording_frames` frames, and all of the server's together at most
-//! `max_recording_bytes` (a producer that goes past either goes on, unrecorded past it,
-//! and its recording says it was cut). A producer whose head holds the most is refused
+//! `max_recording_bytes`, voices included (a producer that goes past either goes on,
+//! unrecorded past it, and its recording says it was cut; a voice past the memory, or
+//! changing its sample rate, is kept up to there). A producer whose head holds the most is refused
 //! before it starts; a recording is listed once its producer ends, and deleted on request
 //! or with its head (its memory is given back when the last replay of it ends).
 
@@ -14,9 +16,12 @@ use std::sync::{Arc, Mutex};
 
 use super::error::ApiError;
 use super::ids::valid_id;
+use super::opus_decode::OpusStreamDecoder;
 use super::recording_shelf::{RecordingShelf, ShelvedMeta};
 use crate::mask::Mask;
 use crate::stream::Frame;
+use crate::voice::Voice;
+use facewire_proto::audio_chunk::{AudioBody, AudioChunk, OPUS_RATE};
 use facewire_proto::messages::{RecordingInfo, RecordingLabel};
 
 /// `record=` on a producer socket or a batch: `1` or `true` records under the name
@@ -111,13 +116,49 @@ fn frame_bytes(frame: &Frame) -> usize {
             .map_or(0, |c| c.len() * std::mem::size_of::<[f32; 3]>())
 }
 
-/// A finished recording: the frames as the producer sent them.
+/// A recording's voice: mono PCM whose first sample plays at `start_t_s` on the
+/// recording's timeline (the producer's seconds, as its frames' `t`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordedVoice {
+    pub start_t_s: f64,
+    pub voice: Voice,
+}
+
+impl RecordedVoice {
+    /// The voice from `from_s` to `to_s` on the recording's timeline, its first sample at
+    /// `from_s`: silence where the voice had not started, nothing past its end.
+    pub fn between(&self, from_s: f64, to_s: f64) -> Voice {
+        let rate = f64::from(self.voice.sample_rate);
+        let before = ((self.start_t_s - from_s) * rate).round().max(0.0) as usize;
+        let voiced = self.voice.between(from_s - self.start_t_s, to_s - self.start_t_s);
+        let before = before.min(((to_s - from_s) * rate).round().max(0.0) as usize);
+        let mut samples = vec![0; before];
+        samples.extend_from_slice(&voiced.samples);
+        Voice {
+            sample_rate: self.voice.sample_rate,
+            samples,
+        }
+    }
+
+    /// Where the voice ends on the recording's timeline, seconds.
+    pub fn end_t_s(&self) -> f64 {
+        self.start_t_s + self.voice.duration_s()
+    }
+}
+
+/// What keeping `samples` of a voice costs in memory, bytes.
+fn voice_bytes(samples: usize) -> usize {
+    samples * std::mem::size_of::<i16>()
+}
+
+/// A finished recording: the frames as the producer sent them, and its voice.
 #[derive(Debug)]
 pub struct Recording {
     pub name: String,
     /// The stream it was recorded from.
     pub stream: String,
     pub frames: Vec<Frame>,
+    pub voice: Option<RecordedVoice>,
     /// Whether the producer sent more frames than a recording holds.
     pub cut: bool,
     /// The memory its frames take, held in `budget` while it lives.
@@ -155,6 +196,7 @@ impl Recording {
             duration_s: time(self.frames.last()) - time(self.frames.first()),
             cut: self.cut,
             labels,
+            voice_s: self.voice.as_ref().map(|v| v.voice.duration_s()),
         }
     }
 }
@@ -197,7 +239,9 @@ impl Recordings {
         let mut inner = self.inner.lock().expect("recordings lock");
         for shelved in found {
             let held = inner.done.len() + inner.recording.len();
-            let bytes: usize = shelved.frames.iter().map(frame_bytes).sum();
+            let voice_samples = shelved.voice.as_ref().map_or(0, |v| v.voice.samples.len());
+            let bytes: usize =
+                shelved.frames.iter().map(frame_bytes).sum::<usize>() + voice_bytes(voice_samples);
             if inner.done.contains_key(&shelved.name) {
                 continue;
             }
@@ -209,6 +253,7 @@ impl Recordings {
                 name: shelved.name,
                 stream: shelved.meta.stream,
                 frames: shelved.frames,
+                voice: shelved.voice,
                 cut: shelved.meta.cut,
                 bytes,
                 budget: self.limits.budget.clone(),
@@ -229,8 +274,14 @@ impl Recordings {
             let meta = ShelvedMeta {
                 stream: recording.stream.clone(),
                 cut: recording.cut,
+                voice_start_s: recording.voice.as_ref().map(|v| v.start_t_s),
             };
-            if let Err(e) = shelf.save(&recording.name, &meta, &recording.frames) {
+            if let Err(e) = shelf.save(
+                &recording.name,
+                &meta,
+                &recording.frames,
+                recording.voice.as_ref(),
+            ) {
                 tracing::warn!(recording = %recording.name, error = %e, "recording not kept on disk");
             }
             let inner = recordings.inner.lock().expect("recordings lock");
@@ -300,28 +351,33 @@ impl Recordings {
                 name,
                 stream: stream.to_string(),
                 frames: Vec::new(),
+                voice: None,
                 cut: false,
                 bytes: 0,
                 budget: self.limits.budget.clone(),
             }),
             max_frames: self.limits.max_frames,
+            opus: None,
+            voice_stopped: false,
         })
     }
 
-    /// Keeps `frames` of `stream` as recording `name`, made elsewhere (the demo's
-    /// syllable stream), replacing one of the same name; it counts towards the limits like
-    /// the others, but is kept even past them. Nothing is kept without frames.
-    pub fn keep(&self, name: &str, stream: &str, frames: Vec<Frame>) {
+    /// Keeps `frames` of `stream` and their `voice` as recording `name`, made elsewhere
+    /// (the demo's syllable stream), replacing one of the same name; it counts towards the
+    /// limits like the others, but is kept even past them. Nothing is kept without frames.
+    pub fn keep(&self, name: &str, stream: &str, frames: Vec<Frame>, voice: Option<RecordedVoice>) {
         if frames.is_empty() {
             return; // a recording has at least one frame: a replay shows one at a time
         }
         let budget = self.limits.budget.clone();
-        let bytes = frames.iter().map(frame_bytes).sum();
+        let voice_samples = voice.as_ref().map_or(0, |v| v.voice.samples.len());
+        let bytes = frames.iter().map(frame_bytes).sum::<usize>() + voice_bytes(voice_samples);
         budget.used.fetch_add(bytes, Ordering::AcqRel);
         let recording = Recording {
             name: name.to_string(),
             stream: stream.to_string(),
             frames,
+            voice,
             cut: false,
             bytes,
             budget,
@@ -364,6 +420,11 @@ pub struct Recorder {
     recordings: Arc<Recordings>,
     recording: Option<Recording>,
     max_frames: usize,
+    /// Decodes an Opus voice to keep it as PCM, made at its first packet.
+    opus: Option<OpusStreamDecoder>,
+    /// The voice is kept no further: the memory ran out, its rate changed, or a packet
+    /// did not decode.
+    voice_stopped: bool,
 }
 
 impl Recorder {
@@ -385,6 +446,67 @@ impl Recorder {
             }
         }
     }
+
+    /// Keeps `chunk`'s samples in the recording's voice, at its `t`: a gap before it is
+    /// silence, what overlaps samples already kept is dropped. Opus is decoded (48 kHz). A
+    /// chunk at another rate than the voice's, or past the memory the recordings may take,
+    /// ends the voice there (logged).
+    pub fn push_audio(&mut self, chunk: &AudioChunk) {
+        let Some(recording) = &mut self.recording else {
+            return;
+        };
+        if self.voice_stopped {
+            return;
+        }
+        let (rate, samples) = match &chunk.body {
+            AudioBody::Pcm { sample_rate, samples } => (*sample_rate, samples.as_slice()),
+            AudioBody::Opus { packet } => {
+                let decoder = match self.opus.take().map_or_else(OpusStreamDecoder::new, Ok) {
+                    Ok(decoder) => self.opus.insert(decoder),
+                    Err(e) => return stop_voice(&mut self.voice_stopped, &recording.name, &e.to_string()),
+                };
+                match decoder.decode(packet) {
+                    Ok(samples) => (OPUS_RATE, samples),
+                    Err(e) => return stop_voice(&mut self.voice_stopped, &recording.name, &e.to_string()),
+                }
+            }
+        };
+        let voice = recording.voice.get_or_insert_with(|| RecordedVoice {
+            start_t_s: chunk.t_s,
+            voice: Voice {
+                sample_rate: rate,
+                samples: Vec::new(),
+            },
+        });
+        if voice.voice.sample_rate != rate {
+            let why = format!(
+                "the voice changed from {} Hz to {rate} Hz",
+                voice.voice.sample_rate
+            );
+            return stop_voice(&mut self.voice_stopped, &recording.name, &why);
+        }
+        let at = ((chunk.t_s - voice.start_t_s) * f64::from(rate)).round().max(0.0) as usize;
+        let kept = voice.voice.samples.len();
+        let gap = at.saturating_sub(kept);
+        let fresh = &samples[(kept.saturating_sub(at)).min(samples.len())..];
+        let bytes = voice_bytes(gap + fresh.len());
+        if !recording.budget.take(bytes) {
+            return stop_voice(
+                &mut self.voice_stopped,
+                &recording.name,
+                "the recordings hold all the memory they may",
+            );
+        }
+        recording.bytes += bytes;
+        voice.voice.samples.resize(kept + gap, 0);
+        voice.voice.samples.extend_from_slice(fresh);
+    }
+}
+
+/// Keeps a recording's voice no further, saying why in the log.
+fn stop_voice(stopped: &mut bool, recording: &str, why: &str) {
+    *stopped = true;
+    tracing::warn!(%recording, %why, "recording's voice kept up to here");
 }
 
 impl Drop for Recorder {
@@ -403,5 +525,61 @@ impl Drop for Recorder {
             kept
         };
         self.recordings.shelve(kept);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn limits() -> RecordingLimits {
+        RecordingLimits {
+            max_per_head: 4,
+            max_frames: 100,
+            budget: RecordingBudget::new(1 << 20),
+            mask: Arc::new(Mask::candide3()),
+        }
+    }
+
+    /// A 20 ms chunk of 16 kHz PCM at `t_s`, every sample `value`.
+    fn chunk(t_s: f64, rate: u32, value: i16) -> AudioChunk {
+        AudioChunk {
+            t_s,
+            server_receive_us: 0,
+            body: AudioBody::Pcm {
+                sample_rate: rate,
+                samples: vec![value; (rate / 50) as usize],
+            },
+            ignored: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_voice_is_kept_on_its_timeline_gaps_silent_overlaps_dropped() {
+        let recordings = Arc::new(Recordings::new(limits(), None));
+        let mut recorder = recordings.recorder("h", "s", Some("r")).unwrap();
+        recorder.push(&Frame::default());
+        recorder.push_audio(&chunk(1.0, 16_000, 1));
+        // 20 ms of silence, then a chunk that overlaps the one before by 10 ms.
+        recorder.push_audio(&chunk(1.04, 16_000, 2));
+        recorder.push_audio(&chunk(1.05, 16_000, 3));
+        // Another rate ends the voice there.
+        recorder.push_audio(&chunk(1.1, 24_000, 4));
+        recorder.push_audio(&chunk(1.2, 16_000, 5));
+        drop(recorder);
+        let recording = recordings.get("h", "r").unwrap();
+        let voice = recording.voice.as_ref().unwrap();
+        assert_eq!(voice.start_t_s, 1.0);
+        let s = &voice.voice.samples;
+        assert_eq!(s.len(), 320 * 3 + 160);
+        assert!(s[..320].iter().all(|&x| x == 1) && s[320..640].iter().all(|&x| x == 0));
+        assert!(s[640..960].iter().all(|&x| x == 2) && s[960..].iter().all(|&x| x == 3));
+        assert_eq!(recording.info().voice_s, Some(0.07));
+        // From before the voice: silence first; past its end: nothing.
+        let from_half = voice.between(0.99, 2.0);
+        assert_eq!(from_half.samples.len(), 160 + s.len());
+        assert!(from_half.samples[..160].iter().all(|&x| x == 0) && from_half.samples[160] == 1);
+        assert_eq!(voice.between(0.5, 0.6).samples.len(), 1600);
+        assert!((voice.end_t_s() - 1.07).abs() < 1e-12);
     }
 }

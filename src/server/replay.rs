@@ -10,7 +10,8 @@
 //! (scaled by the speed) until the last, where it pauses. The viewer steers it with JSON
 //! text ([`ReplayControl`]); each control is answered with a `replay` message saying
 //! where it stands. A control that cannot be followed gets an `error` naming the field,
-//! and the replay goes on.
+//! and the replay goes on. With `audio=`, a recording with a voice is heard with its
+//! frames (`super::replay_voice`).
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -26,6 +27,7 @@ use super::frames::ReceivedFrame;
 use super::head::HeadEntry;
 use super::pipeline::{process, FrameFormat};
 use super::recordings::Recording;
+use super::replay_voice::ReplayVoice;
 use super::socket::{close, close_for, error, refuse, text};
 use super::view::{snapshot, ViewQuery, REGISTRATION_WAIT, VIEWER_MESSAGE_LIMIT};
 use super::{now_us, AppState};
@@ -69,6 +71,8 @@ struct Replay {
     job: Option<Box<FrameJob>>,
     format: FrameFormat,
     snapshot: Snapshot,
+    /// The voice, when the viewer asked for it.
+    voice: Option<ReplayVoice>,
 }
 
 async fn open_replay(state: &AppState, id: &str, name: &str, query: &ViewQuery) -> Result<Replay, ApiError> {
@@ -82,12 +86,12 @@ async fn open_replay(state: &AppState, id: &str, name: &str, query: &ViewQuery) 
     let spec = state.viewer_algorithm(query.algo.as_deref())?;
     let heat = query.heat()?;
     let format = query.format()?;
-    if query.audio()?.is_some() {
-        return Err(ApiError::BadRequest(
-            "audio=: a replay has no voice yet; ask for none".into(),
-        ));
-    }
+    let audio = query.audio()?;
     let recording = head.recordings.get(id, name)?;
+    // Heard when it has a voice; a recording without one replays silent, as a live
+    // stream whose producer sends no audio.
+    let voice = audio.and_then(|codec| ReplayVoice::new(recording.clone(), codec));
+    let audio = voice.as_ref().and(audio);
     let ready = tokio::select! {
         ready = head.wait_ready(REGISTRATION_WAIT) => ready?,
         _ = head.deleted.cancelled() => return Err(ApiError::UnknownHead(id.to_string())),
@@ -100,8 +104,11 @@ async fn open_replay(state: &AppState, id: &str, name: &str, query: &ViewQuery) 
         .await
         .map_err(ApiError::internal)?
         .map_err(ApiError::internal)?;
-    let mut snapshot = snapshot(&ready, id, &recording.stream, &spec, heat, format, None);
+    let mut snapshot = snapshot(&ready, id, &recording.stream, &spec, heat, format, audio);
     snapshot.messages = ["frame", "replay", "end"].map(String::from).to_vec();
+    if audio.is_some() {
+        snapshot.messages.push("audio".into());
+    }
     snapshot.replay = Some(recording.info());
     Ok(Replay {
         _slot: slot,
@@ -110,6 +117,7 @@ async fn open_replay(state: &AppState, id: &str, name: &str, query: &ViewQuery) 
         job: Some(Box::new(job)),
         format,
         snapshot,
+        voice,
     })
 }
 
@@ -236,6 +244,7 @@ impl Replay {
         };
         let mut shown: Option<usize> = None;
         let mut shown_at = Instant::now();
+        self.follow_with_voice(&position, shown_at);
         loop {
             if shown != Some(position.frame) {
                 let message = self.frame_message(position.frame, state).await?;
@@ -249,12 +258,25 @@ impl Replay {
                 socket.send(text(&position.message())).await.ok()?;
             }
             let due = next.map(|n| shown_at + self.gap(position.frame, n, position.speed));
+            let voice_due = self.voice.as_ref().and_then(ReplayVoice::due);
             tokio::select! {
                 _ = state.shutdown.cancelled() => return Some((EndReason::ServerShutdown, CloseCode::GoingAway)),
                 _ = self.head.deleted.cancelled() => return Some((EndReason::HeadDeleted, CloseCode::HeadDeleted)),
+                _ = sleep_until(voice_due) => {
+                    if let Some(chunk) = self.voice.as_mut().and_then(ReplayVoice::next_message) {
+                        socket.send(chunk).await.ok()?;
+                    }
+                }
                 _ = sleep_until(due) => {
-                    position.frame = next.expect("a due frame has a next");
+                    let next = next.expect("a due frame has a next");
+                    let started_over = next < position.frame;
+                    position.frame = next;
                     shown_at = due.expect("due");
+                    if started_over {
+                        // A loop starting over: said, and its voice from its start.
+                        socket.send(text(&position.message())).await.ok()?;
+                        self.follow_with_voice(&position, shown_at);
+                    }
                 }
                 incoming = socket.next() => {
                     let body = match incoming {
@@ -273,6 +295,7 @@ impl Replay {
                         Ok(control) => match position.apply(control, frames) {
                             Ok(()) => {
                                 shown_at = Instant::now();
+                                self.follow_with_voice(&position, shown_at);
                                 position.message()
                             }
                             Err(BadControl { field, message }) => bad(Some(field), message),
@@ -282,6 +305,27 @@ impl Replay {
                 }
             }
         }
+    }
+
+    /// Starts the voice where `position` plays, heard from `at` (when its frame is shown),
+    /// to the end of what it plays (its loop's last frame, else the recording's), or stops
+    /// it when paused.
+    fn follow_with_voice(&mut self, position: &Position, at: Instant) {
+        let Some(voice) = &mut self.voice else { return };
+        if !position.playing {
+            voice.stop();
+            return;
+        }
+        let frames = &self.recording.frames;
+        let last = position.looped.map_or(frames.len() - 1, |(_, last)| last);
+        // The last frame lasts as long as the one before it.
+        let last_lasts = if last > 0 {
+            frames[last].time_s - frames[last - 1].time_s
+        } else {
+            LONE_FRAME_S
+        };
+        let until = frames[last].time_s + last_lasts.max(0.0);
+        voice.play(frames[position.frame].time_s, until, position.speed, at);
     }
 
     /// How long after frame `from` is shown frame `to` is due at `speed`: the recording's

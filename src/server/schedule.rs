@@ -81,6 +81,7 @@ impl ScheduledProducer {
             Scheduled::Audio(mut chunk) => {
                 chunk.server_receive_us = now_us();
                 self.permit.publish_audio(RelayedAudio::of(&chunk));
+                self.permit.record_audio(&chunk);
                 telemetry.audio_in.inc();
                 self.transcoder.publish(&chunk, &self.permit, telemetry);
             }

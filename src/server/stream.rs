@@ -19,7 +19,7 @@ use super::pipeline::{Encoded, Pipeline, PipelineKey};
 use super::recordings::Recorder;
 use super::timeline::Timeline;
 use crate::stream::Frame;
-use facewire_proto::audio_chunk::AudioBody;
+use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
 use facewire_proto::codes::EndReason;
 
 /// Audio chunks a viewer may fall behind by before it is resynchronised to the newest
@@ -335,6 +335,14 @@ impl ProducerPermit {
     /// any on another node.
     pub fn is_heard_in(&self, codec: &str) -> bool {
         self.relay.is_some() || self.stream.has_listeners(codec)
+    }
+
+    /// Keeps a chunk of the producer's voice (as it sent it, before any transcoding) in
+    /// its recording, when it asked for one.
+    pub fn record_audio(&self, chunk: &AudioChunk) {
+        if let Some(recorder) = self.recorder.lock().expect("recorder lock").as_mut() {
+            recorder.push_audio(chunk);
+        }
     }
 
     /// Publishes an audio chunk to the viewers that asked for audio, here and, with a

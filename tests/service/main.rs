@@ -14,6 +14,7 @@ mod load;
 mod parts;
 mod python_client;
 mod replay;
+mod replay_voice;
 mod routes;
 mod serve_process;
 mod server;

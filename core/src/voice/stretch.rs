@@ -103,7 +103,9 @@ mod tests {
             *s = 20_000;
         }
         let slow = voice.at_speed(0.25).unwrap();
-        let loudest = (0..slow.samples.len()).max_by_key(|&i| slow.samples[i].unsigned_abs()).unwrap();
+        let loudest = (0..slow.samples.len())
+            .max_by_key(|&i| slow.samples[i].unsigned_abs())
+            .unwrap();
         let heard_s = loudest as f64 / 16_000.0;
         eprintln!("click heard at {heard_s:.3} s");
         assert!((heard_s - 2.0).abs() < 0.03, "{heard_s}");

@@ -1,6 +1,7 @@
 //! WAV files as voices: any PCM or float sample format, any channel count (mixed down to
 //! mono), at the rates the wire carries (16, 24 or 48 kHz; other rates are refused with
-//! the command that converts them, rather than resampled here).
+//! the command that converts them, rather than resampled here); and a voice written as
+//! one (mono, 16-bit).
 
 use std::io::Read;
 
@@ -91,9 +92,40 @@ pub fn read_wav(reader: impl Read, file: &str) -> Result<Voice, WavError> {
     })
 }
 
+impl Voice {
+    /// The voice as a WAV file: mono, 16-bit PCM at its rate.
+    pub fn to_wav(&self) -> Result<Vec<u8>, hound::Error> {
+        let spec = hound::WavSpec {
+            channels: 1,
+            sample_rate: self.sample_rate,
+            bits_per_sample: 16,
+            sample_format: hound::SampleFormat::Int,
+        };
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        let mut writer = hound::WavWriter::new(&mut bytes, spec)?;
+        let mut samples = writer.get_i16_writer(self.samples.len() as u32);
+        for &sample in &self.samples {
+            samples.write_sample(sample);
+        }
+        samples.flush()?;
+        writer.finalize()?;
+        Ok(bytes.into_inner())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_voice_written_as_wav_reads_back_the_same() {
+        let voice = Voice {
+            sample_rate: 24_000,
+            samples: vec![0, 1, -1, i16::MAX, i16::MIN, 1234],
+        };
+        let wav = voice.to_wav().unwrap();
+        assert_eq!(read_wav(wav.as_slice(), "back.wav").unwrap(), voice);
+    }
 
     fn wav(
         spec: hound::WavSpec,
