@@ -5,7 +5,7 @@
 use std::time::Duration;
 
 use super::error::ApiError;
-use super::recordings::RecordedVoice;
+use super::recorded_voice::RecordedVoice;
 use super::schedule::{self, Scheduled, ScheduledProducer};
 use super::store::{HeadMeta, HeadRecord, PartRecord};
 use super::AppState;

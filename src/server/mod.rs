@@ -41,6 +41,7 @@ mod pipeline;
 pub mod process;
 mod producer;
 mod rate;
+mod recorded_voice;
 mod recording_shelf;
 mod recordings;
 mod registration;

@@ -15,7 +15,7 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use super::ids::valid_id;
-use super::recordings::RecordedVoice;
+use super::recorded_voice::RecordedVoice;
 use crate::atomic::write_atomic;
 use crate::mask::Mask;
 use crate::stream::jsonl::{JsonlReader, JsonlWriter};
