@@ -381,6 +381,11 @@ async fn check_the_page(browser: &Browser) {
         check_the_replay_voice(browser, &url, Duration::from_secs(120)).await;
         return;
     }
+    if std::env::var_os("FACEWIRE_TEXTURE_ONLY").is_some() {
+        let (_demo, url) = start_demo();
+        check_a_textured_head(browser, &url, Duration::from_secs(120)).await;
+        return;
+    }
     if std::env::var_os("FACEWIRE_CUTAWAY_ONLY").is_some() {
         let (_demo, url) = start_demo();
         check_the_cut_away_reads_back(browser, &url, Duration::from_secs(120)).await;
@@ -483,6 +488,7 @@ async fn check_the_page(browser: &Browser) {
     check_the_inner_mouth_close_up(browser, &url, long).await;
     check_a_stalled_stream(browser, &url, long).await;
     check_a_head_posted_with_no_fit(browser, &url, long).await;
+    check_a_textured_head(browser, &url, long).await;
     check_the_page_on_a_phone(browser, &url, long).await;
 
     // An unknown head: the server's error and close 4404 end in the error state.
@@ -530,6 +536,70 @@ where
     producer.send(Message::Text(line.into())).await.unwrap();
     let reply = producer.next().await.expect("an ack").unwrap();
     assert!(reply.to_text().unwrap().contains("\"ack\""), "{reply:?}");
+}
+
+/// Share of the pixels of a screenshot (base64 PNG) that are clearly green (green over 60
+/// above red and blue, 0-255): the test texture's colour, which skin never is.
+async fn green_share(browser: &Browser, shot: &str) -> f64 {
+    browser
+        .js(&format!(
+            "window.greenShare = null; const img = new Image(); img.onload = () => {{ \
+             const c = document.createElement('canvas'); c.width = img.width; c.height = img.height; \
+             const g = c.getContext('2d'); g.drawImage(img, 0, 0); \
+             const d = g.getImageData(0, 0, c.width, c.height).data; let n = 0; \
+             for (let i = 0; i < d.length; i += 4) {{ if (d[i + 1] > d[i] + 60 && d[i + 1] > d[i + 2] + 60) n++; }} \
+             window.greenShare = n / (c.width * c.height); }}; img.src = 'data:image/png;base64,{shot}';"
+        ))
+        .await;
+    browser
+        .wait_for(
+            "the screenshot decoded",
+            "return window.greenShare",
+            Duration::from_secs(10),
+        )
+        .await
+        .as_f64()
+        .unwrap()
+}
+
+/// A head registered with a texture (the MakeHuman head with texture coordinates of the
+/// test's own and a green image) is drawn with it: a good share of the view green where
+/// the shipped MakeHuman head, untextured, shows none.
+async fn check_a_textured_head(browser: &Browser, url: &str, long: Duration) {
+    let png = common::texture::solid_png(64, 64, [30, 210, 50]);
+    let http = reqwest::Client::new();
+    let posted = http
+        .post(format!("{url}v1/heads"))
+        .json(&common::texture::textured_request("textured", &png))
+        .send()
+        .await
+        .unwrap();
+    assert!(posted.status().is_success(), "{:?}", posted.text().await);
+    wait_ready(url, "textured", long).await;
+    for (head, textured) in [("makehuman", false), ("textured", true)] {
+        browser.open(&format!("{url}?head={head}&stream=skin")).await;
+        let mut producer = connect_producer(url, head, "skin").await;
+        produce_line(&mut producer, jaw_line(0, 0.0)).await;
+        browser
+            .wait_for(&format!("{head} live"), &state_is("status-0", "live"), long)
+            .await;
+        tokio::time::sleep(Duration::from_millis(1500)).await;
+        let shot = browser.screenshot("#canvas-0").await;
+        let green = green_share(browser, &shot).await;
+        println!("{head}: {:.1} % of the view green", green * 100.0);
+        if textured {
+            assert!(
+                green > 0.05,
+                "the texture is not drawn: {:.2} % green",
+                green * 100.0
+            );
+            let message = browser.js(&text_of("message-0")).await;
+            assert_eq!(message, "", "the page complains: {message}");
+        } else {
+            assert!(green < 0.001, "{:.2} % green without a texture", green * 100.0);
+        }
+        producer.close(None).await.unwrap();
+    }
 }
 
 /// A stream of the test's own: it appears in the stream picker without a reload, shows

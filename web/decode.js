@@ -1,5 +1,6 @@
 // decode.js: reads the server's binary formats into typed arrays: the rest mesh
-// (`mesh.bin`, "FWM1"), where its lips are (`lips.bin`, "FWL1"), the viewer frame, in
+// (`mesh.bin`, "FWM1"), where its lips are (`lips.bin`, "FWL1"), where it sits on its
+// texture (`uv.bin`, "FWU1"), the viewer frame, in
 // either layout (proto/PROTOCOL.md): the sectioned "FWF2" the page asks for, and the
 // frozen "FWF1" that a server before FWF2 sends, and the audio chunk ("FWA1").
 // Both decode to the same object, so the page does not care which arrived. It touches no
@@ -11,6 +12,7 @@
 
 const MESH_MAGIC = "FWM1";
 const VERTEX_WEIGHTS_MAGIC = "FWL1";
+const TEXTURE_COORDS_MAGIC = "FWU1";
 const FWF1_MAGIC = "FWF1";
 const FWF2_MAGIC = "FWF2";
 const AUDIO_MAGIC = "FWA1";
@@ -191,6 +193,39 @@ export function parseMesh(buffer) {
     }
   }
   return { vertexCount, triangleCount, mmPerUnit, positions, indices };
+}
+
+/**
+ * Parses `uv.bin` (FWU1): u32 coordinate count C, u32 triangle count T (the rest mesh's,
+ * `triangleCount`), C x (u, v) f32, then T x 3 u32 coordinate indices, one per triangle
+ * corner. Returns `{ coords, corners }` (a Float32Array of 2C, a Uint32Array of 3T).
+ */
+export function parseTextureCoords(buffer, triangleCount) {
+  const r = new Reader(new Uint8Array(buffer));
+  r.magic(TEXTURE_COORDS_MAGIC);
+  const count = r.u32("coordinate count");
+  const triangles = r.u32("triangle count");
+  const expected = 12 + count * 8 + triangles * 12;
+  if (buffer.byteLength !== expected) {
+    const problem = `${count} coordinates and ${triangles} triangles need ${expected} bytes`;
+    throw new DecodeError("coordinate count", 4, `${problem}, got ${buffer.byteLength}`);
+  }
+  if (triangles !== triangleCount) {
+    throw new DecodeError("triangle count", 8, `${triangles} triangles for a rest mesh of ${triangleCount}`);
+  }
+  const coords = new Float32Array(count * 2);
+  for (let i = 0; i < coords.length; i++) {
+    coords[i] = r.f32("coordinates");
+  }
+  const corners = new Uint32Array(triangles * 3);
+  for (let i = 0; i < corners.length; i++) {
+    const at = r.at;
+    corners[i] = r.u32("corners");
+    if (corners[i] >= count) {
+      throw new DecodeError("corners", at, `coordinate ${corners[i]} is out of range (${count} coordinates)`);
+    }
+  }
+  return { coords, corners };
 }
 
 /**

@@ -11,6 +11,7 @@ import {
   decodeFrame,
   DecodeError,
   motionMatrix,
+  parseTextureCoords,
   parseVertexWeights,
   parseMesh,
   readFrameHeader,
@@ -131,10 +132,17 @@ for (const c of cases.malformedLipTints) {
   await throwsOn((buffer) => parseVertexWeights(buffer, cases.lipTint.vertexCount), c.bytes, c.field, `malformed lip tint (${c.name})`);
 }
 
+const uv = parseTextureCoords(bufferOf(cases.textureCoords.bytes), cases.textureCoords.triangleCount);
+same([...uv.coords], cases.textureCoords.coords, "texture coordinates");
+same([...uv.corners], cases.textureCoords.corners, "texture corners");
+for (const c of cases.malformedTextureCoords) {
+  await throwsOn((buffer) => parseTextureCoords(buffer, cases.textureCoords.triangleCount), c.bytes, c.field, `malformed uv.bin (${c.name})`);
+}
+
 if (failures.length > 0) {
   console.error(`${failures.length} mismatch(es):\n${failures.slice(0, 40).join("\n")}`);
   process.exit(1);
 }
 console.log(
-  `decode.js agrees with the Rust encoder on ${cases.frames.length} frames, ${cases.audio.length} audio chunks, a mesh and its lip tint`,
+  `decode.js agrees with the Rust encoder on ${cases.frames.length} frames, ${cases.audio.length} audio chunks, a mesh, its lip tint and its texture coordinates`,
 );

@@ -1,12 +1,12 @@
 // head-view.js: one live head on one canvas, the part the page's views and the
 // <facewire-head> element (facewire-head.js) share: a viewer socket, the rest mesh, its
-// parts, eyes and lips fetched once, frames kept raw as they arrive (only their fixed
+// parts, eyes, lips and texture fetched once, frames kept raw as they arrive (only their fixed
 // header is read) and decoded only when one is drawn, so a slow machine skips frames
 // instead of falling behind, and the WebGL2 renderer. It has no controls and no numbers:
 // whoever holds it is told what happens through handlers and shows what it likes. While
 // a sound plays (sound.js), frames wait for their `t` to be heard.
 
-import { applyFrame, decodeAudio, decodeFrame, motionMatrix, readFrameHeader } from "./decode.js";
+import { applyFrame, decodeAudio, decodeFrame, motionMatrix, parseTextureCoords, readFrameHeader } from "./decode.js";
 import { HeadRenderer } from "./render.js";
 import { quantile } from "./sound.js";
 import { VIEW_FORMAT, ViewerSocket } from "./stream.js";
@@ -187,6 +187,7 @@ export class HeadView {
         this.needsDraw = true;
         this.loadParts(snapshot);
         this.loadLips(snapshot, mesh);
+        this.loadTexture(snapshot, mesh);
       },
       (error) => {
         this.meshUrl = null;
@@ -223,6 +224,39 @@ export class HeadView {
         this.needsDraw = true;
       },
       (error) => this.on.onProblem(`Cannot load the head's parts: ${error.message}`),
+    );
+  }
+
+  /**
+   * The head's texture, when the snapshot names one: its coordinates (`uv.bin`) and its
+   * image, fetched from the node the view uses and drawn once both arrive.
+   */
+  loadTexture(snapshot, mesh) {
+    if (!snapshot.texture) {
+      return;
+    }
+    const get = (url) =>
+      fetch(new URL(this.nodes.httpUrl(url), location.href)).then((response) => {
+        if (!response.ok) {
+          throw new Error(`${url}: HTTP ${response.status}`);
+        }
+        return response;
+      });
+    const uv = get(snapshot.texture.uv)
+      .then((response) => response.arrayBuffer())
+      .then((buffer) => parseTextureCoords(buffer, mesh.triangleCount));
+    const image = get(snapshot.texture.image)
+      .then((response) => response.blob())
+      .then((blob) => createImageBitmap(blob));
+    Promise.all([uv, image]).then(
+      ([coords, bitmap]) => {
+        if (snapshot.rest_mesh !== this.meshUrl) {
+          return;
+        }
+        this.renderer.setTexture(coords, bitmap);
+        this.needsDraw = true;
+      },
+      (error) => this.on.onProblem(`Cannot load the head's texture: ${error.message}`),
     );
   }
 

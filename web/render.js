@@ -11,7 +11,10 @@
 // skin at the teeth, gums and tongue. The lips are drawn in their own colour (the server's
 // `lips.bin` says how much each vertex is lip): a tint, a high-contrast look for
 // lip-reading (darker lips, lighter skin, a rim light on the lips), the lip region alone
-// in flat white on black (what the fit takes for the lips), or off.
+// in flat white on black (what the fit takes for the lips), or off. A head with a texture
+// (the server's `uv.bin` and image) is drawn with it: each vertex of the rest mesh is
+// drawn once per texture coordinate it has (a seam splits it), the per-vertex values
+// gathered to those.
 
 import { applyDeltas, motionMatrix } from "./decode.js";
 
@@ -23,11 +26,13 @@ in vec3 a_position;
 in vec3 a_normal;
 in float a_heat;
 in float a_lip; // how much the vertex is lip (tongue, in a tongue part), 0 to 1; 0 elsewhere
+in vec2 a_uv; // where the vertex sits on the head's texture (v up), when it has one
 out vec3 v_position;
 out vec3 v_rest; // the vertex before any motion, head units: where an eye's iris is
 out vec3 v_normal;
 out float v_heat;
 out float v_lip;
+out vec2 v_uv;
 
 void main() {
   mat4 model_view = u_view * u_model;
@@ -37,6 +42,7 @@ void main() {
   v_normal = mat3(model_view) * a_normal;
   v_heat = a_heat;
   v_lip = a_lip;
+  v_uv = a_uv;
   gl_Position = u_projection * p;
 }`;
 
@@ -46,6 +52,9 @@ const FRAGMENT_SHADER = `#version 300 es
 precision highp float;
 uniform float u_heat_scale; // roughness at the top of the ramp; 0 shows the albedo
 uniform vec3 u_albedo; // sRGB
+// The head's texture (sRGB) in place of u_albedo when u_textured is 1.
+uniform sampler2D u_texture;
+uniform float u_textured;
 // An eyeball's centre and rest axis (head units) and its iris and pupil radii about the
 // axis; iris radius 0 for anything but an eye.
 uniform vec3 u_eye_centre;
@@ -70,6 +79,7 @@ in vec3 v_rest;
 in vec3 v_normal;
 in float v_heat;
 in float v_lip;
+in vec2 v_uv;
 out vec4 out_colour;
 
 vec3 viridis(float t) {
@@ -108,7 +118,8 @@ void main() {
   if (!gl_FrontFacing) n = -n;
   vec3 to_eye = normalize(-v_position);
   float lip = v_lip * u_lip_strength;
-  vec3 base = u_heat_scale > 0.0 ? viridis(v_heat / u_heat_scale) : mix(u_albedo, u_lip_albedo, lip);
+  vec3 surface = u_textured > 0.5 ? texture(u_texture, vec2(v_uv.x, 1.0 - v_uv.y)).rgb : u_albedo;
+  vec3 base = u_heat_scale > 0.0 ? viridis(v_heat / u_heat_scale) : mix(surface, u_lip_albedo, lip);
   if (u_eye_radii.x > 0.0) {
     vec3 d = v_rest - u_eye_centre;
     float along = dot(d, u_eye_forward);
@@ -263,6 +274,8 @@ export class HeadRenderer {
       lipStrength: gl.getUniformLocation(program, "u_lip_strength"),
       lipRim: gl.getUniformLocation(program, "u_lip_rim"),
       flat: gl.getUniformLocation(program, "u_flat"),
+      texture: gl.getUniformLocation(program, "u_texture"),
+      textured: gl.getUniformLocation(program, "u_textured"),
     };
     this.vao = gl.createVertexArray();
     this.buffers = {
@@ -270,8 +283,21 @@ export class HeadRenderer {
       normal: this.attribute("a_normal", 3),
       heat: this.attribute("a_heat", 1),
       lip: this.attribute("a_lip", 1),
+      uv: this.attribute("a_uv", 2),
       index: gl.createBuffer(),
     };
+    /** The head's texture on the GPU, or null. */
+    this.texture = null;
+    /**
+     * With a texture, the rest-mesh vertex each drawn vertex is (a vertex on a seam is
+     * drawn once per side); null without one: drawn vertices are the mesh's.
+     */
+    this.gather = null;
+    /** Gathered copies of per-vertex values, by what they hold. */
+    this.scratch = {};
+    /** The last positions and lip weights given, the mesh's (laid out again with a texture). */
+    this.positions = null;
+    this.lipWeights = null;
     this.indexCount = 0;
     this.heatScale = 0;
     this.model = IDENTITY;
@@ -320,12 +346,108 @@ export class HeadRenderer {
    */
   setLipTint(weights) {
     const gl = this.gl;
+    this.lipWeights = weights;
     gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.lip);
-    if (weights) {
-      gl.bufferSubData(gl.ARRAY_BUFFER, 0, weights);
-    } else {
-      gl.bufferSubData(gl.ARRAY_BUFFER, 0, new Float32Array(this.normals.length / 3));
+    const mesh = weights ?? new Float32Array(this.normals.length / 3);
+    gl.bufferSubData(gl.ARRAY_BUFFER, 0, this.gathered(mesh, 1, "lip"));
+  }
+
+  /**
+   * `values` (`width` per rest-mesh vertex) as the drawn vertices hold them: the same
+   * array without a texture, else gathered into a scratch array kept under `name`.
+   */
+  gathered(values, width, name) {
+    if (!this.gather) {
+      return values;
     }
+    const count = this.gather.length * width;
+    if (this.scratch[name]?.length !== count) {
+      this.scratch[name] = new Float32Array(count);
+    }
+    const out = this.scratch[name];
+    for (let i = 0; i < this.gather.length; i++) {
+      const from = this.gather[i] * width;
+      for (let k = 0; k < width; k++) {
+        out[i * width + k] = values[from + k];
+      }
+    }
+    return out;
+  }
+
+  /**
+   * The buffers the skin is drawn from, for `drawn` vertices and the triangles `indices`
+   * (into them), with their texture coordinates `uvs` (2 per drawn vertex) or none.
+   */
+  layOutSkin(indices, drawn, uvs) {
+    const gl = this.gl;
+    gl.bindVertexArray(this.vao);
+    gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, this.buffers.index);
+    gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, indices, gl.STATIC_DRAW);
+    gl.bindVertexArray(null);
+    for (const [buffer, width, usage] of [
+      [this.buffers.position, 3, gl.DYNAMIC_DRAW],
+      [this.buffers.normal, 3, gl.DYNAMIC_DRAW],
+      [this.buffers.heat, 1, gl.DYNAMIC_DRAW],
+      [this.buffers.lip, 1, gl.STATIC_DRAW],
+    ]) {
+      gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
+      gl.bufferData(gl.ARRAY_BUFFER, drawn * width * 4, usage);
+    }
+    gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.uv);
+    gl.bufferData(gl.ARRAY_BUFFER, uvs ?? new Float32Array(drawn * 2), gl.STATIC_DRAW);
+    this.indexCount = indices.length;
+  }
+
+  /**
+   * The head's texture: `coords` from decode.js parseTextureCoords (for the rest mesh's
+   * triangles) and the image (an ImageBitmap). Each rest-mesh vertex is drawn once per
+   * texture coordinate its triangles give it.
+   */
+  setTexture({ coords, corners }, image) {
+    const gl = this.gl;
+    const coordCount = coords.length / 2;
+    const drawnOf = new Map();
+    const gather = [];
+    const uvs = [];
+    const indices = new Uint32Array(this.indices.length);
+    for (let i = 0; i < this.indices.length; i++) {
+      const vertex = this.indices[i];
+      const uv = corners[i];
+      const key = vertex * coordCount + uv;
+      let drawn = drawnOf.get(key);
+      if (drawn === undefined) {
+        drawn = gather.length;
+        drawnOf.set(key, drawn);
+        gather.push(vertex);
+        uvs.push(coords[2 * uv], coords[2 * uv + 1]);
+      }
+      indices[i] = drawn;
+    }
+    this.gather = Uint32Array.from(gather);
+    this.layOutSkin(indices, gather.length, new Float32Array(uvs));
+    if (!this.texture) {
+      this.texture = gl.createTexture();
+    }
+    gl.bindTexture(gl.TEXTURE_2D, this.texture);
+    gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA, gl.RGBA, gl.UNSIGNED_BYTE, image);
+    gl.generateMipmap(gl.TEXTURE_2D);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.LINEAR_MIPMAP_LINEAR);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.LINEAR);
+    gl.bindTexture(gl.TEXTURE_2D, null);
+    this.setLipTint(this.lipWeights);
+    if (this.positions) {
+      this.setPositions(this.positions);
+    }
+  }
+
+  /** Back to the skin's own colour, one drawn vertex per rest-mesh vertex. */
+  dropTexture() {
+    if (this.texture) {
+      this.gl.deleteTexture(this.texture);
+    }
+    this.texture = null;
+    this.gather = null;
+    this.scratch = {};
   }
 
   /** The point the cut plane goes through (head units, before the head's motion). */
@@ -390,23 +512,12 @@ export class HeadRenderer {
 
   /** A new rest mesh (from decode.js parseMesh): buffers sized for it, shown at rest. */
   setMesh(mesh) {
-    const gl = this.gl;
     this.mmPerUnit = mesh.mmPerUnit;
     this.indices = mesh.indices;
     this.normals = new Float32Array(mesh.positions.length);
-    gl.bindVertexArray(this.vao);
-    gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, this.buffers.index);
-    gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, mesh.indices, gl.STATIC_DRAW);
-    gl.bindVertexArray(null);
-    gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.position);
-    gl.bufferData(gl.ARRAY_BUFFER, mesh.positions.byteLength, gl.DYNAMIC_DRAW);
-    gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.normal);
-    gl.bufferData(gl.ARRAY_BUFFER, mesh.positions.byteLength, gl.DYNAMIC_DRAW);
-    gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.heat);
-    gl.bufferData(gl.ARRAY_BUFFER, mesh.vertexCount * 4, gl.DYNAMIC_DRAW);
-    gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.lip);
-    gl.bufferData(gl.ARRAY_BUFFER, mesh.vertexCount * 4, gl.STATIC_DRAW); // zeros: no lips until setLipTint
-    this.indexCount = mesh.indices.length;
+    this.dropTexture();
+    this.lipWeights = null;
+    this.layOutSkin(mesh.indices, mesh.vertexCount, null); // zero lip weights until setLipTint
     this.model = IDENTITY;
     this.jawModel = IDENTITY;
     this.setParts([]);
@@ -571,11 +682,12 @@ export class HeadRenderer {
   /** Deformed positions (flat xyz, same vertex count as the mesh). */
   setPositions(positions) {
     const gl = this.gl;
+    this.positions = positions;
     vertexNormals(positions, this.indices, this.normals);
     gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.position);
-    gl.bufferSubData(gl.ARRAY_BUFFER, 0, positions);
+    gl.bufferSubData(gl.ARRAY_BUFFER, 0, this.gathered(positions, 3, "position"));
     gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.normal);
-    gl.bufferSubData(gl.ARRAY_BUFFER, 0, this.normals);
+    gl.bufferSubData(gl.ARRAY_BUFFER, 0, this.gathered(this.normals, 3, "normal"));
   }
 
   /**
@@ -595,7 +707,7 @@ export class HeadRenderer {
     if (values) {
       const gl = this.gl;
       gl.bindBuffer(gl.ARRAY_BUFFER, this.buffers.heat);
-      gl.bufferSubData(gl.ARRAY_BUFFER, 0, values);
+      gl.bufferSubData(gl.ARRAY_BUFFER, 0, this.gathered(values, 1, "heat"));
     }
   }
 
@@ -649,7 +761,8 @@ export class HeadRenderer {
     gl.uniform1f(this.uniforms.heatScale, 0);
     gl.uniform1f(this.uniforms.flat, region ? REGION_PART_GREY : -1);
     // A tongue part's tongue is its "lip": its own albedo and section, no rim; none in the
-    // lip region's look, where every part is one flat grey.
+    // lip region's look, where every part is one flat grey. Parts have no texture.
+    gl.uniform1f(this.uniforms.textured, 0);
     gl.uniform1f(this.uniforms.lipStrength, region ? 0 : 1);
     gl.uniform1f(this.uniforms.lipRim, 0);
     for (const part of this.parts) {
@@ -692,7 +805,16 @@ export class HeadRenderer {
     const lipLook = LIP_LOOKS[this.lips.mode];
     gl.uniform3fv(this.uniforms.lipAlbedo, lipLook.lip);
     gl.uniform3fv(this.uniforms.lipSection, SKIN_SECTION);
-    gl.uniform1f(this.uniforms.lipStrength, this.lips.mode === "region" ? 1 : this.lips.strength);
+    // A texture has the lips' own colour: the tint is for heads without one.
+    const tinted = !(this.texture && this.lips.mode === "tint");
+    const strength = this.lips.mode === "region" ? 1 : this.lips.strength;
+    gl.uniform1f(this.uniforms.lipStrength, tinted ? strength : 0);
+    gl.uniform1f(this.uniforms.textured, this.texture ? 1 : 0);
+    if (this.texture) {
+      gl.activeTexture(gl.TEXTURE0);
+      gl.bindTexture(gl.TEXTURE_2D, this.texture);
+      gl.uniform1i(this.uniforms.texture, 0);
+    }
     gl.uniform1f(this.uniforms.lipRim, lipLook.rim);
     gl.uniformMatrix4fv(this.uniforms.model, false, this.model);
     gl.uniform1f(this.uniforms.heatScale, this.heatScale);

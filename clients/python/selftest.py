@@ -47,6 +47,7 @@ import tempfile
 import threading
 import time
 import wave
+import zlib
 from typing import Any, Dict, List, Optional, Tuple
 
 import asyncio
@@ -357,6 +358,55 @@ def derived_face(url: str, head: str, stream: str) -> List[str]:
     return problems
 
 
+def solid_png(width: int, height: int, rgb: Tuple[int, int, int]) -> bytes:
+    """A PNG of one colour."""
+    raw = b"".join(b"\x00" + bytes(rgb) * width for _ in range(height))
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return (struct.pack(">I", len(body)) + kind + body
+                + struct.pack(">I", zlib.crc32(kind + body) & 0xFFFFFFFF))
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
+            + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+
+
+def textured_from_files(client: fw.Client, head: str, obj_path: str, fit_path: str) -> Dict[str, Any]:
+    """Registers `obj_path` again as `head`, written with a texture coordinate per vertex,
+    a material library naming a texture (with an option before its file name, as modelling
+    tools write them) and the PNG beside it: what register_head_files sends and the server
+    serves back."""
+    with open(obj_path, "r", encoding="utf-8") as f:
+        lines = f.read().splitlines()
+    vertices = [line for line in lines if line.startswith("v ")]
+    folder = tempfile.mkdtemp(prefix="facewire-texture-")
+    png = solid_png(8, 4, (30, 210, 50))
+    try:
+        with open(os.path.join(folder, "head.obj"), "w", encoding="utf-8") as f:
+            f.write("mtllib head.mtl\n")
+            f.writelines(line + "\n" for line in lines if not line.startswith("f "))
+            for i in range(len(vertices)):
+                f.write("vt %f 0.5\n" % (i / max(1, len(vertices) - 1)))
+            for line in lines:
+                if line.startswith("f "):
+                    f.write("f " + " ".join("%s/%s" % (c, c) for c in line.split()[1:]) + "\n")
+        with open(os.path.join(folder, "head.mtl"), "w", encoding="utf-8") as f:
+            f.write("newmtl skin\nKd 1 1 1\nmap_Kd -s 1 1 1 skin.png\n")
+        with open(os.path.join(folder, "skin.png"), "wb") as f:
+            f.write(png)
+        client.register_head_files(head, os.path.join(folder, "head.obj"), fit_path=fit_path)
+        client.wait_ready(head, timeout=300.0)
+        _, served = client.request("GET", "/v1/heads/%s/texture" % head)
+        _, uv = client.request("GET", "/v1/heads/%s/uv.bin" % head)
+    finally:
+        for name in os.listdir(folder):
+            os.remove(os.path.join(folder, name))
+        os.rmdir(folder)
+    coords, triangles = struct.unpack_from("<II", uv, 4)
+    return {"texture_served_as_sent": served == png, "uv_magic": uv[:4].decode("ascii"),
+            "uv_coordinates": coords, "uv_triangles": triangles}
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--url", required=True, help="server base URL, http://127.0.0.1:PORT")
@@ -434,6 +484,7 @@ def main() -> int:
     voiced_batch, voiced_problems = batch_with_voice(client, args.url, args.head,
                                                      args.stream + "-voiced", frames[:6])
     derived_problems = derived_face(args.url, args.head, args.stream + "-derived")
+    textured = textured_from_files(client, args.head + "-textured", args.obj, args.fit)
     asyncio_seen, asyncio_problems = asyncio.run(
         asyncio_round(args.url, args.head, args.stream + "-asyncio", frames[:10]))
 
@@ -455,6 +506,7 @@ def main() -> int:
         "voiced_batch": voiced_batch,
         "module": fw.__file__,
         "asyncio": asyncio_seen,
+        "textured": textured,
         "tables": {
             "animation_units": [list(names) for names in fw.ANIMATION_UNIT_NAMES],
             "faps": list(fw.FAP_NAMES),

@@ -12,6 +12,7 @@
 //! - [`vertex_weights`]: a weight per vertex of a mesh (`FWL1`): where the rest mesh's lips
 //!   are, which of a tongue part's vertices are the tongue itself, for drawing each in its
 //!   own colour.
+//! - [`texture_coords`]: where the rest mesh sits on its texture (`FWU1`), for drawing it.
 //! - [`audio_chunk`]: a piece of a stream's voice on its timeline (`FWA1`), from producers
 //!   and to viewers.
 //!
@@ -27,6 +28,7 @@ pub mod messages;
 pub mod param_frame;
 mod reader;
 mod sections;
+pub mod texture_coords;
 mod varint;
 pub mod vertex_weights;
 pub mod viewer_frame;

@@ -22,6 +22,10 @@ pub struct Snapshot {
     /// drawing them in their own colour. Absent from servers before it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lip_tint: Option<String>,
+    /// The head's texture, when it has one: where the rest mesh sits on it (`uv.bin`,
+    /// `FWU1`) and the image (PNG or JPEG). Absent without one and from servers before it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub texture: Option<TextureInfo>,
     /// Millimetres per head unit.
     pub mm_per_unit: f32,
     /// Quantization step of the deltas, head units per count.
@@ -110,6 +114,15 @@ pub struct PartInfo {
     /// vertex). Absent for other parts and from servers before it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tongue_proper: Option<String>,
+}
+
+/// Where a viewer fetches a head's texture.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TextureInfo {
+    /// `uv.bin` (`FWU1`): the texture coordinates of the rest mesh's triangles.
+    pub uv: String,
+    /// The image, PNG or JPEG (its content type says which).
+    pub image: String,
 }
 
 /// An eyeball of a head: a rigid mesh that turns about its centre with the gaze and moves

@@ -49,6 +49,11 @@ pub fn app(state: AppState) -> Router {
             "/v1/heads/{id}/lips.bin",
             get(heads::lips_bin).route_layer(viewer()),
         )
+        .route("/v1/heads/{id}/uv.bin", get(heads::uv_bin).route_layer(viewer()))
+        .route(
+            "/v1/heads/{id}/texture",
+            get(heads::texture).route_layer(viewer()),
+        )
         .route(
             "/v1/heads/{id}/parts/{part}/mesh.bin",
             get(heads::part_mesh_bin).route_layer(viewer()),

@@ -87,6 +87,7 @@ pub async fn register_heads(state: &AppState) -> Result<(), ApiError> {
                     obj: obj.to_vec(),
                 })
                 .collect(),
+            texture: None,
             meta: HeadMeta::default(),
         };
         state.registry.register(record, false, slot).await?;

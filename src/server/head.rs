@@ -27,6 +27,14 @@ use facewire_proto::messages::{EyeInfo, FitSummary, HeadInfo, PartInfo};
 const IRIS_RADIUS_MM: f32 = 6.0;
 const PUPIL_RADIUS_MM: f32 = 2.0;
 
+/// A head's texture, for viewers: where the rest mesh sits on it (`uv.bin`, FWU1) and the
+/// image as uploaded.
+pub struct HeadTexture {
+    pub uv_bin: Bytes,
+    pub image: Bytes,
+    pub content_type: &'static str,
+}
+
 /// A head ready to animate.
 pub struct ReadyHead {
     pub animated: Arc<AnimatedHead>,
@@ -40,6 +48,8 @@ pub struct ReadyHead {
     /// `tongue.bin` (FWL1) of the part the tongue's shapes move, by its index in
     /// `animated.parts`: which of its vertices are the tongue itself.
     pub tongue_bin: Option<(usize, Bytes)>,
+    /// Its texture, when it was registered with one and with texture coordinates.
+    pub texture: Option<HeadTexture>,
     /// The fit's residuals and warnings, for head info.
     pub fit: FitSummary,
     /// The whole fit report, for `GET /v1/heads/{id}/fit`.

@@ -15,9 +15,11 @@ use serde::{Deserialize, Serialize};
 
 use super::error::ApiError;
 use super::glb_upload::{self, GlbQuery};
+use super::head::HeadTexture;
 use super::ids::valid_id;
 use super::registration::{fit_automatically, fit_from_landmarks, AutomaticFitFailure};
 use super::store::{HeadMeta, HeadRecord, PartRecord};
+use super::texture_image;
 use super::AppState;
 use crate::cancel::Cancel;
 use crate::deform::AlgoSpec;
@@ -49,6 +51,23 @@ pub struct RegisterRequest {
     /// Teeth, gums, tongue: at most `head::MAX_PARTS`.
     #[serde(default)]
     pub parts: Vec<PartUpload>,
+    /// The head's texture image (its material's `map_Kd`), PNG or JPEG, base64: drawn
+    /// with the OBJ's texture coordinates.
+    #[serde(default)]
+    pub texture: Option<String>,
+}
+
+/// A registration's texture, decoded and checked.
+fn texture_bytes(base64_text: Option<&str>) -> Result<Option<Vec<u8>>, ApiError> {
+    use base64::Engine;
+    let Some(text) = base64_text else {
+        return Ok(None);
+    };
+    let bytes = base64::engine::general_purpose::STANDARD
+        .decode(text.trim())
+        .map_err(|e| ApiError::BadRequest(format!("texture: not base64: {e}")))?;
+    texture_image::check(&bytes).map_err(|e| ApiError::BadRequest(e.to_string()))?;
+    Ok(Some(bytes))
 }
 
 /// A part in a registration request.
@@ -134,6 +153,7 @@ pub async fn register_head(
             landmarks: None,
             producer_token,
             parts: from_file.parts,
+            texture: None,
             mm_per_unit: Some(MM_PER_METRE),
             source: Some(from_file.source),
         }
@@ -154,6 +174,7 @@ pub async fn register_head(
             landmarks: request.landmarks,
             producer_token: request.producer_token,
             parts: part_records(request.parts)?,
+            texture: texture_bytes(request.texture.as_deref())?,
             mm_per_unit: None,
             source: None,
         }
@@ -173,6 +194,7 @@ struct Upload {
     landmarks: Option<String>,
     producer_token: Option<String>,
     parts: Vec<PartRecord>,
+    texture: Option<Vec<u8>>,
     /// Known from the file's format (glTF: metres), for the automatic fit.
     mm_per_unit: Option<f32>,
     source: Option<HeadSource>,
@@ -226,6 +248,7 @@ async fn register(
         obj: obj.into_bytes(),
         fit_toml,
         parts: upload.parts,
+        texture: upload.texture,
         meta: HeadMeta::with_producer_token(upload.producer_token.as_deref()),
     };
     let entry = state.registry.register(record, true, slot).await?;
@@ -314,6 +337,42 @@ pub async fn part_tongue_bin(
         .tongue_bin(&part)
         .ok_or_else(|| ApiError::NotFound(format!("tongue weights of part {part} of head {id}")))?;
     Ok(([(header::CONTENT_TYPE, "application/octet-stream")], bin.clone()).into_response())
+}
+
+/// What `serve` makes of head `id`'s texture; not found for a head without one.
+fn with_texture(
+    state: &AppState,
+    id: &str,
+    serve: impl FnOnce(&HeadTexture) -> Response,
+) -> Result<Response, ApiError> {
+    let ready = state.registry.head(id)?.ready()?;
+    let texture = ready
+        .texture
+        .as_ref()
+        .ok_or_else(|| ApiError::NotFound(format!("a texture of head {id}")))?;
+    Ok(serve(texture))
+}
+
+/// `GET /v1/heads/{id}/uv.bin`: where the rest mesh sits on the head's texture (`FWU1`).
+pub async fn uv_bin(State(state): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {
+    with_texture(&state, &id, |texture| {
+        (
+            [(header::CONTENT_TYPE, "application/octet-stream")],
+            texture.uv_bin.clone(),
+        )
+            .into_response()
+    })
+}
+
+/// `GET /v1/heads/{id}/texture`: the head's texture image, PNG or JPEG, as uploaded.
+pub async fn texture(State(state): State<AppState>, Path(id): Path<String>) -> Result<Response, ApiError> {
+    with_texture(&state, &id, |texture| {
+        (
+            [(header::CONTENT_TYPE, texture.content_type)],
+            texture.image.clone(),
+        )
+            .into_response()
+    })
 }
 
 /// `GET /v1/heads/{id}/fit`: the fit report.

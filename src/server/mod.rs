@@ -55,6 +55,7 @@ mod state;
 mod store;
 mod stream;
 mod telemetry;
+mod texture_image;
 mod timeline;
 mod transcode;
 mod trim;

@@ -10,8 +10,9 @@ use std::sync::Arc;
 use bytes::Bytes;
 
 use super::bindings::BindingCache;
-use super::head::ReadyHead;
+use super::head::{HeadTexture, ReadyHead};
 use super::store::PartRecord;
+use super::texture_image;
 use crate::animate::{lip_tint, AnimatedHead, AnimatedHeadError, PartInput};
 use crate::cancel::Cancel;
 use crate::deform::Registration;
@@ -20,6 +21,7 @@ use crate::head::{obj, raster_cost, Head, MeshBudget, ObjError, OverBudget, Rast
 use crate::mask::Mask;
 use facewire_proto::mesh::RestMesh;
 use facewire_proto::messages::FitSummary;
+use facewire_proto::texture_coords::TextureCoords;
 use facewire_proto::vertex_weights::VertexWeights;
 
 #[derive(Debug, thiserror::Error)]
@@ -34,6 +36,8 @@ pub enum RegistrationError {
     Head(#[from] AnimatedHeadError),
     #[error("{0}")]
     Unanimatable(#[from] crate::deform::RegistrationError),
+    #[error("{0}")]
+    Texture(String),
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -51,6 +55,8 @@ pub struct RegistrationInput {
     pub obj: Vec<u8>,
     pub fit_toml: String,
     pub parts: Vec<PartRecord>,
+    /// The texture image, checked ([`super::texture_image`]).
+    pub texture: Option<Vec<u8>>,
     /// The head and its parts together: at most `max_vertices` and `max_triangles`.
     pub budget: MeshBudget,
     pub max_bindings: usize,
@@ -71,7 +77,7 @@ pub fn register(
         Ok(())
     };
     let mut budget = input.budget;
-    let head = read_head(&input.obj, &mut budget)?;
+    let (head, texture_coords) = read_head(&input.obj, &mut budget)?;
     drop(input.obj);
     let mut parts = Vec::with_capacity(input.parts.len());
     for part in input.parts {
@@ -138,6 +144,29 @@ pub fn register(
         ..crate::fit::report(&reg.head, &reg.fitted)
     }
     .with_fit_notes(&fit_file.warnings);
+    // Drawn when the image has coordinates to go by, on every triangle of the rest mesh.
+    let input_had_texture = input.texture.is_some();
+    let texture = match (input.texture, texture_coords) {
+        (Some(image), Some(coords)) if coords.corners.len() == reg.head.triangles.len() => {
+            let format =
+                texture_image::check(&image).map_err(|e| RegistrationError::Texture(e.to_string()))?;
+            let uv = TextureCoords {
+                coords: coords.coords,
+                corners: coords.corners,
+            };
+            Some(HeadTexture {
+                uv_bin: Bytes::from(uv.encode()),
+                image: Bytes::from(image),
+                content_type: format.content_type(),
+            })
+        }
+        _ => None,
+    };
+    let untextured = (input_had_texture && texture.is_none()).then(|| {
+        "a texture was given, but head.obj has no texture coordinates on every face (`vt` \
+         records and `f v/vt` corners): it is not drawn"
+            .to_string()
+    });
     let closed = reg.mouth_calibration.map(|c| {
         format!(
             "the inner lips were {:.1} mm apart at rest: registration closed them, raising the lower lip {:.1} mm",
@@ -150,6 +179,7 @@ pub fn register(
         worst_mask_vertex: fit_report.surface.worst_mask_vertex,
         warnings: closed
             .into_iter()
+            .chain(untextured)
             .chain(fit_report.warnings.iter().map(|w| w.message.clone()))
             .collect(),
     };
@@ -160,6 +190,7 @@ pub fn register(
         lips_bin,
         part_bins,
         tongue_bin,
+        texture,
         fit,
         fit_report,
         fit_pictures: Default::default(),
@@ -189,14 +220,17 @@ fn read_mesh(name: &str, bytes: &[u8], budget: &mut MeshBudget) -> Result<Head, 
 
 /// [`read_mesh`] for `head.obj`, which is also drawn (by the automatic fit, in fit
 /// pictures): refused before its topology is built when drawing it would cost too much.
-fn read_head(bytes: &[u8], budget: &mut MeshBudget) -> Result<Head, MeshReadError> {
+fn read_head(
+    bytes: &[u8],
+    budget: &mut MeshBudget,
+) -> Result<(Head, Option<obj::TextureCoords>), MeshReadError> {
     let name = "head.obj";
     let mesh = mesh_within(name, bytes, budget)?;
     raster_cost::check(&mesh.positions, &mesh.triangles).map_err(|source| MeshReadError::RasterCost {
         mesh: name.to_string(),
         source,
     })?;
-    Ok(Head::new(name, mesh.positions, mesh.triangles))
+    Ok((Head::new(name, mesh.positions, mesh.triangles), mesh.texture))
 }
 
 fn mesh_within(name: &str, bytes: &[u8], budget: &mut MeshBudget) -> Result<obj::ObjMesh, MeshReadError> {
@@ -225,7 +259,7 @@ pub fn fit_automatically(
     mut budget: MeshBudget,
     cancel: &Cancel,
 ) -> Result<String, AutomaticFitFailure> {
-    let head = read_head(obj, &mut budget)?;
+    let (head, _) = read_head(obj, &mut budget)?;
     let mask = Mask::candide3();
     let found = crate::fit::fit_automatically_unless(&head, &mask, mm_per_unit, cancel)?;
     let file = FitFile {
@@ -241,7 +275,7 @@ pub fn fit_from_landmarks(
     landmarks_toml: &str,
     mut budget: MeshBudget,
 ) -> Result<String, LandmarkError> {
-    let head = read_head(obj, &mut budget)?;
+    let (head, _) = read_head(obj, &mut budget)?;
     let landmarks = Landmarks::parse("landmarks", landmarks_toml)?;
     let mask = Mask::candide3();
     let solved = crate::fit::fit_from_landmarks(&head, &landmarks, "landmarks", &mask)?;

@@ -180,6 +180,7 @@ impl Registry {
             obj: record.obj,
             fit_toml: record.fit_toml,
             parts: record.parts,
+            texture: record.texture,
             budget: self.inner.limits.budget,
             max_bindings: self.inner.limits.max_bindings,
         };

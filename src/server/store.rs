@@ -1,5 +1,6 @@
 //! Where registered heads live between runs: one folder per head in the data directory
-//! (`heads/<id>/head.obj`, `fit.toml`, `parts/<name>.obj`, `head.json`), every file
+//! (`heads/<id>/head.obj`, `fit.toml`, `parts/<name>.obj`, `texture` when it has one,
+//! `head.json`), every file
 //! written atomically.
 //! `head.json` is written last and removed first, so a folder without it is an
 //! interrupted write: it is removed at start, with any temporary file left by a crash.
@@ -23,6 +24,9 @@ pub struct HeadRecord {
     /// Teeth, gums, tongue (stored as `parts/<name>.obj`, listed with their roles in
     /// `head.json`).
     pub parts: Vec<PartRecord>,
+    /// Its texture image, PNG or JPEG, checked ([`super::texture_image`]), stored as
+    /// `texture`.
+    pub texture: Option<Vec<u8>>,
     pub meta: HeadMeta,
 }
 
@@ -170,6 +174,10 @@ impl Store {
                 write_atomic(&path, &part.obj).map_err(io(&path))?;
             }
         }
+        if let Some(texture) = &record.texture {
+            let path = dir.join("texture");
+            write_atomic(&path, texture).map_err(io(&path))?;
+        }
         self.save_meta(&record.id, &record.meta.listing(&record.parts))
     }
 
@@ -279,11 +287,24 @@ impl Store {
                 obj: std::fs::read(&path).map_err(io(&path))?,
             });
         }
+        let texture_path = dir.join("texture");
+        let texture = match std::fs::read(&texture_path) {
+            Ok(bytes) => {
+                super::texture_image::check(&bytes).map_err(|e| StoreError::Invalid {
+                    path: texture_path.display().to_string(),
+                    message: e.to_string(),
+                })?;
+                Some(bytes)
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+            Err(e) => return Err(io(&texture_path)(e)),
+        };
         Ok(HeadRecord {
             id: id.to_string(),
             obj: std::fs::read(&obj_path).map_err(io(&obj_path))?,
             fit_toml: std::fs::read_to_string(&fit_path).map_err(io(&fit_path))?,
             parts,
+            texture,
             meta,
         })
     }
@@ -299,6 +320,7 @@ mod tests {
             obj: b"v 0 0 0\n".to_vec(),
             fit_toml: "scale = 1.0\n".into(),
             parts: Vec::new(),
+            texture: None,
             meta: HeadMeta::with_producer_token(Some("t")),
         }
     }
@@ -329,6 +351,25 @@ mod tests {
         assert_eq!(loaded.parts, head.parts);
         assert_eq!(loaded.meta.parts.len(), 2);
         assert_eq!(loaded.meta.parts[1].role, Some(PartRole::Tongue));
+    }
+
+    #[test]
+    fn a_texture_is_stored_and_loaded_back_and_a_broken_one_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(dir.path()).unwrap();
+        let mut head = record("h3");
+        let mut png = vec![0x89, b'P', b'N', b'G', b'\r', b'\n', 0x1a, b'\n', 0, 0, 0, 13];
+        png.extend_from_slice(b"IHDR");
+        png.extend_from_slice(&[0, 0, 0, 4, 0, 0, 0, 2, 8, 2, 0, 0, 0]);
+        head.texture = Some(png);
+        store.save(&head).unwrap();
+        assert_eq!(store.load("h3").unwrap(), head);
+        std::fs::write(dir.path().join("heads/h3/texture"), b"not an image").unwrap();
+        let error = store.load("h3").unwrap_err().to_string();
+        assert!(
+            error.contains("heads/h3/texture") && error.contains("not a PNG or JPEG"),
+            "{error}"
+        );
     }
 
     #[test]

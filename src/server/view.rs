@@ -28,7 +28,7 @@ use crate::animate::{FrameJob, Heat};
 use crate::deform::AlgoSpec;
 use crate::mask::LIP_VERTICES;
 use facewire_proto::codes::{CloseCode, EndReason};
-use facewire_proto::messages::{SectionInfo, ServerMessage, Snapshot};
+use facewire_proto::messages::{SectionInfo, ServerMessage, Snapshot, TextureInfo};
 use facewire_proto::viewer_frame::{self, FrameLayout};
 
 #[derive(Debug, Deserialize)]
@@ -214,6 +214,10 @@ pub(super) fn snapshot(
         rest_mesh: format!("/v1/heads/{id}/mesh.bin"),
         rest_obj: format!("/v1/heads/{id}/mesh.obj"),
         lip_tint: Some(format!("/v1/heads/{id}/lips.bin")),
+        texture: ready.texture.as_ref().map(|_| TextureInfo {
+            uv: format!("/v1/heads/{id}/uv.bin"),
+            image: format!("/v1/heads/{id}/texture"),
+        }),
         mm_per_unit: reg.mm_per_unit(),
         step: ready.animated.step,
         lip_vertices: LIP_VERTICES.iter().map(|&v| v as u32).collect(),

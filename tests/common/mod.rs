@@ -8,6 +8,7 @@ pub mod nats;
 pub mod nats_jwt;
 pub mod service;
 pub mod streams;
+pub mod texture;
 
 use std::path::{Path, PathBuf};
 

@@ -18,4 +18,5 @@ mod replay_voice;
 mod routes;
 mod serve_process;
 mod server;
+mod texture;
 mod web_decode;

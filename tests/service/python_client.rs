@@ -167,6 +167,17 @@ struct Outcome {
     viewer_errors: Vec<serde_json::Value>,
     /// Where the script imported `facewire_client` from.
     module: String,
+    textured: Textured,
+}
+
+/// The head registered again from files with a material naming a texture
+/// (`register_head_files`), and what the server serves back.
+#[derive(Debug, Deserialize)]
+struct Textured {
+    texture_served_as_sent: bool,
+    uv_magic: String,
+    uv_coordinates: u32,
+    uv_triangles: u32,
 }
 
 /// A virtual environment in `dir` with the package installed from a copy of the checkout's
@@ -328,6 +339,15 @@ async fn the_python_client_decodes_what_the_library_computes() {
     assert_eq!(outcome.batch.frames, frames.len());
     // The batch with its voice: six frames and five 20 ms chunks (heard sample for sample,
     // at their times: the script's problems say otherwise).
+    // The texture its OBJ's material names went with it, its coordinates one per vertex.
+    let textured = &outcome.textured;
+    assert!(textured.texture_served_as_sent, "{textured:?}");
+    assert_eq!(textured.uv_magic, "FWU1");
+    assert_eq!(
+        (textured.uv_coordinates, textured.uv_triangles),
+        (outcome.ready.vertices, outcome.rest.triangles as u32),
+        "{textured:?}"
+    );
     assert_eq!(outcome.voiced_batch.frames, 6);
     assert_eq!(outcome.voiced_batch.audio_s, 0.1);
 

@@ -12,6 +12,7 @@ use crate::common::repo_path;
 use std::process::Command;
 
 use facewire_proto::audio_chunk::{AudioBody, AudioChunk};
+use facewire_proto::texture_coords::TextureCoords;
 use facewire_proto::vertex_weights::VertexWeights;
 use facewire_proto::viewer_frame::{
     decode, EyeMotion, FrameContent, FrameEncoder, FrameHeader, FrameLayout, FrameViseme, LipFolds,
@@ -589,6 +590,11 @@ fn cases() -> Value {
     let lips = VertexWeights {
         weights: vec![0, 1, 128, 255],
     };
+    // Three coordinates for two triangles, a seam: vertex 1 has two.
+    let uv = TextureCoords {
+        coords: vec![[0.0, 0.0], [1.0, 0.25], [0.5, 1.0]],
+        corners: vec![[0, 1, 2], [2, 1, 0]],
+    };
     json!({
         "frames": frames,
         "malformedFrames": malformed_frames,
@@ -618,6 +624,18 @@ fn cases() -> Value {
             { "name": "short", "bytes": lips.encode()[..10].to_vec(), "field": "vertex count" },
             { "name": "another mesh's", "bytes": VertexWeights { weights: vec![0; 5] }.encode(), "field": "vertex count" },
             { "name": "mesh, not lips", "bytes": mesh, "field": "magic" },
+        ],
+        "textureCoords": {
+            "bytes": uv.encode(),
+            "triangleCount": 2,
+            "coords": exact(&uv.coords.concat()),
+            "corners": uv.corners.concat(),
+        },
+        "malformedTextureCoords": [
+            { "name": "short", "bytes": uv.encode()[..20].to_vec(), "field": "coordinate count" },
+            { "name": "another mesh's", "bytes": TextureCoords { corners: vec![[0, 1, 2]], ..uv.clone() }.encode(), "field": "triangle count" },
+            { "name": "a corner past the coordinates", "bytes": TextureCoords { corners: vec![[0, 1, 2], [2, 3, 0]], ..uv.clone() }.encode(), "field": "corners" },
+            { "name": "lips, not coordinates", "bytes": lips.encode(), "field": "magic" },
         ],
     })
 }

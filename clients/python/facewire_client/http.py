@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import base64
 import json
 import math
 import os
@@ -96,15 +97,16 @@ class Client:
     def register_head(self, head_id: str, obj: str, *, fit: Optional[str] = None,
                       landmarks: Optional[str] = None, producer_token: Optional[str] = None,
                       token: Optional[str] = None,
-                      parts: Optional[Sequence[Tuple[str, str, Optional[str]]]] = None
-                      ) -> Dict[str, Any]:
+                      parts: Optional[Sequence[Tuple[str, str, Optional[str]]]] = None,
+                      texture: Optional[bytes] = None) -> Dict[str, Any]:
         """``POST /v1/heads`` with the OBJ text and at most one of ``fit`` (a ``.fit.toml``
         text) or ``landmarks`` (a ``.landmarks.toml`` text, the server solves the fit); with
         neither, the server finds the face itself (the automatic fit). ``parts`` are the
         head's part meshes as ``(name, obj text, role)`` with role ``"skull"``, ``"jaw"``,
-        ``"tongue"``, ``"eyes"`` or ``None`` (the server infers skull or jaw). Registration
-        runs in the background: follow with :meth:`wait_ready`. ``token`` is the admin
-        token."""
+        ``"tongue"``, ``"eyes"`` or ``None`` (the server infers skull or jaw). ``texture``
+        is the head's texture image, PNG or JPEG bytes, drawn with the OBJ's texture
+        coordinates (``vt`` and ``f v/vt``). Registration runs in the background: follow
+        with :meth:`wait_ready`. ``token`` is the admin token."""
         if fit is not None and landmarks is not None:
             raise FacewireError("register_head: give at most one of fit and landmarks")
         payload: Dict[str, Any] = {"id": head_id, "obj": obj}
@@ -117,6 +119,8 @@ class Client:
             payload["landmarks"] = landmarks
         if producer_token is not None:
             payload["producer_token"] = producer_token
+        if texture is not None:
+            payload["texture"] = base64.b64encode(texture).decode("ascii")
         return cast(Dict[str, Any], self._json("POST", "/v1/heads", payload, token))
 
     def register_glb(self, head_id: str, glb: bytes, *, roles: Optional[Mapping[str, str]] = None,
@@ -142,8 +146,11 @@ class Client:
     def register_head_files(self, head_id: str, obj_path: str, *, fit_path: Optional[str] = None,
                             landmarks_path: Optional[str] = None,
                             producer_token: Optional[str] = None,
-                            token: Optional[str] = None) -> Dict[str, Any]:
-        """:meth:`register_head` with the texts read from files."""
+                            token: Optional[str] = None,
+                            texture_path: Optional[str] = None) -> Dict[str, Any]:
+        """:meth:`register_head` with the texts read from files, and the texture: the file
+        ``texture_path``, else the image the OBJ's material names (its ``mtllib`` file's
+        first ``map_Kd``, both beside the OBJ), else none."""
 
         def read(path: Optional[str]) -> Optional[str]:
             if path is None:
@@ -153,8 +160,14 @@ class Client:
 
         obj = read(obj_path)
         assert obj is not None
+        if texture_path is None:
+            texture_path = material_texture(obj, os.path.dirname(os.path.abspath(obj_path)))
+        texture = None
+        if texture_path is not None:
+            with open(texture_path, "rb") as f:
+                texture = f.read()
         return self.register_head(head_id, obj, fit=read(fit_path), landmarks=read(landmarks_path),
-                                  producer_token=producer_token, token=token)
+                                  producer_token=producer_token, token=token, texture=texture)
 
     def wait_ready(self, head_id: str, timeout: float = 300.0, poll_s: float = 0.1) -> Dict[str, Any]:
         """Polls ``GET /v1/heads/{id}`` until ``status`` is ``ready`` and returns the head
@@ -273,3 +286,31 @@ def _multipart(parts: Sequence[Tuple[str, Optional[str], str, bytes]]) -> Tuple[
         out += data + b"\r\n"
     out += ("--%s--\r\n" % boundary).encode("ascii")
     return "multipart/form-data; boundary=" + boundary, bytes(out)
+
+
+def material_texture(obj: str, folder: str) -> Optional[str]:
+    """The path of the texture image an OBJ's material names: the first ``map_Kd`` of the
+    first ``mtllib`` file (both relative to ``folder``, the OBJ's), or ``None`` when the
+    OBJ names no material library or its library no ``map_Kd``. Raises
+    :class:`FacewireError` naming a library or an image that is not there."""
+    library = next((line.split(None, 1)[1].strip() for line in obj.splitlines()
+                    if line.startswith("mtllib ") and len(line.split(None, 1)) == 2), None)
+    if library is None:
+        return None
+    mtl_path = os.path.join(folder, library)
+    try:
+        with open(mtl_path, "r", encoding="utf-8", errors="replace") as f:
+            mtl = f.read()
+    except OSError as e:
+        raise FacewireError("the OBJ names the material library %r, which cannot be read: %s"
+                            % (mtl_path, e)) from None
+    for line in mtl.splitlines():
+        fields = line.split()
+        if fields and fields[0] == "map_Kd" and len(fields) > 1:
+            # Options (-o u v, -s ..., -bm ...) come first; the file name is last.
+            image = os.path.join(folder, fields[-1])
+            if not os.path.isfile(image):
+                raise FacewireError("%s names the texture %r, which is not there" % (mtl_path, image))
+            return image
+    return None
+

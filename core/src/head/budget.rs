@@ -68,6 +68,7 @@ mod tests {
         ObjMesh {
             positions: vec![Vec3::ZERO; vertices],
             triangles: vec![[0, 0, 0]; triangles],
+            texture: None,
         }
     }
 

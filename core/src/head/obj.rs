@@ -1,5 +1,6 @@
 //! Wavefront OBJ reader for dense heads: `v` and `f` records, polygons fanned into
-//! triangles, everything else (normals, UVs, groups, materials) skipped.
+//! triangles, and the texture coordinates (`vt`, and each face corner's `v/vt`) when every
+//! face has them; everything else (normals, groups, materials) skipped.
 //!
 //! Why not tobj: its `single_index: false` mode renumbers vertices in first-use order per
 //! object and drops unreferenced ones, and facewire's vertex-indexed data (expression
@@ -50,6 +51,10 @@ pub enum ObjError {
     },
     #[error("line {line}: face corner {index} is out of range (the file has {count} vertices so far)")]
     IndexOutOfRange { line: usize, index: i64, count: usize },
+    #[error("line {line}: texture coordinate {index} is out of range (the file has {count} so far)")]
+    TextureIndexOutOfRange { line: usize, index: i64, count: usize },
+    #[error("line {line}: texture coordinate {which} is {value}; it must be finite")]
+    TextureNotFinite { line: usize, which: usize, value: f32 },
     #[error("line {line}: more than {limit} vertices or triangles")]
     TooLarge { line: usize, limit: usize },
     #[error("the file has no triangles")]
@@ -61,12 +66,27 @@ pub enum ObjError {
 pub struct ObjMesh {
     pub positions: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
+    /// Where each triangle's corners sit on the texture, when every face says.
+    pub texture: Option<TextureCoords>,
+}
+
+/// A mesh's texture coordinates: `coords` (u, v; v up, as OBJ writes them) and, for each
+/// triangle, the coordinate of each of its corners (a vertex on a seam has one per side).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TextureCoords {
+    pub coords: Vec<[f32; 2]>,
+    pub corners: Vec<[u32; 3]>,
 }
 
 pub fn parse(text: &str) -> Result<ObjMesh, ObjError> {
     let mut positions = Vec::new();
     let mut triangles = Vec::new();
+    let mut coords: Vec<[f32; 2]> = Vec::new();
+    let mut texture_corners: Vec<[u32; 3]> = Vec::new();
+    // Whether every face so far gave each corner a texture coordinate.
+    let mut textured = true;
     let mut corners: Vec<u32> = Vec::with_capacity(8);
+    let mut uv_corners: Vec<Option<u32>> = Vec::with_capacity(8);
     for (i, raw) in text.lines().enumerate() {
         let line = i + 1;
         let mut fields = raw.split_whitespace();
@@ -108,10 +128,39 @@ pub fn parse(text: &str) -> Result<ObjMesh, ObjError> {
                 }
                 positions.push(Vec3::from_array(xyz));
             }
+            Some("vt") => {
+                if coords.len() >= MAX_ELEMENTS {
+                    return Err(ObjError::TooLarge {
+                        line,
+                        limit: MAX_ELEMENTS,
+                    });
+                }
+                // `u [v [w]]`: v is 0 when left out, w is ignored.
+                let mut uv = [0.0f32; 2];
+                for (k, text) in fields.take(2).enumerate() {
+                    let value: f32 = text.parse().map_err(|_| ObjError::NotANumber {
+                        line,
+                        field: ["u", "v"][k],
+                        found: quote(text),
+                    })?;
+                    if !value.is_finite() {
+                        return Err(ObjError::TextureNotFinite {
+                            line,
+                            which: coords.len(),
+                            value,
+                        });
+                    }
+                    uv[k] = value;
+                }
+                coords.push(uv);
+            }
             Some("f") => {
                 corners.clear();
+                uv_corners.clear();
                 for corner in fields.by_ref().take(MAX_FACE_CORNERS + 1) {
-                    corners.push(parse_corner(line, corner, positions.len())?);
+                    let (vertex, uv) = parse_corner(line, corner, positions.len(), coords.len())?;
+                    corners.push(vertex);
+                    uv_corners.push(uv);
                 }
                 if corners.len() > MAX_FACE_CORNERS {
                     return Err(ObjError::FaceTooLarge {
@@ -135,6 +184,13 @@ pub fn parse(text: &str) -> Result<ObjMesh, ObjError> {
                 for k in 1..corners.len() - 1 {
                     triangles.push([corners[0], corners[k], corners[k + 1]]);
                 }
+                textured &= uv_corners.iter().all(Option::is_some);
+                if textured {
+                    let uv = |k: usize| uv_corners[k].expect("every corner has one");
+                    for k in 1..corners.len() - 1 {
+                        texture_corners.push([uv(0), uv(k), uv(k + 1)]);
+                    }
+                }
             }
             _ => {}
         }
@@ -142,26 +198,61 @@ pub fn parse(text: &str) -> Result<ObjMesh, ObjError> {
     if triangles.is_empty() {
         return Err(ObjError::NoTriangles);
     }
-    Ok(ObjMesh { positions, triangles })
+    let texture = textured.then_some(TextureCoords {
+        coords,
+        corners: texture_corners,
+    });
+    Ok(ObjMesh {
+        positions,
+        triangles,
+        texture,
+    })
 }
 
-/// `7`, `7/1`, `7//3`, `7/1/3` or a negative (relative) index.
-fn parse_corner(line: usize, text: &str, count: usize) -> Result<u32, ObjError> {
-    let vertex = text.split('/').next().unwrap_or(text);
-    let index: i64 = vertex.parse().map_err(|_| ObjError::NotANumber {
-        line,
-        field: "face corner",
-        found: quote(text),
-    })?;
-    let resolved = if index > 0 {
-        index - 1
-    } else {
-        count as i64 + index
+/// `7`, `7/1`, `7//3`, `7/1/3` or negative (relative) indices: the vertex, and the
+/// texture coordinate when the corner names one.
+fn parse_corner(
+    line: usize,
+    text: &str,
+    count: usize,
+    coords: usize,
+) -> Result<(u32, Option<u32>), ObjError> {
+    let mut fields = text.split('/');
+    let vertex = fields.next().unwrap_or(text);
+    let resolve = |text: &str, field: &'static str, count: usize| -> Result<(i64, i64), ObjError> {
+        let index: i64 = text.parse().map_err(|_| ObjError::NotANumber {
+            line,
+            field,
+            found: quote(text),
+        })?;
+        Ok((
+            index,
+            if index > 0 {
+                index - 1
+            } else {
+                count as i64 + index
+            },
+        ))
     };
+    let (index, resolved) = resolve(vertex, "face corner", count)?;
     if index == 0 || resolved < 0 || resolved >= count as i64 {
         return Err(ObjError::IndexOutOfRange { line, index, count });
     }
-    Ok(resolved as u32)
+    let uv = match fields.next() {
+        None | Some("") => None,
+        Some(uv) => {
+            let (index, resolved) = resolve(uv, "texture corner", coords)?;
+            if index == 0 || resolved < 0 || resolved >= coords as i64 {
+                return Err(ObjError::TextureIndexOutOfRange {
+                    line,
+                    index,
+                    count: coords,
+                });
+            }
+            Some(resolved as u32)
+        }
+    };
+    Ok((resolved as u32, uv))
 }
 
 /// Writes positions and triangles as OBJ text (1-based indices), `header` lines as
@@ -215,6 +306,43 @@ mod tests {
         let mesh = parse(text).unwrap();
         assert_eq!(mesh.positions.len(), 4);
         assert_eq!(mesh.triangles, vec![[0, 1, 2], [0, 2, 3], [0, 1, 3]]);
+    }
+
+    #[test]
+    fn texture_coordinates_follow_each_triangle_s_corners_across_a_seam() {
+        // A quad whose right edge is a seam: vertex 2 and 3 have a coordinate per side.
+        let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 0.5 0\nvt 0.5 1\nvt 0 1\n\
+                    vt 1 0\nvt 1 1 0\nf 1/1 2/2/1 3/3/1 4/4\nf 2/5 3/-1 4/4\n";
+        let mesh = parse(text).unwrap();
+        assert_eq!(mesh.triangles, vec![[0, 1, 2], [0, 2, 3], [1, 2, 3]]);
+        let texture = mesh.texture.unwrap();
+        assert_eq!(texture.coords.len(), 6);
+        assert_eq!((texture.coords[1], texture.coords[5]), ([0.5, 0.0], [1.0, 1.0]));
+        assert_eq!(texture.corners, vec![[0, 1, 2], [0, 2, 3], [4, 5, 3]]);
+        // A face without them: no texture for the mesh.
+        let partly = parse("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/1 3/1\nf 1 2 3\n").unwrap();
+        assert_eq!(partly.texture, None);
+        assert_eq!(
+            parse("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap().texture,
+            None
+        );
+        // Out of range or not finite: refused, naming the line.
+        assert_eq!(
+            parse("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n"),
+            Err(ObjError::TextureIndexOutOfRange {
+                line: 5,
+                index: 2,
+                count: 1
+            })
+        );
+        assert!(matches!(
+            parse("v 0 0 0\nvt 0 inf\n"),
+            Err(ObjError::TextureNotFinite {
+                line: 2,
+                which: 0,
+                ..
+            })
+        ));
     }
 
     #[test]

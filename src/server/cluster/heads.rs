@@ -1,6 +1,7 @@
 //! The head registry shared by every node. A head's metadata and fit are one JSON value
-//! under its id in the key-value bucket `facewire_heads`; its mesh and parts are objects
-//! `<id>/<tag>/head.obj` and `<id>/<tag>/parts/<name>.obj` in the object store
+//! under its id in the key-value bucket `facewire_heads`; its mesh, parts and texture are
+//! objects `<id>/<tag>/head.obj`, `<id>/<tag>/parts/<name>.obj` and `<id>/<tag>/texture`
+//! in the object store
 //! `facewire_meshes`, where the tag tells registrations of the same id apart. Objects are
 //! written before the key and removed after it, so a node that sees a key finds its
 //! meshes. Every node follows the bucket from its start (the current value of every key
@@ -151,7 +152,7 @@ impl SharedHead {
 
     /// Whether the record names only what a registration may: its tag and part names
     /// are ids (they become folder and file names on each node), and it names the
-    /// objects of exactly its mesh and parts.
+    /// objects of exactly its mesh and parts, and perhaps a texture.
     fn check(&self) -> Result<(), String> {
         if !valid_id(&self.tag) {
             return Err(format!("tag {:?} is not an id", self.tag));
@@ -163,11 +164,15 @@ impl SharedHead {
             }
             expected.push(format!("parts/{part}.obj"));
         }
+        // A texture is the one object a head may have or not.
+        if self.objects.contains_key("texture") {
+            expected.push("texture".to_string());
+        }
         expected.sort();
         let named: Vec<&String> = self.objects.keys().collect();
         if named != expected.iter().collect::<Vec<_>>() {
             return Err(format!(
-                "names the objects {named:?}, its mesh and parts are {expected:?}"
+                "names the objects {named:?}, its mesh, parts and texture are {expected:?}"
             ));
         }
         Ok(())
@@ -227,6 +232,10 @@ fn mesh_name(id: &str, tag: &str) -> String {
 
 fn part_name(id: &str, tag: &str, part: &str) -> String {
     format!("{id}/{tag}/parts/{part}.obj")
+}
+
+fn texture_name(id: &str, tag: &str) -> String {
+    format!("{id}/{tag}/texture")
 }
 
 fn place(id: &str) -> String {
@@ -363,6 +372,9 @@ impl ClusterHeads {
         for part in &record.parts {
             objects.push((part_name(id, tag, &part.name), &part.obj));
         }
+        if let Some(texture) = &record.texture {
+            objects.push((texture_name(id, tag), texture));
+        }
         let mut names = Vec::with_capacity(objects.len());
         for (name, bytes) in objects {
             if let Err(e) = self.objects.put(name.as_str(), &mut bytes.as_slice()).await {
@@ -382,6 +394,9 @@ impl ClusterHeads {
         let mut objects = BTreeMap::from([("head.obj".to_string(), ObjectDigest::of(&record.obj))]);
         for part in &record.parts {
             objects.insert(format!("parts/{}.obj", part.name), ObjectDigest::of(&part.obj));
+        }
+        if let Some(texture) = &record.texture {
+            objects.insert("texture".to_string(), ObjectDigest::of(texture));
         }
         let value = SharedHead {
             tag,
@@ -553,11 +568,23 @@ impl ClusterHeads {
                     .await?,
             });
         }
+        let texture = match digest("texture") {
+            None => None,
+            Some(digest) => {
+                let bytes = self
+                    .read_object(&texture_name(id, &shared.tag), Some(digest))
+                    .await?;
+                crate::server::texture_image::check(&bytes)
+                    .map_err(|e| SharedHeadError::Bus(format!("head {id:?}: {e}")))?;
+                Some(bytes)
+            }
+        };
         Ok(HeadRecord {
             id: id.to_string(),
             obj,
             fit_toml: shared.fit_toml,
             parts,
+            texture,
             meta: shared.meta,
         })
     }
