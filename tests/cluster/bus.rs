@@ -1,14 +1,15 @@
 //! Several facewire nodes over a real NATS server: `facewire serve` child processes with
-//! `bus = "nats://..."`, a head registered on one node and served by all, a stream produced
-//! on one node and watched on others frame for frame, one producer per stream across
-//! nodes, and the faults the cluster must survive (a node killed, NATS restarted).
+//! `bus = "nats://..."`, a head registered on one node and served by all (its texture
+//! too), a stream produced on one node and watched on others frame for frame, one producer
+//! per stream across nodes, and the faults the cluster must survive (a node killed, NATS
+//! restarted).
 
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use crate::common::nats::{subscribed, NatsServer};
 use crate::common::service::{
-    close_code, connect, moving_jaw_line, next_json, next_message, pcm_chunk, Server, Socket,
+    close_code, connect, moving_jaw_line, next_json, next_message, pcm_chunk, post, Server, Socket,
 };
 use facewire_proto::messages::{HeadInfo, ServerMessage};
 use facewire_proto::viewer_frame::{decode, ViewerFrame};
@@ -186,11 +187,21 @@ async fn three_nodes_share_a_head_and_a_stream_frame_for_frame() {
     wait_gone(&n1, HEAD, Duration::from_secs(5)).await;
     wait_gone(&n2, HEAD, Duration::from_secs(5)).await;
 
-    // A node that starts later catches up: the head registered before it is served.
-    n1.register("late", "makehuman_head", "").await;
+    // A node that starts later catches up: the head registered before it is served, its
+    // texture with it.
+    let png = crate::common::texture::solid_png(8, 8, [30, 210, 50]);
+    let request = crate::common::texture::textured_request("late", &png);
+    let (status, body) = post(&n1, "/v1/heads", request.to_string(), "application/json").await;
+    assert_eq!(status, 202, "{body}");
+    n1.wait_ready("late", "").await;
     let n4 = node(&nats, "n4").await;
     n4.wait_ready_in_cluster("late", Duration::from_secs(30)).await;
     assert!(info(&n4, HEAD).await.is_none(), "the deleted head stays deleted");
+    let texture = reqwest::get(n4.http("/v1/heads/late/texture")).await.unwrap();
+    assert_eq!(texture.status(), 200);
+    assert_eq!(texture.bytes().await.unwrap().as_ref(), png.as_slice());
+    let uv = reqwest::get(n4.http("/v1/heads/late/uv.bin")).await.unwrap();
+    assert_eq!(uv.status(), 200);
 }
 
 /// Sends frames from `first` at 30 fps until `stop`, then returns the next seq. Reconnects
