@@ -563,10 +563,12 @@ async fn green_share(browser: &Browser, shot: &str) -> f64 {
 }
 
 /// A head registered with a texture (the MakeHuman head with texture coordinates of the
-/// test's own and a green image) is drawn with it: a good share of the view green where
-/// the shipped MakeHuman head, untextured, shows none.
+/// test's own and a green and white checkerboard) is drawn with it: a good share of the
+/// view green where the shipped MakeHuman head, untextured, shows none.
+/// `FACEWIRE_SCREENSHOTS=DIR` keeps the textured head (`DIR/texture.png.base64`;
+/// docs/img/texture.png is it).
 async fn check_a_textured_head(browser: &Browser, url: &str, long: Duration) {
-    let png = common::texture::solid_png(64, 64, [30, 210, 50]);
+    let png = common::texture::checker_png(256, 256, 16, [30, 170, 60], [235, 235, 225]);
     let http = reqwest::Client::new();
     let posted = http
         .post(format!("{url}v1/heads"))
@@ -588,6 +590,9 @@ async fn check_a_textured_head(browser: &Browser, url: &str, long: Duration) {
         let green = green_share(browser, &shot).await;
         println!("{head}: {:.1} % of the view green", green * 100.0);
         if textured {
+            if let Some(dir) = std::env::var_os("FACEWIRE_SCREENSHOTS") {
+                std::fs::write(std::path::Path::new(&dir).join("texture.png.base64"), &shot).unwrap();
+            }
             assert!(
                 green > 0.05,
                 "the texture is not drawn: {:.2} % green",

@@ -318,6 +318,10 @@ pub struct HeadSource {
     pub parts: Vec<PartSource>,
     /// Meshes not used (hair, lashes, clothes, ...).
     pub left_out: Vec<String>,
+    /// What became of the skin's base colour image: kept as the head's texture, or left
+    /// out and why. Absent when it has none, and from servers before it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub texture: Option<String>,
 }
 
 /// A part and the file's mesh it was made from.

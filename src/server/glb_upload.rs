@@ -1,14 +1,17 @@
 //! Registration from a glTF binary avatar: `POST /v1/heads?id=NAME` with
 //! `Content-Type: model/gltf-binary` and the `.glb` as the body. The skin and the parts
 //! are found in the file (`head::glb_head`: by their names, or as `roles=` says), welded,
-//! in metres, and turned into the OBJ texts every registration stores; the fit is found
-//! automatically with the format's own unit (1000 mm per metre), not a guess.
+//! in metres, and turned into the OBJ texts every registration stores (the skin's with its
+//! texture coordinates, and its base colour image kept as the head's texture, when it has
+//! them); the fit is found automatically with the format's own unit (1000 mm per metre),
+//! not a guess.
 
 use serde::Deserialize;
 
 use super::error::ApiError;
 use super::ids::valid_id;
 use super::store::PartRecord;
+use super::texture_image;
 use crate::head::{glb_head, obj, read_glb, GlbMesh, MeshRole};
 use facewire_proto::messages::{HeadSource, PartSource};
 
@@ -32,10 +35,12 @@ pub struct GlbQuery {
     _token: Option<String>,
 }
 
-/// What a glTF file registers: the skin and the parts as OBJ texts, in metres.
+/// What a glTF file registers: the skin and the parts as OBJ texts, in metres, and the
+/// skin's base colour image when it has one the page can draw.
 pub struct GlbUpload {
     pub obj: String,
     pub parts: Vec<PartRecord>,
+    pub texture: Option<Vec<u8>>,
     pub source: HeadSource,
 }
 
@@ -60,16 +65,45 @@ pub fn glb_upload(bytes: &[u8], roles: Option<&str>) -> Result<GlbUpload, ApiErr
             obj: obj_text(mesh).into_bytes(),
         });
     }
+    let (texture, texture_note) = skin_texture(&head.skin);
     Ok(GlbUpload {
-        obj: obj_text(&head.skin),
+        obj: match (&texture, &head.skin.texture_coords) {
+            (Some(_), Some(coords)) => textured_obj_text(&head.skin, coords),
+            _ => obj_text(&head.skin),
+        },
         parts,
+        texture,
         source: HeadSource {
             format: "glb".into(),
             skin: head.skin.name.clone(),
             parts: part_sources,
             left_out: head.left_out,
+            texture: texture_note,
         },
     })
+}
+
+/// The skin's texture image when the page can draw it (PNG or JPEG, inside the file, with
+/// `TEXCOORD_0` on every primitive), and what the registration says about it.
+fn skin_texture(skin: &GlbMesh) -> (Option<Vec<u8>>, Option<String>) {
+    let Some((mime, bytes)) = &skin.base_colour else {
+        return (None, None);
+    };
+    if skin.texture_coords.is_none() {
+        let note =
+            format!("the skin's base colour image ({mime}) is left out: not every primitive has TEXCOORD_0");
+        return (None, Some(note));
+    }
+    match texture_image::check(bytes) {
+        Ok(format) => (
+            Some(bytes.clone()),
+            Some(format!("the skin's base colour image, {}", format.content_type())),
+        ),
+        Err(e) => (
+            None,
+            Some(format!("the skin's base colour image ({mime}) is left out: {e}")),
+        ),
+    }
 }
 
 /// `MESH=ROLE,MESH=ROLE`.
@@ -123,6 +157,13 @@ fn part_name(mesh: &str, taken: &[String]) -> String {
 fn obj_text(mesh: &GlbMesh) -> String {
     let mut out = Vec::new();
     obj::write(&mut out, &[], &mesh.positions, &mesh.triangles).expect("writing to memory cannot fail");
+    String::from_utf8(out).expect("OBJ text is ASCII")
+}
+
+fn textured_obj_text(mesh: &GlbMesh, texture: &obj::TextureCoords) -> String {
+    let mut out = Vec::new();
+    obj::write_textured(&mut out, &mesh.positions, &mesh.triangles, texture)
+        .expect("writing to memory cannot fail");
     String::from_utf8(out).expect("OBJ text is ASCII")
 }
 

@@ -153,7 +153,7 @@ pub async fn register_head(
             landmarks: None,
             producer_token,
             parts: from_file.parts,
-            texture: None,
+            texture: from_file.texture,
             mm_per_unit: Some(MM_PER_METRE),
             source: Some(from_file.source),
         }

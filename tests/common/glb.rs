@@ -1,6 +1,7 @@
 //! A glTF binary (`.glb`) writer for the tests: named meshes as nodes under one root node
 //! with a transform, each mesh's triangles in one or more primitives with a material
-//! name, morph targets named in `extras.targetNames`, and optionally a skin. Built by
+//! name (and its base colour image, inside the file), texture coordinates, morph targets
+//! named in `extras.targetNames`, and optionally a skin. Built by
 //! hand from the glTF 2.0 specification so the reader is tested against files it did not
 //! write itself.
 
@@ -15,6 +16,10 @@ pub struct GlbPrimitive {
     pub targets: Vec<Vec<[f32; 3]>>,
     /// Per vertex, joints and weights (a skinned mesh).
     pub joints: Option<Vec<([u16; 4], [f32; 4])>>,
+    /// Per vertex, `TEXCOORD_0` (glTF's: v down).
+    pub texcoords: Option<Vec<[f32; 2]>>,
+    /// The material's base colour image: its MIME type and bytes, stored in the file.
+    pub base_colour: Option<(String, Vec<u8>)>,
 }
 
 pub struct GlbMeshSpec {
@@ -78,6 +83,7 @@ impl Binary {
 pub fn write_glb(meshes: &[GlbMeshSpec], root: [f32; 16], skin: Option<&GlbSkin>) -> Vec<u8> {
     let mut binary = Binary::default();
     let (mut nodes, mut json_meshes, mut materials) = (vec![json!({})], Vec::new(), Vec::<String>::new());
+    let (mut material_json, mut images) = (Vec::<Value>::new(), Vec::<Value>::new());
     let mut children = Vec::new();
     for (m, mesh) in meshes.iter().enumerate() {
         let mut primitives = Vec::new();
@@ -90,14 +96,33 @@ pub fn write_glb(meshes: &[GlbMeshSpec], root: [f32; 16], skin: Option<&GlbSkin>
                 .iter()
                 .map(|offsets| json!({"POSITION": binary.vec3(offsets, true)}))
                 .collect();
-            let material = materials
-                .iter()
-                .position(|n| n == &primitive.material)
-                .unwrap_or_else(|| {
+            let material = match materials.iter().position(|n| n == &primitive.material) {
+                Some(m) => m,
+                None => {
+                    let mut entry = json!({"name": primitive.material});
+                    if let Some((mime, bytes)) = &primitive.base_colour {
+                        while !binary.bytes.len().is_multiple_of(4) {
+                            binary.bytes.push(0);
+                        }
+                        binary.views.push(
+                            json!({"buffer": 0, "byteOffset": binary.bytes.len(), "byteLength": bytes.len()}),
+                        );
+                        binary.bytes.extend_from_slice(bytes);
+                        images.push(json!({"bufferView": binary.views.len() - 1, "mimeType": mime}));
+                        entry["pbrMetallicRoughness"] =
+                            json!({"baseColorTexture": {"index": images.len() - 1}});
+                    }
                     materials.push(primitive.material.clone());
+                    material_json.push(entry);
                     materials.len() - 1
-                });
+                }
+            };
             let mut attributes = json!({"POSITION": position});
+            if let Some(coords) = &primitive.texcoords {
+                let data: Vec<u8> = coords.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
+                attributes["TEXCOORD_0"] =
+                    json!(binary.accessor(&data, coords.len(), 5126, "VEC2", json!({})));
+            }
             if let Some(joints) = &primitive.joints {
                 let j: Vec<u8> = joints
                     .iter()
@@ -156,13 +181,20 @@ pub fn write_glb(meshes: &[GlbMeshSpec], root: [f32; 16], skin: Option<&GlbSkin>
         "scenes": [{"nodes": [0]}],
         "nodes": nodes,
         "meshes": json_meshes,
-        "materials": materials.iter().map(|n| json!({"name": n})).collect::<Vec<_>>(),
+        "materials": material_json,
         "buffers": [{"byteLength": binary.bytes.len()}],
         "bufferViews": binary.views,
         "accessors": binary.accessors,
     });
     if !skins.is_empty() {
         document["skins"] = json!(skins);
+    }
+    if !images.is_empty() {
+        // One texture per image, in the same order.
+        document["textures"] = json!((0..images.len())
+            .map(|i| json!({"source": i}))
+            .collect::<Vec<_>>());
+        document["images"] = json!(images);
     }
     pack(&serde_json::to_vec(&document).unwrap(), &binary.bytes)
 }
@@ -208,6 +240,8 @@ pub fn z_up_mesh(name: &str, head: &facewire::head::Head) -> GlbMeshSpec {
             indices: head.triangles.iter().flatten().copied().collect(),
             targets: Vec::new(),
             joints: None,
+            texcoords: None,
+            base_colour: None,
         }],
         target_names: Vec::new(),
     }
@@ -217,6 +251,12 @@ pub fn z_up_mesh(name: &str, head: &facewire::head::Head) -> GlbMeshSpec {
 /// node that turns it upright, its skin `Head`, both rows of teeth in one mesh
 /// `Wolf3D_Teeth`, `Tongue`, `EyeLeft` (both eyeballs) and a stray `Eyelashes` triangle.
 pub fn ict_avatar() -> Vec<u8> {
+    ict_avatar_textured(None)
+}
+
+/// [`ict_avatar`] with its skin textured: `TEXCOORD_0` from each vertex's place across
+/// the face (x and the file's up, z) and the base colour image `image` (MIME type, bytes).
+pub fn ict_avatar_textured(image: Option<(String, Vec<u8>)>) -> Vec<u8> {
     use facewire::head::Head;
     let load = |file: &str| Head::load(&super::data(&format!("heads/{file}"))).unwrap();
     let (upper, lower) = (load("ict_head_teeth_upper.obj"), load("ict_head_teeth_lower.obj"));
@@ -236,9 +276,31 @@ pub fn ict_avatar() -> Vec<u8> {
         vec![glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::Y],
         vec![[0, 1, 2]],
     );
+    let mut skin = z_up_mesh("Head", &load("ict_head.obj"));
+    if let Some(image) = image {
+        for primitive in &mut skin.primitives {
+            let (lo, hi) = primitive
+                .positions
+                .iter()
+                .fold(([f32::MAX; 2], [f32::MIN; 2]), |(lo, hi), p| {
+                    (
+                        [lo[0].min(p[0]), lo[1].min(p[2])],
+                        [hi[0].max(p[0]), hi[1].max(p[2])],
+                    )
+                });
+            let across = |p: &[f32; 3]| {
+                [
+                    (p[0] - lo[0]) / (hi[0] - lo[0]),
+                    1.0 - (p[2] - lo[1]) / (hi[1] - lo[1]),
+                ]
+            };
+            primitive.texcoords = Some(primitive.positions.iter().map(across).collect());
+            primitive.base_colour = Some(image.clone());
+        }
+    }
     write_glb(
         &[
-            z_up_mesh("Head", &load("ict_head.obj")),
+            skin,
             z_up_mesh("Wolf3D_Teeth", &teeth),
             z_up_mesh("Tongue", &load("ict_head_gums_lower_tongue.obj")),
             z_up_mesh("EyeLeft", &load("ict_head_eyes.obj")),

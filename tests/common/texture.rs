@@ -72,11 +72,20 @@ fn adler32(bytes: &[u8]) -> u32 {
 
 /// A `width` x `height` PNG of one colour.
 pub fn solid_png(width: u32, height: u32, rgb: [u8; 3]) -> Vec<u8> {
-    // Each row: filter type 0 (none), then its pixels.
-    let row: Vec<u8> = std::iter::once(0)
-        .chain(rgb.iter().copied().cycle().take(3 * width as usize))
-        .collect();
-    let raw = row.repeat(height as usize);
+    checker_png(width, height, 1, rgb, rgb)
+}
+
+/// A `width` x `height` PNG of `squares` x `squares` squares, `a` and `b` in turn (a
+/// texture whose mapping shows).
+pub fn checker_png(width: u32, height: u32, squares: u32, a: [u8; 3], b: [u8; 3]) -> Vec<u8> {
+    let mut raw = Vec::with_capacity(((3 * width + 1) * height) as usize);
+    for y in 0..height {
+        raw.push(0); // each row: filter type 0 (none), then its pixels
+        for x in 0..width {
+            let odd = (x * squares / width + y * squares / height) % 2 == 1;
+            raw.extend_from_slice(if odd { &b } else { &a });
+        }
+    }
     let mut zlib = vec![0x78, 0x01];
     let blocks: Vec<&[u8]> = raw.chunks(65_535).collect();
     for (i, block) in blocks.iter().enumerate() {

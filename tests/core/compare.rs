@@ -542,6 +542,8 @@ fn compare_reads_a_gltf_avatars_morph_targets_as_its_ground_truth() {
                 .map(|t| t.displacements.iter().map(|d| d.to_array()).collect())
                 .collect(),
             joints: None,
+            texcoords: None,
+            base_colour: None,
         }],
         target_names: targets.iter().map(|t| t.name.clone()).collect(),
     };

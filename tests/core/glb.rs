@@ -52,6 +52,8 @@ fn primitive(
         indices,
         targets: Vec::new(),
         joints: None,
+        texcoords: None,
+        base_colour: None,
     };
     (primitive, source)
 }
@@ -203,6 +205,8 @@ fn a_skinned_mesh_is_read_at_its_bind_pose() {
             indices: vec![0, 1, 2],
             targets: Vec::new(),
             joints: Some(joints),
+            texcoords: None,
+            base_colour: None,
         }],
     );
     spec.matrix = Some(Mat4::from_translation(Vec3::splat(5.0)).to_cols_array());

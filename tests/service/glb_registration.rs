@@ -67,6 +67,50 @@ async fn an_avatar_registers_in_one_request_with_its_parts() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_avatar_s_skin_texture_becomes_the_head_s() {
+    let server = Server::start(memory_config()).await;
+    let png = crate::common::texture::solid_png(16, 16, [200, 120, 100]);
+    let avatar = crate::common::glb::ict_avatar_textured(Some(("image/png".into(), png.clone())));
+    let (status, body) = post_glb(&server, "?id=textured", avatar).await;
+    assert_eq!(status, 202, "{body}");
+    assert_eq!(
+        body["source"]["texture"],
+        "the skin's base colour image, image/png"
+    );
+    let info = server.wait_ready("textured", "").await;
+    let texture = reqwest::get(server.http("/v1/heads/textured/texture"))
+        .await
+        .unwrap();
+    assert_eq!(texture.bytes().await.unwrap().as_ref(), png.as_slice());
+    let uv = reqwest::get(server.http("/v1/heads/textured/uv.bin"))
+        .await
+        .unwrap();
+    let uv = facewire_proto::texture_coords::TextureCoords::decode(&uv.bytes().await.unwrap()).unwrap();
+    // A coordinate per vertex of the file's skin, every corner of the rest mesh one of them,
+    // in the image (glTF's v down turned up).
+    assert_eq!(uv.coords.len() as u32, info.vertices);
+    assert_eq!(uv.corners.len() as u32, info.triangles);
+    assert!(uv.coords.iter().flatten().all(|c| (0.0..=1.0).contains(c)));
+
+    // An image the page cannot draw is left out, and the answer says so.
+    let webp = crate::common::glb::ict_avatar_textured(Some((
+        "image/webp".into(),
+        b"RIFF\0\0\0\0WEBPVP8 ".to_vec(),
+    )));
+    let (status, body) = post_glb(&server, "?id=webp", webp).await;
+    assert_eq!(status, 202, "{body}");
+    let note = body["source"]["texture"].as_str().unwrap();
+    assert!(
+        note.contains("(image/webp) is left out") && note.contains("not a PNG or JPEG"),
+        "{note}"
+    );
+    server.wait_ready("webp", "").await;
+    let texture = reqwest::get(server.http("/v1/heads/webp/texture")).await.unwrap();
+    assert_eq!(texture.status(), 404);
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_glb_registration_is_refused_with_what_is_wrong() {
     let server = Server::start(memory_config()).await;
     let refused = |(status, body): (u16, Value)| {

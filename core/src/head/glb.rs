@@ -18,7 +18,7 @@ use gltf::binary::Glb;
 use gltf::mesh::Mode;
 use gltf::{buffer, json, Accessor, Document, Semantic};
 
-use super::obj::{MAX_COORDINATE, MAX_ELEMENTS};
+use super::obj::{TextureCoords, MAX_COORDINATE, MAX_ELEMENTS};
 
 /// Millimetres in one glTF unit: the format's unit is the metre.
 pub const MM_PER_METRE: f32 = 1000.0;
@@ -81,6 +81,12 @@ pub struct GlbMesh {
     pub targets: Vec<MorphTarget>,
     /// Whether it is skinned (placed by its joints at their bind pose).
     pub skinned: bool,
+    /// Where it sits on its texture, when every primitive has `TEXCOORD_0`: a coordinate
+    /// per file vertex (v up, as OBJ writes them), each triangle's corners by file vertex.
+    pub texture_coords: Option<TextureCoords>,
+    /// The base colour image every primitive's material names, when they name the same
+    /// one and it is inside the file: its MIME type and bytes as stored.
+    pub base_colour: Option<(String, Vec<u8>)>,
 }
 
 /// A morph target (blend shape).
@@ -325,6 +331,8 @@ struct PrimitiveData {
     targets: Vec<Vec<Vec3>>,
     /// Per vertex, its joints and their weights.
     joints: Vec<Influences>,
+    /// Per vertex, its `TEXCOORD_0` (glTF's: v down), when the primitive has them.
+    texture_coords: Option<Vec<[f32; 2]>>,
 }
 
 fn read_primitive(
@@ -417,11 +425,35 @@ fn read_primitive(
     } else {
         Vec::new()
     };
+    let texture_coords = match primitive.get(&Semantic::TexCoords(0)) {
+        None => None,
+        Some(accessor) => {
+            check_accessor(
+                &accessor,
+                blob,
+                &[DataType::F32, DataType::U8, DataType::U16],
+                Dimensions::Vec2,
+            )
+            .map_err(|e| format!("TEXCOORD_0: {e}"))?;
+            if accessor.count() != vertices {
+                return Err(format!(
+                    "TEXCOORD_0: {} for {vertices} vertices",
+                    accessor.count()
+                ));
+            }
+            let coords = reader
+                .read_tex_coords(0)
+                .ok_or("TEXCOORD_0 is not in the file's binary chunk")?
+                .into_f32();
+            Some(coords.collect())
+        }
+    };
     Ok(PrimitiveData {
         positions,
         triangles,
         targets: offsets,
         joints,
+        texture_coords,
     })
 }
 
@@ -490,7 +522,14 @@ fn read_mesh(
         welded: Vec::new(),
         targets: Vec::new(),
         skinned: matches!(placement, Placement::Skinned(_)),
+        texture_coords: Some(TextureCoords {
+            coords: Vec::new(),
+            corners: Vec::new(),
+        }),
+        base_colour: None,
     };
+    // The base colour image of every primitive so far: `Some(None)` before the first.
+    let mut image: Option<Option<usize>> = Some(None);
     for (p, primitive) in mesh.primitives().enumerate() {
         let bad = |what: String| GlbError::Primitive {
             mesh: name.clone(),
@@ -553,6 +592,34 @@ fn read_mesh(
                 [a, b, c]
             }
         }));
+        match (&mut out.texture_coords, data.texture_coords) {
+            (Some(texture), Some(coords)) => {
+                // glTF's v runs down the image, OBJ's (and uv.bin's) up.
+                texture.coords.extend(coords.iter().map(|&[u, v]| [u, 1.0 - v]));
+                texture.corners.extend(data.triangles.iter().map(|t| {
+                    let [a, b, c] = t.map(|c| first_file_vertex as u32 + c);
+                    if flip {
+                        [a, c, b]
+                    } else {
+                        [a, b, c]
+                    }
+                }));
+            }
+            (texture, _) => *texture = None,
+        }
+        let this = primitive
+            .material()
+            .pbr_metallic_roughness()
+            .base_color_texture()
+            .map(|info| info.texture().source().index());
+        image = match (image, this) {
+            (Some(None), Some(index)) if p == 0 => Some(Some(index)),
+            (Some(Some(kept)), Some(index)) if kept == index => Some(Some(kept)),
+            _ => None,
+        };
+    }
+    if let Some(Some(index)) = image {
+        out.base_colour = embedded_image(node, index, blob);
     }
     if out.positions.len() > MAX_ELEMENTS || out.triangles.len() > MAX_ELEMENTS {
         return Err(GlbError::TooLarge { mesh: name });
@@ -560,6 +627,28 @@ fn read_mesh(
     out.names.dedup();
     out.materials.dedup();
     Ok(out)
+}
+
+/// Image `index` of the document `node` is in, when it is inside the file's binary chunk:
+/// its MIME type and bytes. An image in a file beside it, or a view past the chunk, is
+/// none.
+fn embedded_image(node: &gltf::Node, index: usize, blob: &[u8]) -> Option<(String, Vec<u8>)> {
+    let image = node.mesh()?.primitives().find_map(|p| {
+        let texture = p
+            .material()
+            .pbr_metallic_roughness()
+            .base_color_texture()?
+            .texture();
+        (texture.source().index() == index).then(|| texture.source())
+    })?;
+    match image.source() {
+        gltf::image::Source::View { view, mime_type } => {
+            let bytes = bin(view.buffer(), blob)?;
+            let range = view.offset()..view.offset().checked_add(view.length())?;
+            Some((mime_type.to_string(), bytes.get(range)?.to_vec()))
+        }
+        gltf::image::Source::Uri { .. } => None,
+    }
 }
 
 /// A skinned vertex's bind-pose matrix: its joints' matrices blended by its weights.

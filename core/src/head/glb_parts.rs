@@ -203,6 +203,8 @@ mod tests {
             welded: Vec::new(),
             targets: Vec::new(),
             skinned: false,
+            texture_coords: None,
+            base_colour: None,
         }
     }
 

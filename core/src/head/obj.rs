@@ -275,6 +275,27 @@ pub fn write(
     Ok(())
 }
 
+/// [`write`] with texture coordinates: `vt` records, then each face corner as `v/vt`
+/// (`texture.corners` has one entry per triangle).
+pub fn write_textured(
+    out: &mut impl std::io::Write,
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    texture: &TextureCoords,
+) -> std::io::Result<()> {
+    for p in positions {
+        writeln!(out, "v {} {} {}", p.x, p.y, p.z)?;
+    }
+    for [u, v] in &texture.coords {
+        writeln!(out, "vt {u} {v}")?;
+    }
+    for (t, c) in triangles.iter().zip(&texture.corners) {
+        let [a, b, d] = [0, 1, 2].map(|k| format!("{}/{}", t[k] + 1, c[k] + 1));
+        writeln!(out, "f {a} {b} {d}")?;
+    }
+    Ok(())
+}
+
 /// Another object after what [`write`] wrote: `o name`, its vertices, its triangles
 /// numbered after the `first_vertex` vertices already in the file.
 pub fn write_object(
@@ -343,6 +364,21 @@ mod tests {
                 ..
             })
         ));
+    }
+
+    #[test]
+    fn a_textured_mesh_written_reads_back_the_same() {
+        let positions = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE];
+        let triangles = vec![[0, 1, 2], [1, 3, 2]];
+        let texture = TextureCoords {
+            coords: vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0], [0.5, 0.5]],
+            corners: vec![[0, 1, 2], [4, 3, 2]],
+        };
+        let mut text = Vec::new();
+        write_textured(&mut text, &positions, &triangles, &texture).unwrap();
+        let back = parse(std::str::from_utf8(&text).unwrap()).unwrap();
+        assert_eq!((back.positions, back.triangles), (positions, triangles));
+        assert_eq!(back.texture, Some(texture));
     }
 
     #[test]
