@@ -585,7 +585,16 @@ async fn check_a_textured_head(browser: &Browser, url: &str, long: Duration) {
         browser
             .wait_for(&format!("{head} live"), &state_is("status-0", "live"), long)
             .await;
-        tokio::time::sleep(Duration::from_millis(1500)).await;
+        if textured {
+            browser
+                .wait_for(
+                    "the texture loaded",
+                    "return window.facewireViews()[0].renderer.texture !== null",
+                    long,
+                )
+                .await;
+        }
+        tokio::time::sleep(Duration::from_millis(500)).await;
         let shot = browser.screenshot("#canvas-0").await;
         let green = green_share(browser, &shot).await;
         println!("{head}: {:.1} % of the view green", green * 100.0);
@@ -1987,7 +1996,7 @@ async fn check_the_replay_voice(browser: &Browser, url: &str, long: Duration) {
     let rate = browser.js("return window.facewireSound.rate").await;
     assert_eq!(rate.as_f64(), Some(0.25), "the sound's rate");
     let logged = browser.js("return window.facewireSound.syncLog.length").await;
-    tokio::time::sleep(Duration::from_secs(5)).await;
+    tokio::time::sleep(Duration::from_secs(4)).await;
     let offsets = browser
         .js(&format!(
             "return window.facewireSound.syncLog.slice({logged}).filter(e => e.view === 0).map(e => e.offsetMs)"
@@ -2002,7 +2011,7 @@ async fn check_the_replay_voice(browser: &Browser, url: &str, long: Duration) {
     offsets.sort_by(f64::total_cmp);
     assert!(
         offsets.len() >= 15,
-        "only {} frames drawn by their sound in 5 s",
+        "only {} frames drawn by their sound in 4 s",
         offsets.len()
     );
     let median = offsets[offsets.len() / 2];
