@@ -353,10 +353,10 @@ async fn check_failover_across_nodes(browser: &Browser) {
     browser
         .wait_for("the view live again, on node 2", &on_n2, Duration::from_secs(20))
         .await;
-    let before = browser.screenshot("#canvas-0").await;
+    let before = browser.screenshot("#head-0").await;
     assert!(
         browser
-            .picture_changes("#canvas-0", &before, Duration::from_secs(3))
+            .picture_changes("#head-0", &before, Duration::from_secs(3))
             .await,
         "the head did not move after the page moved to node 2"
     );
@@ -431,10 +431,10 @@ async fn check_the_page(browser: &Browser) {
     );
 
     // The syllable stream moves the lips: two pictures a few hundred ms apart differ.
-    let first = browser.screenshot("#canvas-0").await;
+    let first = browser.screenshot("#head-0").await;
     assert!(
         browser
-            .picture_changes("#canvas-0", &first, Duration::from_secs(3))
+            .picture_changes("#head-0", &first, Duration::from_secs(3))
             .await,
         "the head did not move in 3 s"
     );
@@ -595,7 +595,7 @@ async fn check_a_textured_head(browser: &Browser, url: &str, long: Duration) {
                 .await;
         }
         tokio::time::sleep(Duration::from_millis(500)).await;
-        let shot = browser.screenshot("#canvas-0").await;
+        let shot = browser.screenshot("#head-0").await;
         let green = green_share(browser, &shot).await;
         println!("{head}: {:.1} % of the view green", green * 100.0);
         if textured {
@@ -658,7 +658,7 @@ async fn check_a_stalled_stream(browser: &Browser, url: &str, long: Duration) {
     // The head's own motion: the same jaw drop with the head turned 0.6 rad. The deltas
     // are those of the frame before, so only a page that applies the motion draws it.
     tokio::time::sleep(Duration::from_millis(500)).await;
-    let still = browser.screenshot("#canvas-0").await;
+    let still = browser.screenshot("#head-0").await;
     produce_line(
         &mut producer,
         r#"{"seq":4,"t":0.2,"au":{"jaw_drop":0.3},"head_rotation_rad":[0,0.6,0]}"#.to_string(),
@@ -666,7 +666,7 @@ async fn check_a_stalled_stream(browser: &Browser, url: &str, long: Duration) {
     .await;
     assert!(
         browser
-            .picture_changes("#canvas-0", &still, Duration::from_secs(5))
+            .picture_changes("#head-0", &still, Duration::from_secs(5))
             .await,
         "the page did not turn the head in 5 s"
     );
@@ -717,13 +717,13 @@ async fn check_a_head_posted_with_no_fit(browser: &Browser, url: &str, long: Dur
         )
         .await;
     tokio::time::sleep(Duration::from_millis(500)).await;
-    let still = browser.screenshot("#canvas-0").await;
+    let still = browser.screenshot("#head-0").await;
     for seq in 1..10 {
         produce_line(&mut producer, moving_jaw_line(seq)).await;
     }
     assert!(
         browser
-            .picture_changes("#canvas-0", &still, Duration::from_secs(5))
+            .picture_changes("#head-0", &still, Duration::from_secs(5))
             .await,
         "the posted head did not move in 5 s"
     );
@@ -795,7 +795,9 @@ async fn check_the_page_on_a_phone(browser: &Browser, url: &str, long: Duration)
         ]}]);
         browser.act(tab).await;
         let at = browser
-            .js("return document.activeElement?.dataset.phoneKey ?? null")
+            .js("let at = document.activeElement; \
+                 while (at?.shadowRoot?.activeElement) at = at.shadowRoot.activeElement; \
+                 return at?.dataset.phoneKey ?? null")
             .await;
         if let Some(key) = at.as_str() {
             reached.insert(key.to_string());
@@ -823,9 +825,9 @@ async fn check_the_page_on_a_phone(browser: &Browser, url: &str, long: Duration)
     // The canvas's centre, in viewport pixels.
     let centre = browser
         .js(
-            "const r = document.getElementById('canvas-0').getBoundingClientRect(); \
-             r.top < 0 || r.bottom > innerHeight ? document.getElementById('canvas-0').scrollIntoView() : 0; \
-             const s = document.getElementById('canvas-0').getBoundingClientRect(); \
+            "const r = document.getElementById('head-0').getBoundingClientRect(); \
+             r.top < 0 || r.bottom > innerHeight ? document.getElementById('head-0').scrollIntoView() : 0; \
+             const s = document.getElementById('head-0').getBoundingClientRect(); \
              return [Math.round(s.left + s.width / 2), Math.round(s.top + s.height / 2)]",
         )
         .await;
@@ -881,7 +883,10 @@ const nameOf = (el) => {
   if (el.tagName !== 'INPUT' && text(el)) return text(el);
   return (el.getAttribute('title') ?? el.getAttribute('placeholder') ?? '').trim();
 };
-const controls = [...document.querySelectorAll(selector)].filter(shown).map((el, i) => {
+// The controls inside the page's <facewire-head> elements (their canvas) count too.
+const all = [...document.querySelectorAll(selector),
+  ...[...document.querySelectorAll('facewire-head')].flatMap((h) => [...h.shadowRoot.querySelectorAll(selector)])];
+const controls = all.filter(shown).map((el, i) => {
   el.dataset.phoneKey = String(i);
   const r = el.getBoundingClientRect();
   return {
@@ -942,16 +947,16 @@ async fn check_the_inner_mouth_close_up(browser: &Browser, url: &str, long: Dura
         .js("return document.getElementById('mouth-view').getAttribute('aria-pressed')")
         .await;
     assert_eq!(pressed, "true", "the close-up button shows the URL's choice");
-    let first = browser.screenshot("#canvas-0").await;
+    let first = browser.screenshot("#head-0").await;
     assert!(
         browser
-            .picture_changes("#canvas-0", &first, Duration::from_secs(3))
+            .picture_changes("#head-0", &first, Duration::from_secs(3))
             .await,
         "the mouth did not move in 3 s"
     );
     if let Some(dir) = std::env::var_os("FACEWIRE_SCREENSHOTS") {
         for i in 0..12 {
-            let shot = browser.screenshot("#canvas-0").await;
+            let shot = browser.screenshot("#head-0").await;
             std::fs::write(
                 std::path::Path::new(&dir).join(format!("mouth-{i}.png.base64")),
                 shot,
@@ -1036,7 +1041,7 @@ async fn check_the_eyes(browser: &Browser, url: &str, long: Duration) {
     let eyes = browser.js(&text_of("eyes-0")).await;
     assert_eq!(eyes, "eyes_left (left), eyes_right (right)", "{eyes}");
     tokio::time::sleep(Duration::from_millis(500)).await;
-    let ahead = browser.screenshot("#canvas-0").await;
+    let ahead = browser.screenshot("#head-0").await;
     produce_line(
         &mut producer,
         r#"{"seq":1,"t":0.1,"fap":{"yaw_l_eyeball":50000,"yaw_r_eyeball":50000,"pitch_l_eyeball":-20000,"pitch_r_eyeball":-20000}}"#
@@ -1045,7 +1050,7 @@ async fn check_the_eyes(browser: &Browser, url: &str, long: Duration) {
     .await;
     assert!(
         browser
-            .picture_changes("#canvas-0", &ahead, Duration::from_secs(5))
+            .picture_changes("#head-0", &ahead, Duration::from_secs(5))
             .await,
         "the page did not draw the turned eyes in 5 s"
     );
@@ -1094,7 +1099,7 @@ async fn check_the_tongue(browser: &Browser, url: &str, long: Duration) {
     let first = r#"{"seq":0,"t":0,"au":{"jaw_drop":0.5}}"#;
     let mut producer = watch_the_ict_mouth(browser, url, "tongue", "", first, long).await;
     tokio::time::sleep(Duration::from_millis(500)).await;
-    let open = browser.screenshot("#canvas-0").await;
+    let open = browser.screenshot("#head-0").await;
     produce_line(
         &mut producer,
         r#"{"seq":1,"t":0.1,"au":{"jaw_drop":0.5},"fap":{"raise_tongue_tip":900,"thrust_tongue_tip":200}}"#
@@ -1103,7 +1108,7 @@ async fn check_the_tongue(browser: &Browser, url: &str, long: Duration) {
     .await;
     assert!(
         browser
-            .picture_changes("#canvas-0", &open, Duration::from_secs(5))
+            .picture_changes("#head-0", &open, Duration::from_secs(5))
             .await,
         "the page did not draw the raised tongue in 5 s"
     );
@@ -1161,7 +1166,7 @@ async fn check_the_cut_away(browser: &Browser, url: &str, long: Duration) {
     let first = r#"{"seq":0,"t":0,"viseme":{"oculus":"DD"}}"#;
     let mut producer = watch_the_ict_mouth(browser, url, "cut", "&view=cutaway", first, long).await;
     tokio::time::sleep(Duration::from_millis(800)).await;
-    let dd = browser.screenshot("#canvas-0").await;
+    let dd = browser.screenshot("#head-0").await;
     let dd_pixels = section_pixels(browser, &dd).await;
     produce_line(
         &mut producer,
@@ -1170,12 +1175,12 @@ async fn check_the_cut_away(browser: &Browser, url: &str, long: Duration) {
     .await;
     assert!(
         browser
-            .picture_changes("#canvas-0", &dd, Duration::from_secs(5))
+            .picture_changes("#head-0", &dd, Duration::from_secs(5))
             .await,
         "the cut-away did not draw k in 5 s"
     );
     tokio::time::sleep(Duration::from_millis(800)).await;
-    let kk = browser.screenshot("#canvas-0").await;
+    let kk = browser.screenshot("#head-0").await;
     let kk_pixels = section_pixels(browser, &kk).await;
     println!("cut-away section pixels: d {dd_pixels}, k {kk_pixels}");
     for pixels in [&dd_pixels, &kk_pixels] {
@@ -1220,7 +1225,7 @@ async fn check_the_cut_away(browser: &Browser, url: &str, long: Duration) {
         let message = browser.js(&text_of("message-0")).await;
         assert_eq!(message, "", "the page complains in {look}: {message}");
     }
-    let front = browser.screenshot("#canvas-0").await;
+    let front = browser.screenshot("#head-0").await;
     let front_pixels = section_pixels(browser, &front).await;
     assert_eq!(
         front_pixels["skin"], 0,
@@ -1264,7 +1269,8 @@ const TONGUE_TO_GUMS_JS: &str = "const v = window.facewireViews()[0]; v.draw(win
      let best = Infinity; \
      if (tip) for (const [gx, gy] of gums) best = Math.min(best, (tip[0] - gx) ** 2 + (tip[1] - gy) ** 2); \
      return { px: Math.sqrt(best), tip, pxPerMm: r.cssPixelsPerMm * (window.devicePixelRatio || 1), tongue, gums: gums.length, \
-       bar: document.getElementById('scalebar-0').getBoundingClientRect().width, barMm: Number(document.getElementById('scalebar-0').dataset.mm) };";
+       bar: document.getElementById('head-0').shadowRoot.querySelector('.scale .bar').getBoundingClientRect().width, \
+       barMm: Number(document.getElementById('head-0').shadowRoot.querySelector('.scale .bar').dataset.mm) };";
 
 /// The cut-away read back: the demo's recording of the syllables replayed in the mouth's
 /// cut-away, paused on every frame that holds a t or d, each picture read back: the
@@ -1362,7 +1368,7 @@ async fn check_the_cut_away_reads_back(browser: &Browser, url: &str, long: Durat
         for (name, frame) in [("ta", stops[0]), ("ka", 111)] {
             seek_the_replay(browser, frame, long).await;
             tokio::time::sleep(Duration::from_millis(500)).await;
-            let shot = browser.screenshot("#canvas-0").await;
+            let shot = browser.screenshot("#head-0").await;
             let path = std::path::Path::new(&dir).join(format!("cutaway-{name}.png.base64"));
             std::fs::write(path, shot).unwrap();
         }
@@ -1421,10 +1427,10 @@ async fn check_the_heat_map_scale(browser: &Browser, url: &str, long: Duration) 
         address.as_str().unwrap().contains("heat=folds"),
         "the URL keeps the folds: {address}"
     );
-    let first = browser.screenshot("#canvas-0").await;
+    let first = browser.screenshot("#head-0").await;
     assert!(
         browser
-            .picture_changes("#canvas-0", &first, Duration::from_secs(3))
+            .picture_changes("#head-0", &first, Duration::from_secs(3))
             .await,
         "the folds view does not move"
     );
@@ -1752,7 +1758,7 @@ async fn check_the_lips_read(browser: &Browser, url: &str, long: Duration) {
                 ))
                 .await;
             tokio::time::sleep(Duration::from_millis(600)).await;
-            let shot = browser.screenshot("#canvas-0").await;
+            let shot = browser.screenshot("#head-0").await;
             if let Some(dir) = std::env::var_os("FACEWIRE_SCREENSHOTS") {
                 let name = format!("lips-{head}-{mode}.png.base64");
                 std::fs::write(std::path::Path::new(&dir).join(name), &shot).unwrap();
@@ -1914,7 +1920,7 @@ async fn check_the_element_embeds(browser: &Browser, url: &str, long: Duration) 
     }
     let embedded = browser
         .js(&format!(
-            "{POSITIONS_DIGEST_JS} return digest({element}.view.positions)"
+            "{POSITIONS_DIGEST_JS} return digest({element}.headView.positions)"
         ))
         .await;
 
@@ -1935,6 +1941,17 @@ async fn check_the_element_embeds(browser: &Browser, url: &str, long: Duration) 
     assert_eq!(
         embedded, page,
         "the element and the page decode the same frame to the same positions"
+    );
+    let built = browser
+        .js(
+            "const heads = [...document.querySelectorAll('#views facewire-head')]; \
+             return [heads.length, heads[0]?.headView === window.facewireViews()[0]]",
+        )
+        .await;
+    assert_eq!(
+        built,
+        json!([1, true]),
+        "the page's view is a <facewire-head> element"
     );
 
     // The stream ends: `end`. An unknown head: `error` with close code 4404.
@@ -1965,6 +1982,88 @@ async fn check_the_element_embeds(browser: &Browser, url: &str, long: Duration) 
         .await;
     assert_eq!(failed["code"], 4404, "{failed}");
     assert!(failed["message"].as_str().unwrap().contains("nosuch"), "{failed}");
+
+    // With `audio`, the element speaks: a replay of the syllables, its Sound on button
+    // pressed (a real click: browsers start sound only after one), its voice heard and
+    // its frames drawn by the voice's clock (small, so that software WebGL draws every
+    // frame in time: the element is measured, not SwiftShader).
+    browser
+        .js(&format!(
+            "const e = {element}; e.style.width = '240px'; e.setAttribute('head', 'ict'); e.setAttribute('replay', 'syllables'); \
+             e.setAttribute('audio', 'pcm'); return true"
+        ))
+        .await;
+    let button = browser
+        .wait_for(
+            "the element's Sound on button",
+            &format!(
+                "const b = {element}.shadowRoot.querySelector('.sound-on'); \
+                 if (b.hidden || {element}.state !== 'live') return null; \
+                 const r = b.getBoundingClientRect(); return [r.left + r.width / 2, r.top + r.height / 2]"
+            ),
+            long,
+        )
+        .await;
+    let (x, y) = (button[0].as_f64().unwrap(), button[1].as_f64().unwrap());
+    browser
+        .act(json!([{ "type": "pointer", "id": "mouse", "actions": [
+            { "type": "pointerMove", "duration": 0, "origin": "viewport", "x": x as i64, "y": y as i64 },
+            { "type": "pointerDown", "button": 0 }, { "type": "pointerUp", "button": 0 }
+        ]}]))
+        .await;
+    browser
+        .wait_for(
+            "the element's voice heard",
+            &format!(
+                "const s = {element}.sound; return s !== null && s.playing && \
+                 s.heardTime(performance.now()) !== null && {element}.shadowRoot.querySelector('.sound-on').hidden"
+            ),
+            long,
+        )
+        .await;
+    // Past the playout delay's first adaptation, each frame shown: when it is drawn minus
+    // when its `t` is heard, as the page measures it (positive: the face is late).
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    browser
+        .js(
+            "window.heard = []; document.querySelector('facewire-head').addEventListener('frame', (ev) => { \
+             const at = ev.target.sound.heardAtMsForTime(ev.detail.t); \
+             if (at !== null) window.heard.push(performance.now() - at); })",
+        )
+        .await;
+    tokio::time::sleep(Duration::from_secs(3)).await;
+    let heard = browser.js("return window.heard").await;
+    let between = browser
+        .js(&format!(
+            "const i = [...{element}.group.intervals].sort((a, b) => a - b); return i[i.length >> 1]"
+        ))
+        .await
+        .as_f64()
+        .unwrap();
+    let mut ahead_ms: Vec<f64> = heard
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| d.as_f64().unwrap())
+        .collect();
+    assert!(
+        ahead_ms.len() >= 10,
+        "{} frames drawn by the voice in 3 s",
+        ahead_ms.len()
+    );
+    ahead_ms.sort_by(f64::total_cmp);
+    let median = ahead_ms[ahead_ms.len() / 2];
+    println!(
+        "the element's frames: face minus voice median {median:+.1} ms over {}, {between:.0} ms between chances to draw",
+        ahead_ms.len()
+    );
+    // The group chooses each frame to show within half the time between two chances to
+    // draw of when its sound is heard (head-group.js drawTarget), and no later than the
+    // lip-reading bound of 40 ms on a page that draws every display frame.
+    assert!(
+        median.abs() <= (between / 2.0).max(40.0),
+        "the element draws frames {median:+.1} ms from its voice: {ahead_ms:?}"
+    );
 }
 
 /// The seq of the frame view 1 shows now, or null before any.

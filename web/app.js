@@ -9,25 +9,23 @@
 // browsers want a click before a page plays audio; once it plays, the views draw the frame
 // being heard),
 // fills the pickers from /v1/heads (read again every few seconds, so new heads and streams
-// appear) and /v1/algorithms, runs one view or two side by side (one shared camera), and
-// the drawing loop: once per animation frame each view decodes only its newest frame, and
-// two views draw the same sequence number so they stay in step. Under them, the chosen
+// appear) and /v1/algorithms, runs one view or two side by side: each a <facewire-head>
+// element (facewire-head.js) in one group (head-group.js: one shared camera, one sound,
+// drawn in step, each view decoding only its newest frame). Under them, the chosen
 // head's fit report (fit.js), fetched again when the head's status changes. The Talk
 // button makes the microphone the producer of the head's `talk` stream (talk.js).
 
-import { attachPointerControls, handleCameraKey, OrbitCamera } from "./camera.js";
+import { OrbitCamera } from "./camera.js";
 import { LiveChart } from "./chart.js";
-import { parseVertexWeights, parseMesh } from "./decode.js";
 import { fitOutcome, fitPaths } from "./fit.js";
+import { HeadGroup } from "./head-group.js";
 import { Nodes } from "./nodes.js";
 import { DEFAULT_HEAT_MAX, Panel } from "./panel.js";
 import { ReplayBar } from "./replay.js";
-import { audioCodec, quantile, Sound } from "./sound.js";
+import { audioCodec, Sound } from "./sound.js";
 import { LIP_MODES } from "./render.js";
 import { Talk } from "./talk.js";
 
-/** A view whose last frame is older than this does not hold the other one back. */
-const STALE_MS = 300;
 /** The stream the Talk button produces (the microphone, `derive=visemes`). */
 const TALK_STREAM = "talk";
 /** How often the head and stream lists are read again. */
@@ -94,16 +92,29 @@ window.facewireTalk = talk;
 let soundCodec = null;
 // For tests and the curious: each drawn frame's distance from its sound (sound.syncLog).
 window.facewireSound = sound;
-// For tests: each view's live head (head-view.js), as the <facewire-head> element has one.
+// For tests: each view's live head (head-view.js), its element's `headView`.
 window.facewireViews = () => page.panels.map((panel) => panel.view);
 // For tests: the shared camera (drag, pinch and keys move it).
 window.facewireCamera = camera;
 const chart = new LiveChart(byId("chart"));
 const replayBar = new ReplayBar((message) => page.panels.forEach((panel) => panel.control(message)));
-const meshes = new Map();
-/** Lip weights by URL, as `meshes`. */
-const vertexWeights = new Map();
-let framedMesh = null;
+let statsAt = performance.now();
+/** Both views: one camera, one sound, drawn in step; then the chart and, each second, the numbers. */
+const group = new HeadGroup({
+  camera,
+  sound,
+  onTick: (now) => {
+    chart.draw(now);
+    if (now - statsAt >= 1000) {
+      statsAt = now;
+      for (const panel of page.panels) {
+        panel.updateStats(now);
+      }
+    }
+  },
+});
+// For tests and the curious: the lags and chances the draw target is made from.
+window.facewireDraw = { lags: group.lags, intervals: group.intervals };
 /**
  * The fit report's fetches: `seen` is the chosen head's status when the last one started
  * (a change, e.g. registering to ready, fetches again), `retry` that it failed in a way
@@ -118,36 +129,6 @@ async function fetchJson(path) {
     throw new Error(`${path}: HTTP ${response.status}`);
   }
   return response.json();
-}
-
-/** Rest meshes by URL (the snapshot's path), fetched once and shared by both views. */
-function loadMesh(url) {
-  if (!meshes.has(url)) {
-    const promise = nodes.fetch(url).then((response) => {
-      if (!response.ok) {
-        throw new Error(`HTTP ${response.status}`);
-      }
-      return response.arrayBuffer().then(parseMesh);
-    });
-    promise.catch(() => meshes.delete(url));
-    meshes.set(url, promise);
-  }
-  return meshes.get(url);
-}
-
-/** Vertex weights by URL (the snapshot's `lip_tint`, a part's `tongue_proper`), fetched once and shared by both views. */
-function loadWeights(url, vertexCount) {
-  if (!vertexWeights.has(url)) {
-    const promise = nodes.fetch(url).then((response) => {
-      if (!response.ok) {
-        throw new Error(`HTTP ${response.status}`);
-      }
-      return response.arrayBuffer().then((buffer) => parseVertexWeights(buffer, vertexCount));
-    });
-    promise.catch(() => vertexWeights.delete(url));
-    vertexWeights.set(url, promise);
-  }
-  return vertexWeights.get(url);
 }
 
 /** The lip controls as `page.lips` has them; the strength only matters for a tint. */
@@ -471,37 +452,25 @@ function showSoundState() {
 function addPanel(algorithm, heat, heatMax) {
   const index = page.panels.length;
   const panel = new Panel({
-    sound,
-    audio: index === 0 ? soundCodec : null,
     index,
     container: controls.views,
     algorithms: page.algorithms,
     chart,
-    loadMesh,
-    loadWeights,
+    group,
+    nodes,
+    audio: index === 0 ? soundCodec : null,
     lips: page.lips,
-    onMesh: (url, mesh, mouth) => {
-      if (framedMesh !== url) {
-        framedMesh = url;
-        camera.frame(mesh.positions, mesh.mmPerUnit, mouth);
-      }
-    },
+    look: lookParam(index === 0 ? "" : "2"),
     onSettings: writeUrl,
     // View 1 speaks for the replay: the bar shows where its replay stands.
     onReplay: index === 0 ? (message) => replayBar.update(message) : undefined,
     onRecording: index === 0 ? (recording) => replayBar.show(recording) : undefined,
-    nodes,
-    look: lookParam(index === 0 ? "" : "2"),
-  });
-  const canvas = panel.parts.canvas;
-  attachPointerControls(canvas, camera);
-  canvas.addEventListener("keydown", (event) => {
-    if (event.key === "m" && !event.altKey && !event.ctrlKey && !event.metaKey) {
-      setCloseUp(!camera.closeUp);
-      event.preventDefault();
-    } else if (handleCameraKey(event, camera)) {
-      event.preventDefault();
-    }
+    onKey: (event) => {
+      if (event.key === "m" && !event.altKey && !event.ctrlKey && !event.metaKey) {
+        setCloseUp(!camera.closeUp);
+        event.preventDefault();
+      }
+    },
   });
   page.panels.push(panel);
   panel.connect(connectSettings({ algorithm, heat, heatMax }));
@@ -539,98 +508,7 @@ function reconnectAll() {
   writeUrl();
 }
 
-/** The sequence number both views draw: the newest that every live view has. */
-function commonSeq(now) {
-  const fresh = page.panels.filter((p) => p.state === "live" && now - p.lastArrival < STALE_MS);
-  return fresh.length > 0 ? Math.min(...fresh.map((p) => p.newestSeq())) : Infinity;
-}
-
-let decoding = false;
-let cameraMoved = true;
-let statsAt = performance.now();
-/** Milliseconds from choosing frames to drawing them, the last DRAW_LAGS times. */
-const drawLags = [];
-/**
- * Milliseconds between one chance to choose frames and the next (an animation frame with
- * no draw under way), the last DRAW_LAGS times.
- */
-const drawIntervals = [];
-const DRAW_LAGS = 31;
-let lastChance = null;
-// For tests and the curious: the lags and chances the draw target is made from.
-window.facewireDraw = { lags: drawLags, intervals: drawIntervals };
-
-/** Keeps `value` among the last DRAW_LAGS of `list`. */
-function remember(list, value) {
-  list.push(value);
-  if (list.length > DRAW_LAGS) {
-    list.shift();
-  }
-}
-
-/**
- * What the views draw next: while the sound plays, the newest frame due by the stream
- * time that will be heard when it is drawn (after the usual lag from choosing to drawing)
- * plus half the usual time from one chance to choose to the next. A frame then first
- * shows within half that time of when its sound is heard, early or late alike (half a
- * frame interval instead would put onsets early on a page that draws every display frame,
- * late on one whose draws take longer than a frame). Without sound, the newest frame both
- * views have.
- */
-function drawTarget(now) {
-  const heard = sound.heardTime(now + (quantile(drawLags, 0.5) ?? 0));
-  if (heard === null) {
-    return { seq: commonSeq(now) };
-  }
-  const between = quantile(drawIntervals, 0.5) ?? (page.panels[0].frameIntervalS() * 1e3) / sound.rate;
-  // Wall-clock milliseconds, as stream seconds at the sound's rate (a slowed replay's).
-  return { t: heard + (between / 2e3) * sound.rate };
-}
-
-function animate(now) {
-  requestAnimationFrame(animate);
-  if (!decoding) {
-    const panels = [...page.panels];
-    const target = drawTarget(now);
-    const work = panels.map((panel) => panel.prepare(target));
-    if (lastChance !== null) {
-      remember(drawIntervals, now - lastChance);
-    }
-    lastChance = now;
-    if (work.some(Boolean)) {
-      decoding = true;
-      Promise.all(work)
-        .then((frames) => {
-          frames.forEach((frame, i) => {
-            if (frame) {
-              panels[i].show(frame);
-              panels[i].draw(camera, false);
-            }
-          });
-          remember(drawLags, performance.now() - now);
-        })
-        .finally(() => {
-          decoding = false;
-        });
-    }
-  }
-  for (const panel of page.panels) {
-    panel.draw(camera, cameraMoved);
-  }
-  cameraMoved = false;
-  chart.draw(now);
-  if (now - statsAt >= 1000) {
-    statsAt = now;
-    for (const panel of page.panels) {
-      panel.updateStats(now);
-    }
-  }
-}
-
 async function start() {
-  camera.onChange(() => {
-    cameraMoved = true;
-  });
   for (const [img, link] of [[fitParts.front, fitParts.frontLink], [fitParts.side, fitParts.sideLink]]) {
     img.addEventListener("error", () => {
       link.hidden = true; // a broken picture says nothing; the numbers still do
@@ -707,7 +585,6 @@ async function start() {
     return;
   }
   setCompare(params.has("algo2") || params.has("view2"));
-  requestAnimationFrame(animate);
   setInterval(refreshHeads, LIST_REFRESH_MS);
 }
 

@@ -163,8 +163,11 @@ export class OrbitCamera {
   }
 }
 
-/** Drag (mouse, pen, one finger) orbits; the wheel and a two-finger pinch zoom. */
-export function attachPointerControls(element, camera) {
+/**
+ * Drag (mouse, pen, one finger) orbits; the wheel and a two-finger pinch zoom. `cameraOf()`
+ * gives the camera they move, asked at each move (an element may change groups).
+ */
+export function attachPointerControls(element, cameraOf) {
   const pointers = new Map();
   let pinch = 0;
   const spread = () => {
@@ -187,11 +190,11 @@ export function attachPointerControls(element, camera) {
     const dy = event.clientY - last.y;
     pointers.set(event.pointerId, { x: event.clientX, y: event.clientY });
     if (pointers.size === 1) {
-      camera.orbit(-dx * 0.01, dy * 0.01);
+      cameraOf().orbit(-dx * 0.01, dy * 0.01);
     } else if (pointers.size === 2) {
       const now = spread();
       if (pinch > 0 && now > 0) {
-        camera.zoomBy(now / pinch);
+        cameraOf().zoomBy(now / pinch);
       }
       pinch = now;
     }
@@ -206,7 +209,7 @@ export function attachPointerControls(element, camera) {
     "wheel",
     (event) => {
       event.preventDefault();
-      camera.zoomBy(Math.exp(-event.deltaY * (event.deltaMode === 1 ? 0.05 : 0.0015)));
+      cameraOf().zoomBy(Math.exp(-event.deltaY * (event.deltaMode === 1 ? 0.05 : 0.0015)));
     },
     { passive: false },
   );

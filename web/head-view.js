@@ -1,5 +1,5 @@
-// head-view.js: one live head on one canvas, the part the page's views and the
-// <facewire-head> element (facewire-head.js) share: a viewer socket, the rest mesh, its
+// head-view.js: one live head on one canvas, what a <facewire-head> element
+// (facewire-head.js; the page's views are such elements) draws: a viewer socket, the rest mesh, its
 // parts, eyes, lips and texture fetched once, frames kept raw as they arrive (only their fixed
 // header is read) and decoded only when one is drawn, so a slow machine skips frames
 // instead of falling behind, and the WebGL2 renderer. It has no controls and no numbers:
@@ -163,6 +163,9 @@ export class HeadView {
     this.pending = [];
     this.lastSeq = null;
     this.snapshot = snapshot;
+    if (this.audio) {
+      this.sound.restart(1); // a new timeline; a replay's `replay` message sets its rate
+    }
     this.on.onSnapshot(snapshot);
     if (snapshot.rest_mesh === this.meshUrl) {
       return;

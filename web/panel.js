@@ -1,29 +1,24 @@
 // panel.js: one view of the page: its algorithm picker, heat-map switch and look, the
-// live head (head-view.js: the socket, the meshes, the frames, the drawing, shared with
-// the <facewire-head> element) and the numbers under it (connection state, syllable, fps,
-// latency per hop, bytes per frame, lip roughness and folds). A live stream that stops
-// sending shows as stalled. Given a list of nodes (nodes.js), each reconnect after a lost
-// connection goes to the next node, and the status line names it. The view that carries
-// the page's sound (sound.js) asks for audio and hands its chunks over; while the sound
-// plays, every view draws the frame whose `t` is being heard and shows how far each drawn
-// frame was from its sound.
+// live head (a <facewire-head> element, facewire-head.js, in the page's group: one camera,
+// one sound, drawn in step with the other view) and the numbers under it, read from the
+// element's events (connection state, syllable, fps, latency per hop, bytes per frame, lip
+// roughness and folds). A live stream that stops sending shows as stalled. Given a list
+// of nodes (nodes.js), each reconnect after a lost connection goes to the next node, and
+// the status line names it. The view that carries the page's sound (sound.js) asks for
+// audio (the element's `audio`); while the sound plays, every view draws the frame whose
+// `t` is being heard and shows how far each drawn frame was from its sound.
 
 import { CLOSE } from "./codes.js";
-import { HeadView } from "./head-view.js";
+import { DEFAULT_HEAT_MAX, FOLDS_RAMP_TOP_DEG } from "./facewire-head.js";
 import { LOOKS } from "./render.js";
 import { quantile } from "./sound.js";
-/** Face roughness (mean 1 - n·n around a vertex) at the top of the heat-map ramp, unless
- * the view picks another. */
-export const DEFAULT_HEAT_MAX = 0.1;
+
+export { DEFAULT_HEAT_MAX };
 /** A live stream with no frame for this long is shown as stalled. */
 const STALL_MS = 2000;
 /** A largest dihedral increase below this (degrees), with no triangle turned over 60
  * degrees, is a bend rather than a fold: the "Lip folds" line says "none". */
 const FOLD_BEND_DEG = 30;
-/** Coloured by folds, a vertex whose triangles turned this far (degrees) tops the ramp. */
-const FOLDS_RAMP_TOP_DEG = 90;
-/** The lengths the scale bar may show, mm. */
-const SCALE_LENGTHS_MM = [1, 2, 5, 10, 20, 50, 100];
 
 const STATE_TEXT = {
   connecting: "Connecting",
@@ -53,40 +48,41 @@ function foldsText(folds) {
 
 export class Panel {
   /**
-   * `index`: 0 or 1; `algorithms`: the /v1/algorithms list; `loadMesh(url)`: a promise of
-   * a parsed mesh; `loadWeights(url, vertexCount)`: a promise of a mesh's vertex weights
-   * (decode.js parseVertexWeights: the lips, the tongue part's tongue); `lips`: how the lips are drawn (render.js setLips);
-   * `onMesh(url, mesh)`: a mesh is shown; `onSettings()`: the user changed
-   * this view's algorithm or heat-map; `onReplay(message)`: where a replay stands;
-   * `onRecording(recording)`: the snapshot's `replay` (the recording replayed), or null; `nodes`: the page's Nodes (nodes.js), shared by
-   * both views and the fetches; `sound`: the page's Sound (sound.js), whose clock the view
-   * draws by, and `audio`: the codec this view asks for and feeds the sound with, or null
-   * (the other view, or no sound).
+   * `index`: 0 or 1; `container`: where the view goes; `algorithms`: the /v1/algorithms
+   * list; `chart`: the page's LiveChart; `group`: the page's HeadGroup (head-group.js: the
+   * shared camera and sound); `nodes`: the page's Nodes (nodes.js), shared by both views
+   * and the fetches; `audio`: the codec this view asks the voice in, or null (the other
+   * view, or no sound); `look` and `lips`: how the head is drawn; `onSettings()`: the
+   * user changed this view's algorithm, heat-map or look; `onReplay(message)`: where a
+   * replay stands; `onRecording(recording)`: the snapshot's `replay` (the recording
+   * replayed), or null; `onKey(event)`: a key the head did not take (the page's `m`).
    */
   constructor({
     index,
     container,
     algorithms,
     chart,
-    loadMesh,
-    loadWeights,
-    onMesh,
-    onSettings,
-    onReplay,
-    onRecording,
+    group,
     nodes,
-    sound,
     audio,
     look,
     lips,
+    onSettings,
+    onReplay,
+    onRecording,
+    onKey,
   }) {
     this.index = index;
-    this.sound = sound;
+    this.sound = group.sound;
     this.audio = audio;
     this.nodes = nodes;
     this.chart = chart;
+    this.group = group;
     this.onRecording = onRecording ?? (() => {});
-    const fragment = document.getElementById("view-template").content.cloneNode(true);
+    // Imported into this document and upgraded, so the element is a FacewireHead before it
+    // is connected (its group and nodes are set first).
+    const fragment = document.importNode(document.getElementById("view-template").content, true);
+    customElements.upgrade(fragment);
     this.parts = {};
     for (const element of fragment.querySelectorAll("[data-part]")) {
       element.id = `${element.dataset.part}-${index}`;
@@ -95,7 +91,7 @@ export class Panel {
     for (const label of fragment.querySelectorAll("label[data-for]")) {
       label.htmlFor = `${label.dataset.for}-${index}`;
     }
-    const { view: root, title, algo, heat, heatkind, heatmax, canvas, look: lookPicker, cut } = this.parts;
+    const { view: root, title, algo, heat, heatkind, heatmax, head, look: lookPicker, cut } = this.parts;
     root.classList.add(`view-${index}`);
     root.setAttribute("aria-labelledby", title.id);
     title.textContent = `View ${index + 1}`;
@@ -132,46 +128,59 @@ export class Panel {
       this.setLook({ ...this.look, cutDeg: Number(cut.value) });
       onSettings();
     });
-    container.append(fragment);
     this.root = root;
-    chart.setSeries(index, getComputedStyle(root).getPropertyValue("--accent").trim());
-
-    this.view = new HeadView({
-      canvas,
-      nodes,
-      loadMesh,
-      loadWeights,
-      sound,
-      audio,
-      handlers: {
-        onState: (state, detail) => this.stateChanged(state, detail),
-        onSnapshot: (snapshot) => this.snapshotArrived(snapshot),
-        onMesh,
-        onParts: (parts, eyes) => this.partsListed(parts, eyes),
-        onPartsLoaded: () => this.partsLoaded(),
-        onLips: (status) => {
-          this.parts.view.dataset.lips = status;
-        },
-        onFrameHeader: (header, buffer, arrivalUs) => this.frameArrived(header, buffer, arrivalUs),
-        onSkipped: (count) => {
-          this.stats.skipped += count;
-        },
-        onAudio: (buffer) => {
-          this.stats.audioBytes += buffer.byteLength;
-        },
-        onShown: (frame, said) => this.shown(frame, said),
-        onReplay,
-        onProblem: (text) => this.showMessage(text),
-      },
-    });
+    this.head = head;
+    this.listen(head, { onReplay, onKey });
+    head.nodes = nodes;
+    group.add(head);
+    if (audio) {
+      head.setAttribute("audio", audio);
+    }
     this.setLook(look ?? { mode: "front", cutDeg: 0 });
     this.setLips(lips);
     this.resetStats();
+    container.append(fragment); // the element connects once its attributes are set (connect())
+    chart.setSeries(index, getComputedStyle(root).getPropertyValue("--accent").trim());
+  }
+
+  /** What the element tells: the numbers, the messages, the replay. */
+  listen(head, { onReplay, onKey }) {
+    const on = (name, handle) => head.addEventListener(name, (event) => handle(event.detail));
+    on("state", ({ state, ...detail }) => this.stateChanged(state, detail));
+    on("snapshot", ({ snapshot }) => this.snapshotArrived(snapshot));
+    on("parts", ({ parts, eyes, loaded }) => (loaded ? this.partsLoaded() : this.partsListed(parts, eyes)));
+    on("lips", ({ status }) => {
+      this.parts.view.dataset.lips = status;
+    });
+    on("arrival", ({ header, bytes, arrivalUs }) => this.frameArrived(header, bytes, arrivalUs));
+    on("skipped", ({ count }) => {
+      this.stats.skipped += count;
+    });
+    on("audio", ({ bytes }) => {
+      this.stats.audioBytes += bytes;
+    });
+    on("frame", ({ frame, said }) => this.shown(frame, said));
+    on("replay", ({ message }) => onReplay?.(message));
+    on("error", ({ message, kind }) => {
+      if (kind === "problem") {
+        this.showMessage(message);
+      }
+    });
+    head.addEventListener("keydown", (event) => {
+      if (!event.defaultPrevented) {
+        onKey?.(event);
+      }
+    });
+  }
+
+  /** The element's live view (head-view.js), null while it connects again. */
+  get view() {
+    return this.head.headView;
   }
 
   /**
-   * Connects with `settings`: { head, stream, algorithm, heat (null, "roughness" or
-   * "folds"), heatMax, token, knownStreams }.
+   * Connects with `settings`: { head, stream, replay, algorithm, heat (null, "roughness"
+   * or "folds"), heatMax, token, knownStreams }.
    */
   connect(settings) {
     this.settings = { ...settings };
@@ -205,7 +214,8 @@ export class Panel {
     cutvalue.textContent = `${degrees}°`;
     cut.setAttribute("aria-valuetext", `${degrees} degrees from the midsagittal plane`);
     cutfield.hidden = this.look.mode !== "cutaway";
-    this.view?.setLook(this.look);
+    this.head.setAttribute("view", this.look.mode);
+    this.head.setAttribute("cut", String(degrees));
   }
 
   /** The known streams changed (the page re-reads the list): only the messages use them. */
@@ -219,37 +229,35 @@ export class Panel {
     kindfield.hidden = legend.hidden = !heat.checked;
     heatfield.hidden = !heat.checked || folds;
     legendmax.textContent = folds ? `${FOLDS_RAMP_TOP_DEG}° turned or more` : `${this.settings.heatMax} or more`;
-    this.view.setHeatScale(this.heatScale());
+    this.head.setAttribute("heatmax", String(this.settings.heatMax));
   }
 
-  /** The value at the top of the heat-map's ramp: degrees for folds, else the chosen roughness. */
-  heatScale() {
-    return this.settings.heat === "folds" ? FOLDS_RAMP_TOP_DEG : this.settings.heatMax;
-  }
-
+  /** The element's attributes as the settings say: any that changed reconnects it, once. */
   reconnect() {
-    this.view.connect(this.settings);
+    const { head, stream, replay, algorithm, heat, token } = this.settings;
+    const set = (name, value) => (value ? this.head.setAttribute(name, value) : this.head.removeAttribute(name));
+    set("head", head);
+    set("stream", stream);
+    set("replay", replay);
+    set("algo", algorithm);
+    set("heat", heat);
+    set("token", token);
   }
 
   /** `text` for the status line, with the node in use when the page has a list of them. */
   statusText(text) {
-    const node = this.nodes.label(this.view.node);
+    const node = this.nodes.label(this.view?.node ?? this.nodes.index);
     return node ? `${text} · node ${node}` : text;
   }
 
   destroy() {
-    this.view.destroy();
+    this.group.remove(this.head);
     this.chart.removeSeries(this.index);
     this.root.remove();
   }
 
   get state() {
-    return this.view.state;
-  }
-
-  /** When the newest frame arrived (performance.now()), -Infinity before any. */
-  get lastArrival() {
-    return this.view.lastArrival;
+    return this.head.state;
   }
 
   snapshotArrived(snapshot) {
@@ -257,7 +265,6 @@ export class Panel {
     this.chart.breakLine(this.index, performance.now());
     this.parts.algorithm.textContent = snapshot.algorithm;
     if (this.audio) {
-      this.sound.restart(1);
       if (snapshot.audio === this.audio) {
         this.soundProblem = null;
       } else {
@@ -287,47 +294,28 @@ export class Panel {
   }
 
   /** How the lips are drawn (render.js setLips): the page's choice, for every view. */
-  setLips(lips) {
-    this.view.setLips(lips);
+  setLips({ mode, strength }) {
+    this.head.setAttribute("lips", mode);
+    this.head.setAttribute("lipstrength", String(strength));
   }
 
   /** A frame arrived (its header read): the numbers and the chart. */
-  frameArrived(header, buffer, arrivalUs) {
+  frameArrived(header, bytes, arrivalUs) {
     const stats = this.stats;
     stats.received += 1;
-    stats.bytes += buffer.byteLength;
+    stats.bytes += bytes;
     stats.serverUs += header.serverSendUs - header.serverReceiveUs;
     stats.deliveryUs += arrivalUs - header.serverSendUs;
-    this.markStall(this.view.lastArrival);
+    const arrival = this.view.lastArrival;
+    this.markStall(arrival);
     this.lip = header.lip;
-    this.chart.push(this.index, this.view.lastArrival, header.lip.mean);
-  }
-
-  /** The stream's time between frames (median of the last few), seconds; 0 before two frames. */
-  frameIntervalS() {
-    return this.view.frameIntervalS();
-  }
-
-  /** The newest sequence number received, for keeping two views on the same frame. */
-  newestSeq() {
-    return this.view.newestSeq();
-  }
-
-  /** A promise of the frame to draw for `target`, or null (head-view.js prepare). */
-  prepare(target) {
-    return this.view.prepare(target);
-  }
-
-  /** Shows a decoded frame (head-view.js show); the numbers follow through `shown`. */
-  show(frame) {
-    this.view.show(frame);
+    this.chart.push(this.index, arrival, header.lip.mean);
   }
 
   /** A frame is shown: its syllable, its lip folds, and how late it is for eye and ear. */
   shown(frame, said) {
     this.parts.view.dataset.seq = String(frame.seq);
     this.parts.syllable.textContent = said ?? "–";
-    this.parts.label.textContent = said ?? "";
     this.folds = frame.folds;
     this.stats.drawn += 1;
     this.stats.eyeUs += Date.now() * 1000 - frame.serverReceiveUs;
@@ -339,33 +327,9 @@ export class Panel {
     }
   }
 
-  draw(camera, force) {
-    this.view.draw(camera, force);
-    this.showScale(this.view.renderer.cssPixelsPerMm);
-  }
-
-  /**
-   * The scale bar of the side and cut-away looks: the shortest of SCALE_LENGTHS_MM that
-   * is at least 40 CSS pixels long at the cut plane; hidden in the other looks.
-   */
-  showScale(pixelsPerMm) {
-    const { scale, scalebar, scalelabel } = this.parts;
-    const mm = pixelsPerMm ? SCALE_LENGTHS_MM.find((l) => l * pixelsPerMm >= 40) : undefined;
-    scale.hidden = mm === undefined;
-    if (mm === undefined) {
-      return;
-    }
-    const width = `${(mm * pixelsPerMm).toFixed(1)}px`;
-    if (scalebar.style.width !== width) {
-      scalebar.style.width = width;
-      scalebar.dataset.mm = String(mm);
-      scalelabel.textContent = `${mm} mm`;
-    }
-  }
-
-  /** Steers this view's replay (head-view.js control). */
+  /** Steers this view's replay (the element's control). */
   control(message) {
-    return this.view.control(message);
+    return this.head.control(message);
   }
 
   stateChanged(state, detail) {
@@ -380,7 +344,7 @@ export class Panel {
       const missing = detail.code === CLOSE.unknown_head;
       this.showMessage(`${missing ? "Not found" : "Refused"}: ${detail.message}.${missing ? " Pick a registered head above." : ""}`);
     } else if (state === "reconnecting") {
-      const node = this.nodes.label(this.view.node);
+      const node = this.nodes.label(this.view?.node ?? this.nodes.index);
       this.showMessage(`Connection lost (${detail.message}); trying again${node ? ` on node ${node}` : ""}.`);
     } else if (state === "ended") {
       this.showMessage(`The stream ended: ${detail.message}. Waiting for it to start again.`);
@@ -401,7 +365,7 @@ export class Panel {
     if (this.state !== "live") {
       return;
     }
-    const idle = now - this.view.lastArrival;
+    const idle = now - (this.view?.lastArrival ?? now);
     if (idle >= STALL_MS) {
       status.dataset.state = "stalled";
       status.textContent = this.statusText(`Stalled: no frame for ${Math.floor(idle / 1000)} s`);

@@ -12,7 +12,7 @@ const JS: &str = "text/javascript; charset=utf-8";
 
 /// `(path, content type, body)` of every embedded file. The `web/*.test.mjs` scripts and
 /// `web/package.json` are for the tests (`tests/service/web_decode.rs`), not served.
-const ASSETS: [(&str, &str, &str); 18] = [
+const ASSETS: [(&str, &str, &str); 19] = [
     ("/", HTML, include_str!("../../web/index.html")),
     ("/style.css", CSS, include_str!("../../web/style.css")),
     ("/app.js", JS, include_str!("../../web/app.js")),
@@ -26,6 +26,7 @@ const ASSETS: [(&str, &str, &str); 18] = [
         include_str!("../../web/facewire-head.js"),
     ),
     ("/fit.js", JS, include_str!("../../web/fit.js")),
+    ("/head-group.js", JS, include_str!("../../web/head-group.js")),
     ("/head-view.js", JS, include_str!("../../web/head-view.js")),
     ("/nodes.js", JS, include_str!("../../web/nodes.js")),
     ("/panel.js", JS, include_str!("../../web/panel.js")),
@@ -59,7 +60,40 @@ pub fn routes<S: Clone + Send + Sync + 'static>() -> Router<S> {
 
 #[cfg(test)]
 mod tests {
+    use super::ASSETS;
     use facewire_proto::codes::{CloseCode, EndReason};
+
+    /// The modules a served script imports (`from "./x.js"`, `import("./x.js")`, a worklet's
+    /// `addModule(new URL("./x.js", ...))`): every one must be served too.
+    fn imports(script: &str) -> Vec<String> {
+        script
+            .split("\"./")
+            .skip(1)
+            .filter_map(|rest| rest.split_once('"').map(|(name, _)| name))
+            .filter(|name| name.ends_with(".js"))
+            .map(|name| format!("/{name}"))
+            .collect()
+    }
+
+    #[test]
+    fn every_module_a_served_script_imports_is_served() {
+        let served: Vec<&str> = ASSETS.iter().map(|(path, _, _)| *path).collect();
+        let mut checked = 0;
+        for (path, content_type, body) in ASSETS {
+            if content_type != super::JS {
+                continue;
+            }
+            for module in imports(body) {
+                assert!(
+                    served.contains(&module.as_str()),
+                    "{path} imports {module}, which is not served"
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 20, "only {checked} imports found");
+        assert_eq!(imports("import { a } from \"./b.js\";"), ["/b.js"]);
+    }
 
     const CODES_JS: &str = include_str!("../../web/codes.js");
 
