@@ -13,7 +13,7 @@ mod syllable_voice;
 mod wav;
 
 pub use ogg_opus::{read_ogg_opus, OggOpus, OggOpusError};
-pub use stretch::{StretchError, STRETCH_SPEEDS};
+pub use stretch::{StretchError, Stretching, STRETCH_SPEEDS};
 pub use syllable_voice::syllable_voice;
 pub use wav::{read_wav, WavError};
 

@@ -4,7 +4,11 @@
 //! down further apart or closer together, each joined where its waveform best continues
 //! the last, so the voice keeps its pitch and only its tempo changes.
 
+use std::collections::VecDeque;
 use std::num::{NonZeroU16, NonZeroU32};
+use std::ops::Range;
+
+use wsola::TimeStretch;
 
 use super::Voice;
 
@@ -16,42 +20,157 @@ pub const STRETCH_SPEEDS: [f64; 2] = [wsola::MIN_TEMPO as f64, wsola::MAX_TEMPO 
 pub enum StretchError {
     #[error("a voice plays at {min} to {max} times its pace, not {speed}", min = STRETCH_SPEEDS[0], max = STRETCH_SPEEDS[1])]
     Speed { speed: f64 },
+    #[error("a voice's sample rate is not 0")]
+    SampleRate,
     #[error("stretching the voice: {0}")]
     Wsola(#[from] wsola::Error),
+}
+
+/// A stretch of a voice played at another speed, given piece by piece ([`Self::fill`]):
+/// each piece costs only the work of its own samples, so a replay's voice is stretched as
+/// it is sent, never whole (30 s of 48 kHz at 0.25x took 5.5 s at once; a 20 ms piece
+/// takes 0.1 ms at 16 kHz, 0.9 ms at 48 kHz: `cargo bench --bench voice_stretch`). The
+/// voice is `silence` samples of silence, then `source[range]` of a voice's samples passed to each
+/// fill; it is given exactly `(silence + range.len()) / speed` samples long (rounded), so
+/// that a replay's voice stays on its frames' timeline however long it plays.
+pub struct Stretching {
+    /// None at speed 1: the samples as they are.
+    stretcher: Option<TimeStretch>,
+    silence: usize,
+    range: Range<usize>,
+    /// Output samples still to give.
+    remaining: usize,
+    /// Stretched samples made but not yet given.
+    made: VecDeque<f32>,
+    /// One input block and one output hop, reused.
+    input: Vec<f32>,
+    hop: Vec<f32>,
+    /// All input is in and the stretcher told so; `spent`: and its tail is out.
+    drained: bool,
+    spent: bool,
+}
+
+impl Stretching {
+    /// `silence` samples then `source[range]` at `speed` (within [`STRETCH_SPEEDS`]).
+    pub fn new(
+        sample_rate: u32,
+        speed: f64,
+        silence: usize,
+        range: Range<usize>,
+    ) -> Result<Stretching, StretchError> {
+        if !(STRETCH_SPEEDS[0]..=STRETCH_SPEEDS[1]).contains(&speed) {
+            return Err(StretchError::Speed { speed });
+        }
+        let rate = NonZeroU32::new(sample_rate).ok_or(StretchError::SampleRate)?;
+        let remaining = ((silence + range.len()) as f64 / speed).round() as usize;
+        let stretcher = if speed == 1.0 {
+            None
+        } else {
+            let mut stretcher = TimeStretch::new(rate, NonZeroU16::MIN)?;
+            stretcher.set_tempo(speed as f32);
+            Some(stretcher)
+        };
+        let hop = stretcher.as_ref().map_or(0, TimeStretch::min_output_buff_size);
+        Ok(Stretching {
+            stretcher,
+            silence,
+            range,
+            remaining,
+            made: VecDeque::new(),
+            input: Vec::with_capacity(hop),
+            hop: vec![0.0; hop],
+            drained: false,
+            spent: false,
+        })
+    }
+
+    /// Output samples still to give.
+    pub fn remaining(&self) -> usize {
+        self.remaining
+    }
+
+    /// Fills `out` with the next samples (`source`: the voice's samples the range is of),
+    /// silence past the end; returns how many of them were still to give (0 once all are).
+    pub fn fill(&mut self, source: &[i16], out: &mut [i16]) -> usize {
+        let given = out.len().min(self.remaining);
+        let Some(stretcher) = self.stretcher.as_mut() else {
+            for sample in out.iter_mut().take(given) {
+                *sample = if self.silence > 0 {
+                    self.silence -= 1;
+                    0
+                } else {
+                    let at = self.range.start;
+                    self.range.start += 1;
+                    source.get(at).copied().unwrap_or(0)
+                };
+            }
+            out[given..].fill(0);
+            self.remaining -= given;
+            return given;
+        };
+        while self.made.len() < given && !self.spent {
+            match stretcher.pull(&mut self.hop) {
+                Ok(written) => self.made.extend(&self.hop[..written]),
+                Err(_) if self.drained => self.spent = true,
+                Err(_) => {
+                    // More input: one hop's worth, silence first, then the voice.
+                    self.input.clear();
+                    while self.input.len() < self.hop.len() {
+                        if self.silence > 0 {
+                            self.silence -= 1;
+                            self.input.push(0.0);
+                        } else if self.range.start < self.range.end {
+                            let at = self.range.start;
+                            self.range.start += 1;
+                            self.input
+                                .push(f32::from(source.get(at).copied().unwrap_or(0)) / 32_768.0);
+                        } else {
+                            break;
+                        }
+                    }
+                    if self.input.is_empty() {
+                        stretcher.set_draining();
+                        self.drained = true;
+                    }
+                    stretcher.push(&self.input);
+                }
+            }
+        }
+        for sample in out.iter_mut().take(given) {
+            let x = self.made.pop_front().unwrap_or(0.0);
+            *sample = (x * 32_768.0).round().clamp(-32_768.0, 32_767.0) as i16;
+        }
+        out[given..].fill(0);
+        self.remaining -= given;
+        given
+    }
 }
 
 impl Voice {
     /// The samples from `from_s` to `to_s` (seconds on the voice's timeline, clamped to
     /// it; empty when `to_s <= from_s`).
     pub fn between(&self, from_s: f64, to_s: f64) -> Voice {
-        let rate = f64::from(self.sample_rate);
-        let index = |t: f64| ((t * rate).round().max(0.0) as usize).min(self.samples.len());
-        let (from, to) = (index(from_s), index(to_s));
+        let range = self.range_between(from_s, to_s);
         Voice {
             sample_rate: self.sample_rate,
-            samples: self.samples[from..to.max(from)].to_vec(),
+            samples: self.samples[range].to_vec(),
         }
     }
 
+    /// The indices of the samples from `from_s` to `to_s`, as [`Self::between`] takes them.
+    pub fn range_between(&self, from_s: f64, to_s: f64) -> Range<usize> {
+        let rate = f64::from(self.sample_rate);
+        let index = |t: f64| ((t * rate).round().max(0.0) as usize).min(self.samples.len());
+        let (from, to) = (index(from_s), index(to_s));
+        from..to.max(from)
+    }
+
     /// The voice played at `speed` times its pace (0.25 is four times as long) with its
-    /// pitch kept; exactly `len / speed` samples long (rounded), so that a replay's voice
-    /// stays on its frames' timeline however long it plays.
+    /// pitch kept; exactly `len / speed` samples long (rounded), as [`Stretching`] gives it.
     pub fn at_speed(&self, speed: f64) -> Result<Voice, StretchError> {
-        if !(STRETCH_SPEEDS[0]..=STRETCH_SPEEDS[1]).contains(&speed) {
-            return Err(StretchError::Speed { speed });
-        }
-        let length = (self.samples.len() as f64 / speed).round() as usize;
-        if self.samples.is_empty() || speed == 1.0 {
-            return Ok(self.clone());
-        }
-        let floats: Vec<f32> = self.samples.iter().map(|&s| f32::from(s) / 32_768.0).collect();
-        let rate = NonZeroU32::new(self.sample_rate).expect("a voice's rate is not 0");
-        let stretched = wsola::stretch(&floats, rate, NonZeroU16::MIN, speed as f32)?;
-        let mut samples: Vec<i16> = stretched
-            .iter()
-            .map(|&x| (x * 32_768.0).round().clamp(-32_768.0, 32_767.0) as i16)
-            .collect();
-        samples.resize(length, 0);
+        let mut stretching = Stretching::new(self.sample_rate, speed, 0, 0..self.samples.len())?;
+        let mut samples = vec![0; stretching.remaining()];
+        stretching.fill(&self.samples, &mut samples);
         Ok(Voice {
             sample_rate: self.sample_rate,
             samples,
@@ -109,6 +228,51 @@ mod tests {
         let heard_s = loudest as f64 / 16_000.0;
         eprintln!("click heard at {heard_s:.3} s");
         assert!((heard_s - 2.0).abs() < 0.03, "{heard_s}");
+    }
+
+    #[test]
+    fn given_piece_by_piece_it_is_the_voice_stretched_whole() {
+        let voice = tone(220.0, 1.0);
+        for (speed, piece) in [(0.25, 320), (0.5, 1_920), (2.0, 77), (1.0, 320)] {
+            let whole = voice.at_speed(speed).unwrap();
+            let mut stretching = Stretching::new(16_000, speed, 0, 0..voice.samples.len()).unwrap();
+            let mut pieces = Vec::new();
+            let mut out = vec![0; piece];
+            while stretching.fill(&voice.samples, &mut out) > 0 {
+                pieces.extend_from_slice(&out);
+                // Each piece is made as it is asked for: no more than a hop is kept ahead.
+                assert!(
+                    stretching.made.len() < 16_000 * 15 / 1000 + 1,
+                    "{}",
+                    stretching.made.len()
+                );
+            }
+            pieces.truncate(whole.samples.len());
+            assert_eq!(pieces, whole.samples, "speed {speed}, pieces of {piece}");
+            assert_eq!(stretching.fill(&voice.samples, &mut out), 0);
+            assert!(out.iter().all(|&s| s == 0), "past its end, silence");
+        }
+    }
+
+    #[test]
+    fn silence_first_then_the_voice() {
+        // 0.25 s of silence, then a click at 0.5 s of the voice: at half the pace the
+        // click is heard at (0.25 + 0.5) * 2 = 1.5 s of 2.5 s.
+        let mut voice = tone(0.0, 1.0);
+        for s in &mut voice.samples[8_000..8_016] {
+            *s = 20_000;
+        }
+        let mut stretching = Stretching::new(16_000, 0.5, 4_000, 0..16_000).unwrap();
+        assert_eq!(stretching.remaining(), 40_000);
+        let mut out = vec![0; 40_000];
+        assert_eq!(stretching.fill(&voice.samples, &mut out), 40_000);
+        let loudest = (0..out.len()).max_by_key(|&i| out[i].unsigned_abs()).unwrap();
+        let heard_s = loudest as f64 / 16_000.0;
+        assert!((heard_s - 1.5).abs() < 0.03, "{heard_s}");
+        assert!(matches!(
+            Stretching::new(0, 0.5, 0, 0..1),
+            Err(StretchError::SampleRate)
+        ));
     }
 
     #[test]
