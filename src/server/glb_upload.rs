@@ -12,7 +12,7 @@ use super::error::ApiError;
 use super::ids::valid_id;
 use super::store::PartRecord;
 use super::texture_image;
-use crate::head::{glb_head, obj, read_glb, GlbMesh, MeshRole};
+use crate::head::{glb_head, obj, read_glb, BaseColour, GlbMesh, MeshRole};
 use facewire_proto::messages::{HeadSource, PartSource};
 
 /// The body's content type that makes a registration a glTF one.
@@ -83,11 +83,28 @@ pub fn glb_upload(bytes: &[u8], roles: Option<&str>) -> Result<GlbUpload, ApiErr
     })
 }
 
+/// The longest part of an image's URI a note quotes (a `data:` URI can be megabytes).
+const URI_QUOTED: usize = 60;
+
 /// The skin's texture image when the page can draw it (PNG or JPEG, inside the file, with
 /// `TEXCOORD_0` on every primitive), and what the registration says about it.
 fn skin_texture(skin: &GlbMesh) -> (Option<Vec<u8>>, Option<String>) {
-    let Some((mime, bytes)) = &skin.base_colour else {
-        return (None, None);
+    let (mime, bytes) = match &skin.base_colour {
+        None => return (None, None),
+        Some(BaseColour::Uri(uri)) => {
+            let quoted: String = uri.chars().take(URI_QUOTED).collect();
+            let more = if uri.chars().count() > URI_QUOTED {
+                "..."
+            } else {
+                ""
+            };
+            let note = format!(
+                "the skin's base colour image is left out: it is not inside the file but behind the URI \
+                 {quoted:?}{more}; pack the image into the .glb's binary chunk to keep it"
+            );
+            return (None, Some(note));
+        }
+        Some(BaseColour::Embedded { mime, bytes }) => (mime, bytes),
     };
     if skin.texture_coords.is_none() {
         let note =

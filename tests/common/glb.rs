@@ -18,9 +18,13 @@ pub struct GlbPrimitive {
     pub joints: Option<Vec<([u16; 4], [f32; 4])>>,
     /// Per vertex, `TEXCOORD_0` (glTF's: v down).
     pub texcoords: Option<Vec<[f32; 2]>>,
-    /// The material's base colour image: its MIME type and bytes, stored in the file.
+    /// The material's base colour image: its MIME type and bytes, stored in the file; or,
+    /// with a "MIME type" `uri:NAME`, an image behind the URI `NAME` (not in the file).
     pub base_colour: Option<(String, Vec<u8>)>,
 }
+
+/// A base colour "MIME type" that writes the image as a URI (`uri:face.png`).
+pub const URI_IMAGE: &str = "uri:";
 
 pub struct GlbMeshSpec {
     pub name: String,
@@ -100,7 +104,15 @@ pub fn write_glb(meshes: &[GlbMeshSpec], root: [f32; 16], skin: Option<&GlbSkin>
                 Some(m) => m,
                 None => {
                     let mut entry = json!({"name": primitive.material});
-                    if let Some((mime, bytes)) = &primitive.base_colour {
+                    if let Some((uri, _)) = primitive
+                        .base_colour
+                        .as_ref()
+                        .filter(|(mime, _)| mime.starts_with(URI_IMAGE))
+                    {
+                        images.push(json!({"uri": &uri[URI_IMAGE.len()..]}));
+                        entry["pbrMetallicRoughness"] =
+                            json!({"baseColorTexture": {"index": images.len() - 1}});
+                    } else if let Some((mime, bytes)) = &primitive.base_colour {
                         while !binary.bytes.len().is_multiple_of(4) {
                             binary.bytes.push(0);
                         }

@@ -107,6 +107,26 @@ async fn an_avatar_s_skin_texture_becomes_the_head_s() {
     server.wait_ready("webp", "").await;
     let texture = reqwest::get(server.http("/v1/heads/webp/texture")).await.unwrap();
     assert_eq!(texture.status(), 404);
+
+    // An image in a file beside the .glb cannot come with it: left out, and said so.
+    let beside = crate::common::glb::ict_avatar_textured(Some((
+        format!("{}textures/face_diffuse.png", crate::common::glb::URI_IMAGE),
+        Vec::new(),
+    )));
+    let (status, body) = post_glb(&server, "?id=beside", beside).await;
+    assert_eq!(status, 202, "{body}");
+    let note = body["source"]["texture"].as_str().unwrap();
+    assert!(
+        note.contains("is left out")
+            && note.contains("\"textures/face_diffuse.png\"")
+            && note.contains("pack"),
+        "{note}"
+    );
+    server.wait_ready("beside", "").await;
+    let texture = reqwest::get(server.http("/v1/heads/beside/texture"))
+        .await
+        .unwrap();
+    assert_eq!(texture.status(), 404);
     server.stop().await;
 }
 

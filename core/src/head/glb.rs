@@ -84,9 +84,18 @@ pub struct GlbMesh {
     /// Where it sits on its texture, when every primitive has `TEXCOORD_0`: a coordinate
     /// per file vertex (v up, as OBJ writes them), each triangle's corners by file vertex.
     pub texture_coords: Option<TextureCoords>,
-    /// The base colour image every primitive's material names, when they name the same
-    /// one and it is inside the file: its MIME type and bytes as stored.
-    pub base_colour: Option<(String, Vec<u8>)>,
+    /// The base colour image every primitive's material names, when they name the same one.
+    pub base_colour: Option<BaseColour>,
+}
+
+/// A mesh's base colour image, as its file has it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BaseColour {
+    /// Inside the file's binary chunk: its MIME type and bytes as stored.
+    Embedded { mime: String, bytes: Vec<u8> },
+    /// Behind a URI (a file beside the `.glb`, or a `data:` URI), not read: a `.glb` is
+    /// one upload. The URI as written.
+    Uri(String),
 }
 
 /// A morph target (blend shape).
@@ -629,10 +638,9 @@ fn read_mesh(
     Ok(out)
 }
 
-/// Image `index` of the document `node` is in, when it is inside the file's binary chunk:
-/// its MIME type and bytes. An image in a file beside it, or a view past the chunk, is
-/// none.
-fn embedded_image(node: &gltf::Node, index: usize, blob: &[u8]) -> Option<(String, Vec<u8>)> {
+/// Image `index` of the document `node` is in: its bytes when it is inside the file's
+/// binary chunk, its URI when it is not. A view past the chunk is none.
+fn embedded_image(node: &gltf::Node, index: usize, blob: &[u8]) -> Option<BaseColour> {
     let image = node.mesh()?.primitives().find_map(|p| {
         let texture = p
             .material()
@@ -645,9 +653,12 @@ fn embedded_image(node: &gltf::Node, index: usize, blob: &[u8]) -> Option<(Strin
         gltf::image::Source::View { view, mime_type } => {
             let bytes = bin(view.buffer(), blob)?;
             let range = view.offset()..view.offset().checked_add(view.length())?;
-            Some((mime_type.to_string(), bytes.get(range)?.to_vec()))
+            Some(BaseColour::Embedded {
+                mime: mime_type.to_string(),
+                bytes: bytes.get(range)?.to_vec(),
+            })
         }
-        gltf::image::Source::Uri { .. } => None,
+        gltf::image::Source::Uri { uri, .. } => Some(BaseColour::Uri(uri.to_string())),
     }
 }
 

@@ -26,7 +26,7 @@ use crate::input::{read_file, ReadError, MAX_HEAD_BYTES};
 pub use animatable::{check_animatable, AnimatableError};
 pub use budget::{MeshBudget, OverBudget};
 pub use geodesic::SurfaceDistance;
-pub use glb::{read_glb, GlbError, GlbMesh, MorphTarget, MM_PER_METRE};
+pub use glb::{read_glb, BaseColour, GlbError, GlbMesh, MorphTarget, MM_PER_METRE};
 pub use glb_parts::{glb_head, GlbHead, GlbPartsError, MeshRole};
 pub use laplacian::CotanLaplacian;
 pub use obj::ObjError;
