@@ -384,6 +384,7 @@ async fn check_the_page(browser: &Browser) {
     if std::env::var_os("FACEWIRE_TEXTURE_ONLY").is_some() {
         let (_demo, url) = start_demo();
         check_a_textured_head(browser, &url, Duration::from_secs(120)).await;
+        check_a_head_uploaded(browser, &url, Duration::from_secs(120)).await;
         return;
     }
     if std::env::var_os("FACEWIRE_CUTAWAY_ONLY").is_some() {
@@ -489,6 +490,7 @@ async fn check_the_page(browser: &Browser) {
     check_a_stalled_stream(browser, &url, long).await;
     check_a_head_posted_with_no_fit(browser, &url, long).await;
     check_a_textured_head(browser, &url, long).await;
+    check_a_head_uploaded(browser, &url, long).await;
     check_the_page_on_a_phone(browser, &url, long).await;
 
     // An unknown head: the server's error and close 4404 end in the error state.
@@ -614,6 +616,112 @@ async fn check_a_textured_head(browser: &Browser, url: &str, long: Duration) {
         }
         producer.close(None).await.unwrap();
     }
+}
+
+/// "Your own head": a glTF avatar picked from disk (the ICT head with its teeth, tongue
+/// and eyes as named meshes and a checkerboard texture), its id made from the file's name,
+/// registered and fitted by the server, then shown in view 1 with its texture and its fit
+/// report; an image alone is refused in words.
+async fn check_a_head_uploaded(browser: &Browser, url: &str, long: Duration) {
+    let png = common::texture::checker_png(256, 256, 16, [30, 170, 60], [235, 235, 225]);
+    let glb = common::glb::ict_avatar_textured(Some(("image/png".into(), png.clone())));
+    let dir = tempfile::tempdir().unwrap();
+    let avatar = dir.path().join("My Avatar.glb");
+    std::fs::write(&avatar, glb).unwrap();
+    let image = dir.path().join("face.png");
+    std::fs::write(&image, png).unwrap();
+    browser.open(url).await;
+    browser
+        .wait_for("view 1 to go live", &state_is("status-0", "live"), long)
+        .await;
+    let pick = async |path: &std::path::Path| {
+        browser
+            .js("const f = document.getElementById('upload-files'); f.value = ''; return true")
+            .await;
+        let input = browser.element("#upload-files").await;
+        browser
+            .command(
+                &format!("/element/{input}/value"),
+                Some(json!({ "text": path.display().to_string() })),
+            )
+            .await;
+    };
+    // An image alone is no head.
+    pick(&image).await;
+    browser
+        .js("document.getElementById('upload-id').value = 'only-an-image'; return true")
+        .await;
+    browser.click("#upload-register").await;
+    let refused = browser
+        .wait_for(
+            "the refusal",
+            "const s = document.getElementById('upload-status'); \
+             return s.dataset.kind === 'error' && s.textContent",
+            long,
+        )
+        .await;
+    assert!(refused.as_str().unwrap().contains("pick a head"), "{refused}");
+
+    // The avatar: its id from its file name, registered, fitted and shown.
+    browser
+        .js("document.getElementById('upload-id').value = ''; return true")
+        .await;
+    pick(&avatar).await;
+    let id = browser
+        .js("return document.getElementById('upload-id').value")
+        .await;
+    assert_eq!(id, "my-avatar", "the id made from the file's name");
+    browser.click("#upload-register").await;
+    let said = browser
+        .wait_for(
+            "the avatar registered",
+            "const s = document.getElementById('upload-status'); \
+             return s.dataset.kind === 'error' ? 'error: ' + s.textContent \
+               : s.textContent.includes('registered') && s.textContent",
+            long,
+        )
+        .await;
+    println!("your own head: {said}");
+    assert!(
+        said.as_str().unwrap().contains("\"my-avatar\" is registered")
+            && said.as_str().unwrap().contains("image/png"),
+        "{said}"
+    );
+    let shown = browser
+        .wait_for(
+            "the avatar's fit report and view",
+            "const v = window.facewireViews()[0]; \
+             return !document.getElementById('fit-report').hidden && \
+               document.getElementById('head').value === 'my-avatar' && \
+               (v?.snapshot?.rest_mesh ?? '').includes('/my-avatar/') && \
+               document.getElementById('fit-title').textContent",
+            long,
+        )
+        .await;
+    assert_eq!(shown, "Fit of head \"my-avatar\"");
+    let mut producer = connect_producer(url, "my-avatar", "main").await;
+    produce_line(&mut producer, jaw_line(0, 0.0)).await;
+    browser
+        .wait_for("the avatar live", &state_is("status-0", "live"), long)
+        .await;
+    browser
+        .wait_for(
+            "the avatar's texture and parts drawn",
+            "const v = window.facewireViews()[0]; \
+             return v.renderer.texture !== null && \
+               document.getElementById('inner-0').dataset.loaded > 0",
+            long,
+        )
+        .await;
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let green = green_share(browser, &browser.screenshot("#head-0").await).await;
+    println!("your own head: {:.1} % of the view green", green * 100.0);
+    assert!(
+        green > 0.05,
+        "the avatar's texture is not drawn: {:.2} % green",
+        green * 100.0
+    );
+    producer.close(None).await.unwrap();
 }
 
 /// A stream of the test's own: it appears in the stream picker without a reload, shows

@@ -13,7 +13,8 @@
 // element (facewire-head.js) in one group (head-group.js: one shared camera, one sound,
 // drawn in step, each view decoding only its newest frame). Under them, the chosen
 // head's fit report (fit.js), fetched again when the head's status changes. The Talk
-// button makes the microphone the producer of the head's `talk` stream (talk.js).
+// button makes the microphone the producer of the head's `talk` stream (talk.js). "Your
+// own head" registers the user's files (upload.js) and shows that head once it is fitted.
 
 import { OrbitCamera } from "./camera.js";
 import { LiveChart } from "./chart.js";
@@ -25,6 +26,7 @@ import { ReplayBar } from "./replay.js";
 import { audioCodec, Sound } from "./sound.js";
 import { LIP_MODES } from "./render.js";
 import { Talk } from "./talk.js";
+import { idFromFileName, registerHead } from "./upload.js";
 
 /** The stream the Talk button produces (the microphone, `derive=visemes`). */
 const TALK_STREAM = "talk";
@@ -47,6 +49,15 @@ const controls = {
   volume: byId("volume"),
   views: byId("views"),
   message: byId("page-message"),
+};
+/** "Your own head" (index.html). */
+const upload = {
+  form: byId("upload-form"),
+  files: byId("upload-files"),
+  id: byId("upload-id"),
+  token: byId("upload-token"),
+  button: byId("upload-register"),
+  status: byId("upload-status"),
 };
 /** The fit report's section (index.html). */
 const fitParts = {
@@ -530,6 +541,13 @@ async function start() {
   });
   page.lips.strength = Number.isFinite(page.lips.strength) ? Math.max(0, Math.min(1, page.lips.strength)) : 1;
   showLips();
+  upload.files.addEventListener("change", () => {
+    const head = [...upload.files.files].find((f) => /\.(glb|obj)$/i.test(f.name));
+    if (head && !upload.id.value) {
+      upload.id.value = idFromFileName(head.name);
+    }
+  });
+  upload.form.addEventListener("submit", registerUpload);
   controls.sound.addEventListener("click", toggleSound);
   controls.talk.addEventListener("click", toggleTalk);
   controls.volume.addEventListener("input", () => sound.setVolume(Number(controls.volume.value)));
@@ -586,6 +604,42 @@ async function start() {
   }
   setCompare(params.has("algo2") || params.has("view2"));
   setInterval(refreshHeads, LIST_REFRESH_MS);
+}
+
+/** A line under "Your own head": `kind` "error" styles it as one. */
+function showUploadStatus(text, kind = "note") {
+  upload.status.hidden = !text;
+  upload.status.textContent = text ?? "";
+  upload.status.dataset.kind = kind;
+}
+
+/** Registers the picked files as the head named, then shows that head and its fit. */
+async function registerUpload(event) {
+  event.preventDefault();
+  const id = upload.id.value.trim();
+  upload.button.disabled = true;
+  const outcome = await registerHead({
+    nodes,
+    files: [...upload.files.files],
+    id,
+    token: upload.token.value,
+    onProgress: (text) => showUploadStatus(`${text}…`),
+  });
+  upload.button.disabled = false;
+  if (!outcome.ok) {
+    showUploadStatus(outcome.text, "error");
+    return;
+  }
+  const texture = outcome.source?.texture ? ` Texture: ${outcome.source.texture}.` : "";
+  showUploadStatus(`"${id}" is registered and shown above.${texture}`);
+  await refreshHeads();
+  page.head = id;
+  page.replay = null;
+  page.recordings = [];
+  fillHeadPicker();
+  fillStreamPicker();
+  reconnectAll();
+  loadFit();
 }
 
 /**

@@ -12,7 +12,7 @@ const JS: &str = "text/javascript; charset=utf-8";
 
 /// `(path, content type, body)` of every embedded file. The `web/*.test.mjs` scripts and
 /// `web/package.json` are for the tests (`tests/service/web_decode.rs`), not served.
-const ASSETS: [(&str, &str, &str); 19] = [
+const ASSETS: [(&str, &str, &str); 20] = [
     ("/", HTML, include_str!("../../web/index.html")),
     ("/style.css", CSS, include_str!("../../web/style.css")),
     ("/app.js", JS, include_str!("../../web/app.js")),
@@ -36,6 +36,7 @@ const ASSETS: [(&str, &str, &str); 19] = [
     ("/stream.js", JS, include_str!("../../web/stream.js")),
     ("/talk.js", JS, include_str!("../../web/talk.js")),
     ("/talk-worklet.js", JS, include_str!("../../web/talk-worklet.js")),
+    ("/upload.js", JS, include_str!("../../web/upload.js")),
 ];
 
 pub fn routes<S: Clone + Send + Sync + 'static>() -> Router<S> {

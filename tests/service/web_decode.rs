@@ -5,7 +5,8 @@
 //! malformed ones) and a `mesh.bin`, written with the values the Rust decoder reads from
 //! them to a JSON file that `node web/decode.test.mjs` checks; the page's node list
 //! (`node web/nodes.test.mjs`), its fit report (`node web/fit.test.mjs`) and a view's look
-//! (`node web/look.test.mjs`).
+//! (`node web/look.test.mjs`), and a head's registration from the page (`node
+//! web/upload.test.mjs`).
 
 use crate::common::repo_path;
 
@@ -765,6 +766,13 @@ fn a_view_s_look_turns_its_camera_and_carries_its_cut_with_the_head() {
     // The side and cut-away looks (render.js, camera.js): camera turns, cut planes in view
     // space, the close-up's side target, hand-computed.
     run_node_test("web/look.test.mjs", &[]);
+}
+
+#[test]
+fn upload_js_builds_a_head_s_registration() {
+    // "Your own head": ids from file names, which files make a head (and the words for
+    // those that do not), and the requests as PROTOCOL.md has POST /v1/heads.
+    run_node_test("web/upload.test.mjs", &[]);
 }
 
 #[test]
