@@ -542,7 +542,7 @@ async function start() {
   page.lips.strength = Number.isFinite(page.lips.strength) ? Math.max(0, Math.min(1, page.lips.strength)) : 1;
   showLips();
   upload.files.addEventListener("change", () => {
-    const head = [...upload.files.files].find((f) => /\.(glb|obj)$/i.test(f.name));
+    const head = [...upload.files.files].find((f) => /\.(glb|gltf|obj)$/i.test(f.name));
     if (head && !upload.id.value) {
       upload.id.value = idFromFileName(head.name);
     }

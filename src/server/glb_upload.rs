@@ -100,7 +100,8 @@ fn skin_texture(skin: &GlbMesh) -> (Option<Vec<u8>>, Option<String>) {
             };
             let note = format!(
                 "the skin's base colour image is left out: it is not inside the file but behind the URI \
-                 {quoted:?}{more}; pack the image into the .glb's binary chunk to keep it"
+                 {quoted:?}{more}; pack the image into the .glb's binary chunk to keep it (the \
+                 page's \"Your own head\" does, given the image)"
             );
             return (None, Some(note));
         }
