@@ -725,7 +725,10 @@ async fn check_a_head_uploaded(browser: &Browser, url: &str, long: Duration) {
 
     // The same avatar as "glTF Separate" writes it (a .gltf, its .bin and its texture as
     // files of their own): the page packs them into one .glb, and it registers the same.
-    let gltf = separate_gltf(&std::fs::read(&avatar).unwrap(), dir.path());
+    let files = common::glb::write_separate(&std::fs::read(&avatar).unwrap(), dir.path(), "avatar separate");
+    let paths: Vec<String> = files.iter().map(|p| p.display().to_string()).collect();
+    // One file input, several files: the paths newline-separated.
+    let gltf = std::path::PathBuf::from(paths.join("\n"));
     browser
         .js("document.getElementById('upload-id').value = ''; return true")
         .await;
@@ -771,32 +774,6 @@ async fn check_a_head_uploaded(browser: &Browser, url: &str, long: Duration) {
         ),
         "packed from separate files, the avatar is the same head"
     );
-}
-
-/// `glb` written as a glTF exporter's "separate" files in `dir`: `avatar separate.gltf`,
-/// its buffer `avatar separate.bin` and each image `image N.png`, named by (percent-encoded)
-/// URIs. The picked paths: the three files, newline-separated (one file input, several files).
-fn separate_gltf(glb: &[u8], dir: &std::path::Path) -> std::path::PathBuf {
-    let word = |at: usize| u32::from_le_bytes(glb[at..at + 4].try_into().unwrap()) as usize;
-    let json_length = word(12);
-    let mut json: Value = serde_json::from_slice(&glb[20..20 + json_length]).unwrap();
-    let bin_at = 20 + json_length;
-    let bin = &glb[bin_at + 8..bin_at + 8 + word(bin_at)];
-    json["buffers"][0]["uri"] = json!("avatar%20separate.bin");
-    std::fs::write(dir.join("avatar separate.bin"), bin).unwrap();
-    let mut picked = vec![dir.join("avatar separate.gltf"), dir.join("avatar separate.bin")];
-    let views = json["bufferViews"].clone();
-    for (i, image) in json["images"].as_array_mut().unwrap().iter_mut().enumerate() {
-        let view = &views[image["bufferView"].as_u64().unwrap() as usize];
-        let from = view["byteOffset"].as_u64().unwrap_or(0) as usize;
-        let bytes = &bin[from..from + view["byteLength"].as_u64().unwrap() as usize];
-        std::fs::write(dir.join(format!("image {i}.png")), bytes).unwrap();
-        picked.push(dir.join(format!("image {i}.png")));
-        *image = json!({ "uri": format!("image%20{i}.png") });
-    }
-    std::fs::write(&picked[0], serde_json::to_vec(&json).unwrap()).unwrap();
-    let paths: Vec<String> = picked.iter().map(|p| p.display().to_string()).collect();
-    std::path::PathBuf::from(paths.join("\n"))
 }
 
 /// A stream of the test's own: it appears in the stream picker without a reload, shows

@@ -18,7 +18,8 @@ so that the server's refusal of it arrives ahead of that frame's ack. The frame 
 get its own ack, and the refusal must come out of the next audio call as ``AudioRefused``.
 
 Then the asyncio interface (:mod:`facewire_client.aio`) plays ten frames with their voice
-to a viewer of its own (:func:`asyncio_round`).
+to a viewer of its own (:func:`asyncio_round`), and a ``.gltf`` written as separate files is
+packed into one ``.glb`` (:func:`gltf_packing`).
 
 tests/service/python_client.rs installs the package (``pip install ./clients/python``) and runs
 this script with the installed one against an in-process server and compares the decoded
@@ -407,6 +408,61 @@ def textured_from_files(client: fw.Client, head: str, obj_path: str, fit_path: s
             "uv_coordinates": coords, "uv_triangles": triangles}
 
 
+def gltf_packing() -> List[str]:
+    """An avatar as "glTF Separate" writes it (a ``.gltf``, its buffer in a ``.bin`` named
+    with a space, its image under ``textures/``, a second buffer as a ``data:`` URI) packed
+    by :func:`facewire_client.avatar_file` into one ``.glb``: one buffer, each view moved
+    by where its buffer went (4-byte aligned), the image inside with its MIME type, no URI
+    left; a ``.glb`` with everything inside is sent as it is. Problems, named."""
+    problems: List[str] = []
+    folder = tempfile.mkdtemp(prefix="facewire-gltf-")
+    png = solid_png(2, 2, (1, 2, 3))
+    doc = {
+        "asset": {"version": "2.0"},
+        "buffers": [{"uri": "mesh%20data.bin", "byteLength": 6},
+                    {"uri": "data:application/octet-stream;base64,CQoL", "byteLength": 3}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 2, "byteLength": 4}, {"buffer": 1, "byteLength": 3}],
+        "images": [{"uri": "textures/face.png"}],
+    }
+    try:
+        os.mkdir(os.path.join(folder, "textures"))
+        with open(os.path.join(folder, "textures", "face.png"), "wb") as f:
+            f.write(png)
+        with open(os.path.join(folder, "mesh data.bin"), "wb") as f:
+            f.write(bytes([1, 2, 3, 4, 5, 6]))
+        with open(os.path.join(folder, "avatar.gltf"), "w", encoding="utf-8") as f:
+            json.dump(doc, f)
+        packed, binary = fw.read_glb(fw.avatar_file(os.path.join(folder, "avatar.gltf")))
+        whole = fw.pack_glb({"asset": {"version": "2.0"}, "buffers": [{"byteLength": 4}]}, b"\x07" * 4, {})
+        with open(os.path.join(folder, "whole.glb"), "wb") as f:
+            f.write(whole)
+        if fw.avatar_file(os.path.join(folder, "whole.glb")) != whole:
+            problems.append("gltf: a .glb with everything inside was not sent as it is")
+    finally:
+        for root, dirs, names in os.walk(folder, topdown=False):
+            for name in names:
+                os.remove(os.path.join(root, name))
+            for name in dirs:
+                os.rmdir(os.path.join(root, name))
+        os.rmdir(folder)
+    assert binary is not None
+
+    def view(i: int) -> bytes:
+        v = packed["bufferViews"][i]
+        return binary[v["byteOffset"]:v["byteOffset"] + v["byteLength"]]
+
+    expected = [
+        ("one buffer", packed["buffers"], [{"byteLength": 12 + len(png)}]),
+        ("the first view", view(0), bytes([3, 4, 5, 6])),
+        ("the data: buffer's view, aligned", (packed["bufferViews"][1]["byteOffset"], view(1)), (8, bytes([9, 10, 11]))),
+        ("the image inside", view(2), png),
+        ("the image's view and type", packed["images"], [{"bufferView": 2, "mimeType": "image/png"}]),
+        ("no URI left", "uri" in json.dumps(packed), False),
+    ]
+    problems += ["gltf: %s: %r != %r" % (what, got, want) for what, got, want in expected if got != want]
+    return problems
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--url", required=True, help="server base URL, http://127.0.0.1:PORT")
@@ -516,7 +572,7 @@ def main() -> int:
     result.update(seen)
     problems = (check(viewer, viewer_fwf1, sent, seen, seen_fwf1)
                 + check_audio(viewer, viewer_fwf1, audio, seen, seen_fwf1) + asyncio_problems
-                + voiced_problems + derived_problems)
+                + voiced_problems + derived_problems + gltf_packing())
     result["problems"] = problems
     with open(args.out, "w", encoding="utf-8") as f:
         json.dump(result, f)

@@ -322,3 +322,32 @@ pub fn ict_avatar_textured(image: Option<(String, Vec<u8>)>) -> Vec<u8> {
         None,
     )
 }
+
+/// `glb` written in `dir` as a glTF exporter's "separate" files: `STEM.gltf`, its buffer
+/// `STEM.bin` and each image `image N.png`, named by percent-encoded URIs (names with
+/// spaces, as exporters write them). The files, the `.gltf` first.
+pub fn write_separate(glb: &[u8], dir: &std::path::Path, stem: &str) -> Vec<std::path::PathBuf> {
+    let word = |at: usize| u32::from_le_bytes(glb[at..at + 4].try_into().unwrap()) as usize;
+    let json_length = word(12);
+    let mut json: Value = serde_json::from_slice(&glb[20..20 + json_length]).unwrap();
+    let bin_at = 20 + json_length;
+    let bin = &glb[bin_at + 8..bin_at + 8 + word(bin_at)];
+    let encoded = |name: &str| name.replace(' ', "%20");
+    json["buffers"][0]["uri"] = json!(encoded(&format!("{stem}.bin")));
+    let mut files = vec![dir.join(format!("{stem}.gltf")), dir.join(format!("{stem}.bin"))];
+    std::fs::write(&files[1], bin).unwrap();
+    let views = json["bufferViews"].clone();
+    if let Some(images) = json.get_mut("images").and_then(Value::as_array_mut) {
+        for (i, image) in images.iter_mut().enumerate() {
+            let view = &views[image["bufferView"].as_u64().unwrap() as usize];
+            let from = view["byteOffset"].as_u64().unwrap_or(0) as usize;
+            let bytes = &bin[from..from + view["byteLength"].as_u64().unwrap() as usize];
+            let name = format!("image {i}.png");
+            std::fs::write(dir.join(&name), bytes).unwrap();
+            files.push(dir.join(&name));
+            *image = json!({ "uri": encoded(&name) });
+        }
+    }
+    std::fs::write(&files[0], serde_json::to_vec(&json).unwrap()).unwrap();
+    files
+}

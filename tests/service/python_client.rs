@@ -613,6 +613,11 @@ answer = client.register_glb("avatar", open(sys.argv[2], "rb").read(),
                              roles={"Eyelashes": "none", "Wolf3D_Teeth": "part"},
                              producer_token="mine")
 info = client.wait_ready("avatar", timeout=60)
+# The same avatar as separate files (.gltf, .bin): packed into one .glb by the client.
+client.register_avatar_file("separate", sys.argv[3],
+                            roles={"Eyelashes": "none", "Wolf3D_Teeth": "part"})
+separate = client.wait_ready("separate", timeout=60)
+same = all(separate[k] == info[k] for k in ("vertices", "triangles", "mm_per_unit"))
 try:
     client.register_glb("bad", b"not a glb")
     sys.exit("a file that is not a glb was registered")
@@ -620,7 +625,7 @@ except fw.HttpError as e:
     refused = [e.status, e.code]
 json.dump({"source": answer["source"], "mm_per_unit": info["mm_per_unit"],
            "parts": [p["name"] for p in info["parts"]], "eyes": len(info["eyes"]),
-           "refused": refused}, sys.stdout)
+           "refused": refused, "separate_is_the_same": same}, sys.stdout)
 "#;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -630,11 +635,14 @@ async fn the_python_client_registers_a_gltf_avatar() {
     let dir = tempfile::tempdir().unwrap();
     let avatar = dir.path().join("avatar.glb");
     std::fs::write(&avatar, crate::common::glb::ict_avatar()).unwrap();
+    let separate =
+        crate::common::glb::write_separate(&crate::common::glb::ict_avatar(), dir.path(), "avatar separate");
     let url = format!("http://{}", server.addr);
     let avatar = avatar.display().to_string();
+    let gltf = separate[0].display().to_string();
     let out = tokio::task::spawn_blocking(move || {
         Command::new("python3")
-            .args(["-c", REGISTER_GLB, &url, &avatar])
+            .args(["-c", REGISTER_GLB, &url, &avatar, &gltf])
             .env("PYTHONPATH", repo_path("clients/python"))
             .output()
             .expect("python3 starts")
@@ -656,6 +664,7 @@ async fn the_python_client_registers_a_gltf_avatar() {
         "{printed}"
     );
     assert_eq!(printed["eyes"], 2, "{printed}");
+    assert_eq!(printed["separate_is_the_same"], true, "{printed}");
     assert_eq!(
         printed["refused"],
         serde_json::json!([400, "bad_head"]),

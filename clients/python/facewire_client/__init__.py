@@ -58,6 +58,7 @@ from .viewer_frames import (
 )
 from .audio import AudioChunk, decode_fwa1, encode_fwa1, opus_packet_samples
 from .events import ServerError, StreamEnd
+from .gltf_pack import avatar_file, pack_glb, read_glb
 from .http import Client
 from .producer import Ack, Derived, Producer
 from .viewer import PartInfo, SectionInfo, Snapshot, Viewer, ViewerEvent
@@ -102,6 +103,7 @@ __all__ = [
     "ViewerFrame",
     "animation_unit_index",
     "arkit_index",
+    "avatar_file",
     "decode_fwa1",
     "decode_fwf1",
     "decode_fwf2",
@@ -114,5 +116,7 @@ __all__ = [
     "fap_number",
     "main",
     "opus_packet_samples",
+    "pack_glb",
+    "read_glb",
     "read_jsonl",
 ]

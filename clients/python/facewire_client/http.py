@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any, Dict, Iterable, List, Mapping, Optional, 
 
 from ._socket import _base_urls, _segment
 from .audio import _pcm_samples, _wav_file
+from .gltf_pack import avatar_file
 from .errors import FacewireError, FrameError, HttpError, ProtocolError
 from .producer_frames import encode_json
 from .viewer_frames import RestMesh, decode_mesh
@@ -142,6 +143,15 @@ class Client:
             return cast(Dict[str, Any], json.loads(raw))
         except ValueError:
             raise ProtocolError("POST /v1/heads: the answer is not JSON: %r" % raw[:200]) from None
+
+    def register_avatar_file(self, head_id: str, path: str, *, roles: Optional[Mapping[str, str]] = None,
+                             producer_token: Optional[str] = None,
+                             token: Optional[str] = None) -> Dict[str, Any]:
+        """:meth:`register_glb` with the avatar at ``path``: a ``.glb``, or a ``.gltf`` (or a
+        ``.glb`` naming images by URI) packed into one ``.glb`` with the files beside it
+        (:func:`facewire_client.avatar_file`)."""
+        return self.register_glb(head_id, avatar_file(path), roles=roles,
+                                 producer_token=producer_token, token=token)
 
     def register_head_files(self, head_id: str, obj_path: str, *, fit_path: Optional[str] = None,
                             landmarks_path: Optional[str] = None,
