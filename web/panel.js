@@ -341,8 +341,11 @@ export class Panel {
     }
     status.textContent = this.statusText(text);
     if (state === "error") {
+      // A close code: the server refused; none: the page cannot show what it got (a frame
+      // layout it does not read, no WebGL2).
       const missing = detail.code === CLOSE.unknown_head;
-      this.showMessage(`${missing ? "Not found" : "Refused"}: ${detail.message}.${missing ? " Pick a registered head above." : ""}`);
+      const what = missing ? "Not found" : detail.code === undefined ? "Cannot show the head" : "Refused";
+      this.showMessage(`${what}: ${detail.message}.${missing ? " Pick a registered head above." : ""}`);
     } else if (state === "reconnecting") {
       const node = this.nodes.label(this.view?.node ?? this.nodes.index);
       this.showMessage(`Connection lost (${detail.message}); trying again${node ? ` on node ${node}` : ""}.`);

@@ -618,6 +618,16 @@ client.register_avatar_file("separate", sys.argv[3],
                             roles={"Eyelashes": "none", "Wolf3D_Teeth": "part"})
 separate = client.wait_ready("separate", timeout=60)
 same = all(separate[k] == info[k] for k in ("vertices", "triangles", "mm_per_unit"))
+# And from the command line, waiting until it is ready; --fit with an avatar is refused.
+import contextlib, io
+printed = io.StringIO()
+with contextlib.redirect_stdout(printed):
+    status = fw.main(["register", "--url", sys.argv[1], "--id", "cli-avatar", "--avatar", sys.argv[3]])
+cli = json.loads(printed.getvalue())
+same = same and status == 0 and cli["status"] == "ready" and cli["vertices"] == info["vertices"]
+with contextlib.redirect_stderr(io.StringIO()) as said:
+    status = fw.main(["register", "--url", sys.argv[1], "--id", "x", "--avatar", sys.argv[3], "--fit", "f.toml"])
+same = same and status != 0 and "--fit and --landmarks go with --obj" in said.getvalue()
 try:
     client.register_glb("bad", b"not a glb")
     sys.exit("a file that is not a glb was registered")

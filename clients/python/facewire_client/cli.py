@@ -74,12 +74,15 @@ def _parser() -> argparse.ArgumentParser:
     _add_server_options(view)
 
     register = commands.add_parser(
-        "register", help="register a head (OBJ plus fit or landmarks) and wait until ready")
+        "register", help="register a head (an OBJ, or a glTF avatar) and wait until ready")
     register.add_argument("--id", required=True, help="head id: 1-64 of a-z 0-9 - _")
-    register.add_argument("--obj", required=True, help="OBJ file")
-    fit = register.add_mutually_exclusive_group(required=True)
-    fit.add_argument("--fit", help=".fit.toml file")
-    fit.add_argument("--landmarks", help=".landmarks.toml file (the server solves the fit)")
+    head = register.add_mutually_exclusive_group(required=True)
+    head.add_argument("--obj", help="OBJ file (its texture: the map_Kd image of its mtllib, beside it)")
+    head.add_argument("--avatar", help=".glb, or .gltf with its .bin and images beside it (packed into one .glb)")
+    fit = register.add_mutually_exclusive_group()
+    fit.add_argument("--fit", help=".fit.toml file (OBJ only)")
+    fit.add_argument("--landmarks", help=".landmarks.toml file, the server solves the fit (OBJ only); "
+                                         "with neither, the server finds the face itself")
     register.add_argument("--producer-token", default=None, help="this head's own producer token")
     register.add_argument("--no-wait", action="store_true", help="do not wait until ready")
     _add_server_options(register)
@@ -197,9 +200,14 @@ def _run(args: argparse.Namespace) -> int:
 
     client = Client(args.url, args.token, args.timeout)
     if args.command == "register":
-        info = client.register_head_files(args.id, args.obj, fit_path=args.fit,
-                                          landmarks_path=args.landmarks,
-                                          producer_token=args.producer_token)
+        if args.avatar is not None:
+            if args.fit is not None or args.landmarks is not None:
+                raise FacewireError("register: --fit and --landmarks go with --obj; an avatar is fitted by the server")
+            info = client.register_avatar_file(args.id, args.avatar, producer_token=args.producer_token)
+        else:
+            info = client.register_head_files(args.id, args.obj, fit_path=args.fit,
+                                              landmarks_path=args.landmarks,
+                                              producer_token=args.producer_token)
         if not args.no_wait:
             info = client.wait_ready(args.id, timeout=max(args.timeout, 300.0))
         print(json.dumps(info))
