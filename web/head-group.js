@@ -94,15 +94,15 @@ export class HeadGroup {
    * first shows within half that time of when its sound is heard, early or late alike
    * (half a frame interval instead would put onsets early on a page that draws every
    * display frame, late on one whose draws take longer than a frame). Without sound, the
-   * newest frame every member has.
+   * newest frame every member has. `views`: the members' live views (at least one).
    */
-  drawTarget(now) {
+  drawTarget(now, views) {
     const heard = this.sound?.heardTime(now + (quantile(this.lags, 0.5) ?? 0)) ?? null;
     if (heard === null) {
       return { seq: this.commonSeq(now) };
     }
     const rate = this.sound.rate;
-    const between = quantile(this.intervals, 0.5) ?? (this.members[0].headView.frameIntervalS() * 1e3) / rate;
+    const between = quantile(this.intervals, 0.5) ?? (views[0].frameIntervalS() * 1e3) / rate;
     // Wall-clock milliseconds, as stream seconds at the sound's rate (a slowed replay's).
     return { t: heard + (between / 2e3) * rate };
   }
@@ -111,8 +111,8 @@ export class HeadGroup {
     this.loop = requestAnimationFrame((next) => this.animate(next));
     const members = this.members.filter((m) => m.headView);
     if (!this.decoding && members.length > 0) {
-      const target = this.drawTarget(now);
       const views = members.map((m) => m.headView);
+      const target = this.drawTarget(now, views);
       const work = views.map((view) => view.prepare(target));
       if (this.lastChance !== null) {
         remember(this.intervals, now - this.lastChance);
