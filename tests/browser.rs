@@ -480,18 +480,59 @@ async fn check_the_page(browser: &Browser) {
         .await;
     println!("headless Chromium, two views: frames {fps}, bytes per frame {bytes}");
 
-    check_the_heat_map_scale(browser, &url, long).await;
-    check_the_lips_read(browser, &url, long).await;
-    check_the_element_embeds(browser, &url, long).await;
-    check_the_replay(browser, &url, long).await;
-    check_the_replay_voice(browser, &url, long).await;
-    check_the_cut_away_reads_back(browser, &url, long).await;
-    check_the_inner_mouth_close_up(browser, &url, long).await;
-    check_a_stalled_stream(browser, &url, long).await;
-    check_a_head_posted_with_no_fit(browser, &url, long).await;
-    check_a_textured_head(browser, &url, long).await;
-    check_a_head_uploaded(browser, &url, long).await;
-    check_the_page_on_a_phone(browser, &url, long).await;
+    // Each check's time, printed: where the suite's minutes go.
+    timed(
+        "check_the_heat_map_scale",
+        check_the_heat_map_scale(browser, &url, long),
+    )
+    .await;
+    timed("check_the_lips_read", check_the_lips_read(browser, &url, long)).await;
+    timed(
+        "check_the_element_embeds",
+        check_the_element_embeds(browser, &url, long),
+    )
+    .await;
+    timed("check_the_replay", check_the_replay(browser, &url, long)).await;
+    timed(
+        "check_the_replay_voice",
+        check_the_replay_voice(browser, &url, long),
+    )
+    .await;
+    timed(
+        "check_the_cut_away_reads_back",
+        check_the_cut_away_reads_back(browser, &url, long),
+    )
+    .await;
+    timed(
+        "check_the_inner_mouth_close_up",
+        check_the_inner_mouth_close_up(browser, &url, long),
+    )
+    .await;
+    timed(
+        "check_a_stalled_stream",
+        check_a_stalled_stream(browser, &url, long),
+    )
+    .await;
+    timed(
+        "check_a_head_posted_with_no_fit",
+        check_a_head_posted_with_no_fit(browser, &url, long),
+    )
+    .await;
+    timed(
+        "check_a_textured_head",
+        check_a_textured_head(browser, &url, long),
+    )
+    .await;
+    timed(
+        "check_a_head_uploaded",
+        check_a_head_uploaded(browser, &url, long),
+    )
+    .await;
+    timed(
+        "check_the_page_on_a_phone",
+        check_the_page_on_a_phone(browser, &url, long),
+    )
+    .await;
 
     // An unknown head: the server's error and close 4404 end in the error state.
     browser.open(&format!("{url}?head=nosuch")).await;
@@ -503,6 +544,13 @@ async fn check_the_page(browser: &Browser) {
         message.as_str().unwrap().contains("nosuch"),
         "the message names the head: {message}"
     );
+}
+
+/// Runs `check` and prints how long it took.
+async fn timed(name: &str, check: impl std::future::Future<Output = ()>) {
+    let started = Instant::now();
+    check.await;
+    println!("{name}: {:.1} s", started.elapsed().as_secs_f64());
 }
 
 /// A producer's socket.
