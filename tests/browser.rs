@@ -481,58 +481,23 @@ async fn check_the_page(browser: &Browser) {
     println!("headless Chromium, two views: frames {fps}, bytes per frame {bytes}");
 
     // Each check's time, printed: where the suite's minutes go.
-    timed(
-        "check_the_heat_map_scale",
-        check_the_heat_map_scale(browser, &url, long),
-    )
-    .await;
-    timed("check_the_lips_read", check_the_lips_read(browser, &url, long)).await;
-    timed(
-        "check_the_element_embeds",
-        check_the_element_embeds(browser, &url, long),
-    )
-    .await;
-    timed("check_the_replay", check_the_replay(browser, &url, long)).await;
-    timed(
-        "check_the_replay_voice",
-        check_the_replay_voice(browser, &url, long),
-    )
-    .await;
-    timed(
-        "check_the_cut_away_reads_back",
-        check_the_cut_away_reads_back(browser, &url, long),
-    )
-    .await;
-    timed(
-        "check_the_inner_mouth_close_up",
-        check_the_inner_mouth_close_up(browser, &url, long),
-    )
-    .await;
-    timed(
-        "check_a_stalled_stream",
-        check_a_stalled_stream(browser, &url, long),
-    )
-    .await;
-    timed(
-        "check_a_head_posted_with_no_fit",
-        check_a_head_posted_with_no_fit(browser, &url, long),
-    )
-    .await;
-    timed(
-        "check_a_textured_head",
-        check_a_textured_head(browser, &url, long),
-    )
-    .await;
-    timed(
-        "check_a_head_uploaded",
-        check_a_head_uploaded(browser, &url, long),
-    )
-    .await;
-    timed(
-        "check_the_page_on_a_phone",
-        check_the_page_on_a_phone(browser, &url, long),
-    )
-    .await;
+    macro_rules! timed {
+        ($check:ident) => {
+            timed(stringify!($check), $check(browser, &url, long)).await
+        };
+    }
+    timed!(check_the_heat_map_scale);
+    timed!(check_the_lips_read);
+    timed!(check_the_element_embeds);
+    timed!(check_the_replay);
+    timed!(check_the_replay_voice);
+    timed!(check_the_cut_away_reads_back);
+    timed!(check_the_inner_mouth_close_up);
+    timed!(check_a_stalled_stream);
+    timed!(check_a_head_posted_with_no_fit);
+    timed!(check_a_textured_head);
+    timed!(check_a_head_uploaded);
+    timed!(check_the_page_on_a_phone);
 
     // An unknown head: the server's error and close 4404 end in the error state.
     browser.open(&format!("{url}?head=nosuch")).await;

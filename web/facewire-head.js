@@ -126,6 +126,8 @@ export class FacewireHead extends HTMLElement {
     this.saidLine = root.querySelector(".said");
     this.statusLine = root.querySelector(".status");
     this.scale = root.querySelector(".scale");
+    this.scaleBar = root.querySelector(".scale .bar");
+    this.scaleLabel = root.querySelector(".scale-label");
     this.soundOn = root.querySelector(".sound-on");
     this.soundOn.addEventListener("click", () => this.enableSound());
     /** The live view while connected (head-view.js), null otherwise. */
@@ -274,8 +276,11 @@ export class FacewireHead extends HTMLElement {
     if (!name || name === "heatmax") {
       view.setHeatScale(this.heatScale());
     }
-    if (name === "mouth" || (!name && this.ownGroup)) {
-      this.camera.setCloseUp(this.hasAttribute("mouth"));
+    // The element's own camera follows `mouth`; only a change moves it, so a reconnect
+    // keeps where the viewer turned it.
+    const closeUp = this.hasAttribute("mouth");
+    if ((name === "mouth" || (!name && this.ownGroup)) && this.camera.closeUp !== closeUp) {
+      this.camera.setCloseUp(closeUp);
     }
   }
 
@@ -399,12 +404,11 @@ export class FacewireHead extends HTMLElement {
     if (mm === undefined) {
       return;
     }
-    const bar = this.scale.querySelector(".bar");
     const width = `${(mm * pixelsPerMm).toFixed(1)}px`;
-    if (bar.style.width !== width) {
-      bar.style.width = width;
-      bar.dataset.mm = String(mm);
-      this.scale.querySelector(".scale-label").textContent = `${mm} mm`;
+    if (this.scaleBar.style.width !== width) {
+      this.scaleBar.style.width = width;
+      this.scaleBar.dataset.mm = String(mm);
+      this.scaleLabel.textContent = `${mm} mm`;
     }
   }
 

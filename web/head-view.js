@@ -232,14 +232,14 @@ export class HeadView {
 
   /**
    * The head's texture, when the snapshot names one: its coordinates (`uv.bin`) and its
-   * image, fetched from the node the view uses and drawn once both arrive.
+   * image, fetched from the nodes as the meshes are and drawn once both arrive.
    */
   loadTexture(snapshot, mesh) {
     if (!snapshot.texture) {
       return;
     }
     const get = (url) =>
-      fetch(new URL(this.nodes.httpUrl(url), location.href)).then((response) => {
+      this.nodes.fetch(url).then((response) => {
         if (!response.ok) {
           throw new Error(`${url}: HTTP ${response.status}`);
         }

@@ -36,8 +36,7 @@ pub enum StretchError {
 pub struct Stretching {
     /// None at speed 1: the samples as they are.
     stretcher: Option<TimeStretch>,
-    silence: usize,
-    range: Range<usize>,
+    feed: Feed,
     /// Output samples still to give.
     remaining: usize,
     /// Stretched samples made but not yet given.
@@ -73,8 +72,7 @@ impl Stretching {
         let hop = stretcher.as_ref().map_or(0, TimeStretch::min_output_buff_size);
         Ok(Stretching {
             stretcher,
-            silence,
-            range,
+            feed: Feed { silence, range },
             remaining,
             made: VecDeque::new(),
             input: Vec::with_capacity(hop),
@@ -95,14 +93,7 @@ impl Stretching {
         let given = out.len().min(self.remaining);
         let Some(stretcher) = self.stretcher.as_mut() else {
             for sample in out.iter_mut().take(given) {
-                *sample = if self.silence > 0 {
-                    self.silence -= 1;
-                    0
-                } else {
-                    let at = self.range.start;
-                    self.range.start += 1;
-                    source.get(at).copied().unwrap_or(0)
-                };
+                *sample = self.feed.next(source).unwrap_or(0);
             }
             out[given..].fill(0);
             self.remaining -= given;
@@ -113,20 +104,13 @@ impl Stretching {
                 Ok(written) => self.made.extend(&self.hop[..written]),
                 Err(_) if self.drained => self.spent = true,
                 Err(_) => {
-                    // More input: one hop's worth, silence first, then the voice.
+                    // More input: one hop's worth.
                     self.input.clear();
                     while self.input.len() < self.hop.len() {
-                        if self.silence > 0 {
-                            self.silence -= 1;
-                            self.input.push(0.0);
-                        } else if self.range.start < self.range.end {
-                            let at = self.range.start;
-                            self.range.start += 1;
-                            self.input
-                                .push(f32::from(source.get(at).copied().unwrap_or(0)) / 32_768.0);
-                        } else {
+                        let Some(sample) = self.feed.next(source) else {
                             break;
-                        }
+                        };
+                        self.input.push(f32::from(sample) / 32_768.0);
                     }
                     if self.input.is_empty() {
                         stretcher.set_draining();
@@ -143,6 +127,24 @@ impl Stretching {
         out[given..].fill(0);
         self.remaining -= given;
         given
+    }
+}
+
+/// The input still to stretch: `silence` samples of silence, then `source[range]`.
+struct Feed {
+    silence: usize,
+    range: Range<usize>,
+}
+
+impl Feed {
+    /// The next input sample, `None` once all are given.
+    fn next(&mut self, source: &[i16]) -> Option<i16> {
+        if self.silence > 0 {
+            self.silence -= 1;
+            return Some(0);
+        }
+        let at = self.range.next()?;
+        Some(source.get(at).copied().unwrap_or(0))
     }
 }
 
