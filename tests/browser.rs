@@ -1652,19 +1652,6 @@ async fn check_the_face_is_seen_when_its_voice_is_heard(browser: &Browser, url: 
         .command("/window/rect", Some(json!({ "width": 800, "height": 600 })))
         .await;
     wait_ready(url, "makehuman", long).await;
-    let producer = connect_producer(url, "makehuman", "clicks").await;
-    let (mut tx, mut rx) = producer.split();
-    let drain = tokio::spawn(async move {
-        let mut refusals = Vec::new();
-        while let Some(Ok(message)) = rx.next().await {
-            if let Ok(text) = message.to_text() {
-                if text.contains("\"error\"") {
-                    refusals.push(text.to_string());
-                }
-            }
-        }
-        refusals
-    });
     let total_s = seconds as f64 + 12.0;
     let frames = (total_s * FPS) as u64;
     let chunk = (RATE / 50) as usize;
@@ -1693,21 +1680,18 @@ async fn check_the_face_is_seen_when_its_voice_is_heard(browser: &Browser, url: 
         let line = format!(r#"{{"seq":{i},"t":{t},"label":"{label}","au":{{"jaw_drop":{jaw}}}}}"#);
         messages.push((t, Message::Text(line.into())));
     }
-    for c in 0..chunks {
-        let first = c as usize * chunk;
-        let mut samples = vec![0i16; chunk];
-        for &click in &clicks {
-            let at = (click * f64::from(RATE)).round() as usize;
-            // A 2 ms click from its first sample on.
-            for (k, sample) in samples.iter_mut().enumerate() {
-                if (at..at + 32).contains(&(first + k)) {
-                    *sample = 24_000;
-                }
-            }
-        }
+    let mut voice = vec![0i16; chunks as usize * chunk];
+    for &click in &clicks {
+        // A 2 ms click from its first sample on.
+        let at = (click * f64::from(RATE)).round() as usize;
+        let end = (at + 32).min(voice.len());
+        voice[at.min(end)..end].fill(24_000);
+    }
+    for (c, samples) in voice.chunks(chunk).enumerate() {
+        let first = c * chunk;
         let body = AudioBody::Pcm {
             sample_rate: RATE,
-            samples,
+            samples: samples.to_vec(),
         };
         let t_s = first as f64 / f64::from(RATE);
         let bytes = AudioChunk {
@@ -1720,6 +1704,20 @@ async fn check_the_face_is_seen_when_its_voice_is_heard(browser: &Browser, url: 
         messages.push((t_s, Message::Binary(bytes.into())));
     }
     messages.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // Connected once the messages are made: a producer silent for 30 s is closed as idle.
+    let producer = connect_producer(url, "makehuman", "clicks").await;
+    let (mut tx, mut rx) = producer.split();
+    let drain = tokio::spawn(async move {
+        let mut refusals = Vec::new();
+        while let Some(Ok(message)) = rx.next().await {
+            if let Ok(text) = message.to_text() {
+                if text.contains("\"error\"") {
+                    refusals.push(text.to_string());
+                }
+            }
+        }
+        refusals
+    });
     let send = tokio::spawn(async move {
         let start = tokio::time::Instant::now();
         for (t, message) in messages {
@@ -1744,6 +1742,25 @@ async fn check_the_face_is_seen_when_its_voice_is_heard(browser: &Browser, url: 
             long,
         )
         .await;
+    let off_main = browser
+        .js("return window.facewireViews().map((v) => v.socket.offMainThread)")
+        .await;
+    assert_eq!(off_main, json!([true]), "the view's socket runs in a worker");
+    // Producer to ear, as the page's panel shows it, every 5 s while the clicks play, less
+    // what the voice waited for a page too slow to draw the face in time (the face's extra
+    // delay, which the panel shows too): the ear as the default playout delay gives it.
+    let mut ears = Vec::new();
+    let mut extras = Vec::new();
+    while !send.is_finished() {
+        tokio::time::sleep(Duration::from_secs(5)).await;
+        let ear = browser
+            .js("const s = window.facewireSound.summary(performance.now()); return s && [s.earMs, s.faceMs]")
+            .await;
+        if let (Some(ear), Some(extra)) = (ear[0].as_f64(), ear[1].as_f64()) {
+            ears.push(ear - extra);
+            extras.push(extra);
+        }
+    }
     send.await.unwrap();
     let refusals = drain.await.unwrap();
     assert!(refusals.is_empty(), "the producer was refused: {refusals:?}");
@@ -1796,6 +1813,18 @@ async fn check_the_face_is_seen_when_its_voice_is_heard(browser: &Browser, url: 
     let drift_tenths = median_of(&measured[measured.len() - tenth..]) - median_of(&measured[..tenth]);
     let drift = drift_over_span(&clicked, &measured);
     let sound = browser.js(&text_of("sound-0")).await;
+    ears.sort_by(f64::total_cmp);
+    assert!(!ears.is_empty(), "the page never showed its latency to the ear");
+    let ear_median = ears[ears.len() / 2];
+    extras.sort_by(f64::total_cmp);
+    println!(
+        "Producer to ear over {} readings, less the face's extra delay: median {ear_median:.0} ms, max {:.0} ms; \
+         the face's extra: median {:.0} ms, max {:.0} ms",
+        ears.len(),
+        ears[ears.len() - 1],
+        extras[extras.len() / 2],
+        extras[extras.len() - 1]
+    );
     println!(
         "A/V sync over {} clicks ({seconds} s): face minus voice median {:+.1} ms, p5 {:+.1}, p95 {:+.1}, \
          |p95| {p95_abs:.1} ms, drift {drift:+.1} ms over the span (the last tenth's median minus the first's \
@@ -1811,11 +1840,16 @@ async fn check_the_face_is_seen_when_its_voice_is_heard(browser: &Browser, url: 
         quantile(0.5)
     );
     // The median holds the goal. Headless, on two cores shared with the server and the
-    // producer, |p95| (goal 30 ms) measured 23-30 ms, and 55.7 ms in a run whose chunks
-    // came late 41 times (SwiftShader's draws hold the page's main thread, where the socket
-    // is read, for over 100 ms), and the drift over 60 s 1-11 ms (goal 5 ms over 600 s):
+    // producer, |p95| (goal 30 ms) measured 23-30 ms (SwiftShader's draws hold the page's
+    // main thread for 50-70 ms, so a due frame may wait for one), and 55.7 ms in a run
+    // whose chunks came late 41 times while the socket was read on that thread, and the
+    // drift over 60 s 1-11 ms (goal 5 ms over 600 s):
     // these bounds catch a page that loses sync, not the goal.
     assert!(p95_abs < 70.0, "|offset| p95 {p95_abs:.1} ms");
+    // The goal: the socket is read in a worker and the voice played on the audio thread, so
+    // the page's draws do not lengthen the playout delay (115-126 ms measured, 147-265 ms
+    // when both were on the main thread).
+    assert!(ear_median < 150.0, "producer to ear {ear_median:.0} ms");
     assert!(drift.abs() < 30.0, "drift {drift:+.1} ms");
     browser
         .command("/window/rect", Some(json!({ "width": 1280, "height": 1000 })))
@@ -2194,6 +2228,12 @@ async fn check_the_element_embeds(browser: &Browser, url: &str, long: Duration) 
             long,
         )
         .await;
+    // Its socket is read in a worker (started from a page of another origin), so the
+    // page's draws hold up neither the voice nor its arrival times.
+    let off_main = browser
+        .js(&format!("return {element}.headView.socket.offMainThread"))
+        .await;
+    assert_eq!(off_main, json!(true), "the element's socket runs in a worker");
     // Past the playout delay's first adaptation, each frame shown: when it is drawn minus
     // when its `t` is heard, as the page measures it (positive: the face is late).
     tokio::time::sleep(Duration::from_secs(2)).await;
@@ -2226,16 +2266,31 @@ async fn check_the_element_embeds(browser: &Browser, url: &str, long: Duration) 
     );
     ahead_ms.sort_by(f64::total_cmp);
     let median = ahead_ms[ahead_ms.len() / 2];
+    let lag = browser
+        .js(&format!(
+            "const i = [...{element}.group.lags].sort((a, b) => a - b); return i[i.length >> 1]"
+        ))
+        .await
+        .as_f64()
+        .unwrap();
     println!(
-        "the element's frames: face minus voice median {median:+.1} ms over {}, {between:.0} ms between chances to draw",
+        "the element's frames: face minus voice median {median:+.1} ms over {}, {between:.0} ms between chances to draw, lag {lag:.0} ms",
         ahead_ms.len()
     );
-    // The group chooses each frame to show within half the time between two chances to
-    // draw of when its sound is heard (head-group.js drawTarget), and no later than the
-    // lip-reading bound of 40 ms on a page that draws every display frame.
+    // The group chooses the newest frame whose sound is heard by half a chance to draw
+    // after the frame reaches the screen, `lag` after the chance (head-group.js
+    // drawTarget); the `frame` event comes as the frame is shown, before it is drawn. So
+    // a frame's event comes from half a chance plus the lag (plus up to a frame, 33 ms:
+    // the newest due frame is taken) before its sound to about its sound: on a page that
+    // draws every display frame, within the lip-reading bound of 40 ms; with software GL on
+    // a loaded machine (chances 67-167 ms apart) up to 110 ms early. A page drawing frames
+    // as they arrive, not by the voice, shows them the playout delay and the output's
+    // latency late (over 90 ms).
+    const FRAME_MS: f64 = 1000.0 / 30.0;
+    let earliest = -(between / 2.0 + lag + FRAME_MS).max(40.0);
     assert!(
-        median.abs() <= (between / 2.0).max(40.0),
-        "the element draws frames {median:+.1} ms from its voice: {ahead_ms:?}"
+        (earliest..=40.0).contains(&median),
+        "the element draws frames {median:+.1} ms from its voice (from {earliest:.0} to +40 allowed): {ahead_ms:?}"
     );
 }
 

@@ -364,7 +364,7 @@ export class FacewireHead extends HTMLElement {
         onLips: (status) => tell("lips", { status }),
         onFrameHeader: (header, buffer, arrivalUs) => tell("arrival", { header, bytes: buffer.byteLength, arrivalUs }),
         onSkipped: (count) => tell("skipped", { count }),
-        onAudio: (buffer) => tell("audio", { bytes: buffer.byteLength }),
+        onAudio: ({ bytes }) => tell("audio", { bytes }),
         onReplay: (message) => tell("replay", { message }),
         onShown: (frame, said) => {
           this.saidLine.textContent = said ?? "";

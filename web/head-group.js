@@ -7,10 +7,12 @@
 // sound plays, the frame whose `t` is being heard, so two views of one stream stay in step
 // and the face is seen when its voice is heard.
 
-import { quantile } from "./sound.js";
+import { quantile } from "./quantile.js";
 
 /** A member whose last frame is older than this does not hold the others back, ms. */
 const STALE_MS = 300;
+/** How often the sound's wait for the face is tuned, ms. */
+const TUNE_FACE_EVERY_MS = 1000;
 /** Lags and chances to draw remembered for the draw target. */
 const DRAW_LAGS = 31;
 
@@ -44,6 +46,7 @@ export class HeadGroup {
      */
     this.intervals = [];
     this.lastChance = null;
+    this.faceTuned = -Infinity;
     /** The rest mesh the camera was framed on last. */
     this.framed = null;
     camera.onChange(() => {
@@ -107,6 +110,14 @@ export class HeadGroup {
     return { t: heard + (between / 2e3) * rate };
   }
 
+  /** Tells the sound how late `frame`, just drawn, is for its sound, if it plays. */
+  drawnWhenHeard(frame) {
+    const heardMs = this.sound?.heardAtMsForTime(frame.producerTimeS) ?? null;
+    if (heardMs !== null) {
+      this.sound.faceShown(performance.now() - heardMs);
+    }
+  }
+
   animate(now) {
     this.loop = requestAnimationFrame((next) => this.animate(next));
     const members = this.members.filter((m) => m.headView);
@@ -127,6 +138,7 @@ export class HeadGroup {
               if (frame && members[i].headView === views[i]) {
                 views[i].show(frame);
                 members[i].draw(false);
+                this.drawnWhenHeard(frame);
               }
             });
             remember(this.lags, performance.now() - now);
@@ -140,6 +152,10 @@ export class HeadGroup {
       member.draw(this.cameraMoved);
     }
     this.cameraMoved = false;
+    if (this.sound && now - this.faceTuned >= TUNE_FACE_EVERY_MS) {
+      this.faceTuned = now;
+      this.sound.tuneFace();
+    }
     this.onTick(now);
   }
 }

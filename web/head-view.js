@@ -6,9 +6,9 @@
 // whoever holds it is told what happens through handlers and shows what it likes. While
 // a sound plays (sound.js), frames wait for their `t` to be heard.
 
-import { applyFrame, decodeAudio, decodeFrame, motionMatrix, parseTextureCoords, readFrameHeader } from "./decode.js";
+import { applyFrame, decodeFrame, motionMatrix, parseTextureCoords, readFrameHeader } from "./decode.js";
 import { HeadRenderer } from "./render.js";
-import { quantile } from "./sound.js";
+import { quantile } from "./quantile.js";
 import { VIEW_FORMAT, ViewerSocket } from "./stream.js";
 
 /** The Oculus names of the 15 MPEG-4 visemes, in their order (FWF2 `viseme`). */
@@ -60,7 +60,8 @@ export class HeadView {
    * - `onLips(status)`: `loaded` or `none`;
    * - `onFrameHeader(header, buffer, arrivalUs)`: a frame arrived (not yet decoded);
    * - `onSkipped(count)`: frames received that will not be drawn;
-   * - `onAudio(buffer)`: an audio chunk, handed to the sound;
+   * - `onAudio({bytes, codec})`: an audio chunk arrived (the socket's pump hands it to the
+   *   sound's audio thread);
    * - `onReplay(message)`: where a replay stands (`frame`, `playing`, `speed`, `loop`);
    * - `onShown(frame, said)`: a frame is shown (drawn with the next draw);
    * - `onProblem(text)`: something people should read (an unreadable frame, a mesh that
@@ -78,7 +79,7 @@ export class HeadView {
     this.socket = new ViewerSocket({
       onSnapshot: (snapshot) => this.snapshotArrived(snapshot),
       onFrame: (buffer, arrivalUs) => this.frameArrived(buffer, arrivalUs),
-      onAudio: (buffer) => this.audioArrived(buffer),
+      onAudio: (notice) => this.audioArrived(notice),
       onReplay: (message) => this.replayMoved(message),
       onState: (state, detail) => this.on.onState(state, detail),
     });
@@ -96,6 +97,9 @@ export class HeadView {
     this.needsDraw = true;
     /** The heat-map's ramp top for frames that carry per-vertex values. */
     this.heatScale = 0;
+    if (this.audio && this.sound) {
+      this.sound.addSource(this.socket);
+    }
   }
 
   get state() {
@@ -154,7 +158,8 @@ export class HeadView {
   /** Closes the socket and gives the GPU context back. */
   destroy() {
     this.generation += 1;
-    this.socket.close();
+    this.sound?.removeSource(this.socket);
+    this.socket.destroy();
     this.renderer.dispose();
   }
 
@@ -163,9 +168,6 @@ export class HeadView {
     this.pending = [];
     this.lastSeq = null;
     this.snapshot = snapshot;
-    if (this.audio) {
-      this.sound.restart(1); // a new timeline; a replay's `replay` message sets its rate
-    }
     this.on.onSnapshot(snapshot);
     if (snapshot.rest_mesh === this.meshUrl) {
       return;
@@ -320,9 +322,6 @@ export class HeadView {
     }
     if (this.lastSeq !== null && header.seq <= this.lastSeq) {
       this.pending = []; // a new producer started the stream over, or a replay went back
-      if (this.audio && !this.snapshot?.replay) {
-        this.sound.reset(); // and its timeline (a replay's `replay` message restarted it)
-      }
     }
     this.lastSeq = header.seq;
     this.lastArrival = performance.now();
@@ -353,27 +352,20 @@ export class HeadView {
   }
 
   /**
-   * Where a replay stands now: every such message starts a new run of its voice (sought,
-   * looped, paused, or at another speed), heard at the replay's speed.
+   * Where a replay stands now (each such message also starts a new run of its voice, which
+   * the socket's pump tells the sound, in order with the chunks).
    */
   replayMoved(message) {
-    if (this.audio) {
-      this.sound.restart(message.speed);
-    }
     this.on.onReplay(message);
   }
 
-  /** An audio chunk for the sound. */
-  audioArrived(buffer) {
-    let chunk;
-    try {
-      chunk = decodeAudio(buffer);
-    } catch (error) {
-      this.on.onProblem(`Unreadable audio: ${error.message}`);
+  /** An audio chunk arrived: counted, or its problem told. */
+  audioArrived(notice) {
+    if (notice.problem) {
+      this.on.onProblem(`Unreadable audio: ${notice.problem}`);
       return;
     }
-    this.on.onAudio(buffer);
-    this.sound.push(chunk);
+    this.on.onAudio(notice);
   }
 
   /** The newest sequence number received, for keeping two views on the same frame. */

@@ -11,7 +11,7 @@
 import { CLOSE } from "./codes.js";
 import { DEFAULT_HEAT_MAX, FOLDS_RAMP_TOP_DEG } from "./facewire-head.js";
 import { LOOKS } from "./render.js";
-import { quantile } from "./sound.js";
+import { quantile } from "./quantile.js";
 
 export { DEFAULT_HEAT_MAX };
 /** A live stream with no frame for this long is shown as stalled. */
@@ -442,7 +442,7 @@ export class Panel {
     }
     const parts = [
       `${summary.codec}, ${(s.audioBytes / 1024 / seconds).toFixed(1)} kB/s`,
-      `delay ${summary.delayMs.toFixed(0)} ms (jitter needs ${summary.targetMs.toFixed(0)})`,
+      `delay ${summary.delayMs.toFixed(0)} ms (needs ${summary.targetMs.toFixed(0)}, of which the face ${summary.faceMs.toFixed(0)})`,
       `output ${summary.outputMs.toFixed(0)} ms`,
     ];
     if (summary.earMs !== null) {

@@ -1,35 +1,32 @@
-// sound.js: the stream's voice in the page, and the clock the views draw by. Audio chunks
-// (decode.js decodeAudio) are decoded (Opus by WebCodecs' AudioDecoder; PCM as it comes)
-// and scheduled on one AudioContext at `t + offset`, so the voice plays on the stream's
-// own timeline after a playout delay. A replay played slower or faster (restart(rate))
-// sends its voice stretched at the same pitch, each chunk stamped with the recording time
-// of its first sample: `rate` stream seconds go by per second heard, and every place and
-// length on the stream's timeline is divided by it. The delay follows the jitter of the chunks'
-// arrival: it is the spread of their transit times (95th percentile above the fastest)
-// plus a margin, raised at once when a chunk comes too late to play, and lowered only in
-// a quiet chunk (a pause between words), so speech is never cut. heardTime() tells which
-// stream time is coming out of the speakers now (getOutputTimestamp, else currentTime less
-// outputLatency): the views draw the frame of that time, so the face is seen when its
-// sound is heard. The browser starts an AudioContext only after a click (its autoplay
-// rule): until enable(), nothing plays and the views draw frames as they arrive.
+// sound.js: the stream's voice in the page, and the clock the views draw by. The voice
+// is played on the audio thread: an AudioWorklet (playout-worklet.js) keeps a jitter
+// buffer (playout.js) that views' sockets (socket-pump.js, off the main thread) feed with
+// decoded chunks through MessagePorts this sound hands them (addSource), and places each
+// chunk at `t / rate + offset` on one AudioContext's clock, after a playout delay that
+// follows the jitter of their arrival, plus what the face needs on a page slow to draw
+// (tuneFace: the voice waits for the face). A replay played slower or faster sends its voice
+// stretched at the same pitch: `rate` stream seconds go by per second heard. The worklet
+// tells this sound where each piece went; heardTime() tells which stream time is coming out
+// of the speakers now (getOutputTimestamp, else currentTime less outputLatency): the views
+// draw the frame of that time, so the face is seen when its sound is heard. The browser
+// starts an AudioContext only after a click (its autoplay rule): until enable(), nothing
+// plays and the views draw frames as they arrive.
 
 import { OPUS_RATE } from "./decode.js";
+import { quantile } from "./quantile.js";
 
-/** The playout delay never goes below this or above that, seconds. */
-const MIN_DELAY_S = 0.06;
-const MAX_DELAY_S = 1.0;
-/** Above the arrival jitter: room for a late chunk, seconds. */
-const DELAY_MARGIN_S = 0.03;
-/** A chunk must be scheduled at least this far ahead of the context's clock, seconds. */
-const SCHEDULE_AHEAD_S = 0.005;
-/** Transit times kept for the jitter estimate: 10 s of 20 ms chunks. */
-const TRANSIT_WINDOW = 500;
-/** The delay is lowered when it exceeds its target by this much, in a quiet chunk, seconds. */
-const LOWER_BY_OVER_S = 0.02;
-/** A chunk whose RMS is below this (of full scale) is quiet. */
-const QUIET_RMS = 0.01;
 /** Scheduled pieces remembered for heardTime (about 10 s of 20 ms chunks). */
 const KEEP_PIECES = 500;
+/** The face is let be this late at the 95th percentile before the voice waits for it, ms. */
+const FACE_LATE_AIM_MS = 20;
+/** Of the face's lateness beyond the aim, the share added to the delay each time, and back. */
+const FACE_GAIN = 0.5;
+/** The most the voice waits for the face, seconds. */
+const MAX_FACE_EXTRA_S = 0.5;
+/** Fewer frames shown since the last tuning and it waits. */
+const FACE_SHOWN_ENOUGH = 5;
+/** The face's extra is told again when it moves by this much, seconds. */
+const FACE_EXTRA_STEP_S = 0.005;
 /** Drawn frames whose distance from their sound is kept (logSync): 10 min of 30 fps. */
 const SYNC_LOG = 18000;
 /** Times closer than this are one, seconds. */
@@ -48,81 +45,132 @@ export async function audioCodec() {
   }
 }
 
-/** The p-quantile (0..1) of numbers, by sorting a copy; undefined for none. */
-export function quantile(values, p) {
-  const sorted = [...values].sort((a, b) => a - b);
-  return sorted[Math.min(sorted.length - 1, Math.floor(p * sorted.length))];
-}
-
-function rms(floats) {
-  let sum = 0;
-  for (const x of floats) {
-    sum += x * x;
-  }
-  return Math.sqrt(sum / Math.max(1, floats.length));
-}
-
 export class Sound {
   /** `onChange()`: the state or the numbers changed (for the page's controls). */
   constructor({ onChange = () => {} } = {}) {
     this.onChange = onChange;
     this.context = null;
     this.gain = null;
-    this.decoder = null;
-    this.decoding = [];
+    this.node = null;
+    this.starting = null;
     this.volume = 1;
     this.muted = false;
-    this.codec = null;
     this.syncLog = [];
+    /** The sockets that feed the voice (stream.js ViewerSocket: setAudioSink(port)). */
+    this.sources = new Set();
+    /** Where the pieces of the voice were placed, from the worklet: {start, end, t, rate, serverReceiveUs}. */
+    this.pieces = [];
+    /** The jitter buffer's numbers (playout.js), from the worklet. */
+    this.numbers = null;
     /** Stream seconds per second heard: 1 but for a replay played slower or faster. */
     this.rate = 1;
-    this.reset();
+    /** How late each frame shown since the last tuning was for its sound, ms (drawn minus heard). */
+    this.faceLateMs = [];
+    /** More delay than the jitter's that the face needs, as told to the worklet, seconds. */
+    this.faceExtraS = 0;
   }
 
-  /** Forgets the timeline (a stream started over), keeping the rate. */
-  reset() {
-    this.offset = null;
-    /** The playout delay a run starts with (restart), else the jitter's, seconds. */
-    this.startDelay = null;
-    this.transits = [];
-    this.pieces = [];
-    this.scheduledEnd = 0;
-    this.decoder?.close?.();
-    this.decoder = null;
-    this.decoding = [];
-    this.numbers = { late: 0, lowered: 0 };
+  /** True once a click started the context and the voice can play. */
+  get playing() {
+    return this.node !== null && this.context.state === "running";
+  }
+
+  /** The codec of the chunks playing, once one has. */
+  get codec() {
+    return this.numbers?.codec ?? null;
+  }
+
+  /** A socket that carries the voice: given a port to the audio thread once one exists. */
+  addSource(source) {
+    this.sources.add(source);
+    if (this.node) {
+      this.connectSource(source);
+    }
+  }
+
+  removeSource(source) {
+    if (this.sources.delete(source) && this.node) {
+      source.setAudioSink(null);
+    }
+  }
+
+  connectSource(source) {
+    const channel = new MessageChannel();
+    this.node.port.postMessage({ source: channel.port1 }, [channel.port1]);
+    source.setAudioSink(channel.port2);
+  }
+
+  /** The user's click: starts (or resumes) the context and its playout. Returns a promise. */
+  async enable() {
+    this.starting ??= this.start().catch((error) => {
+      this.context?.close();
+      this.context = null; // the next click tries again
+      this.starting = null;
+      throw error;
+    });
+    await this.starting;
+    await this.context.resume();
+    this.onChange();
+  }
+
+  async start() {
+    // 48 kHz, the rate Opus decodes at: the worklet then copies the default voice as it comes.
+    this.context = new AudioContext({ latencyHint: "interactive", sampleRate: OPUS_RATE });
+    this.gain = this.context.createGain();
+    this.gain.connect(this.context.destination);
+    this.applyVolume();
+    this.context.onstatechange = () => this.onChange();
+    await this.context.audioWorklet.addModule(new URL("./playout-worklet.js", import.meta.url));
+    this.node = new AudioWorkletNode(this.context, "facewire-playout", { numberOfInputs: 0, outputChannelCount: [1] });
+    this.node.connect(this.gain);
+    this.node.port.onmessage = ({ data }) => this.fromPlayout(data);
+    for (const source of this.sources) {
+      this.connectSource(source);
+    }
+  }
+
+  /** The worklet's news: a piece placed (with the numbers), or the timeline started over. */
+  fromPlayout({ piece, numbers, restarted }) {
+    if (restarted !== undefined) {
+      this.pieces = [];
+      this.rate = restarted;
+      return;
+    }
+    this.numbers = numbers;
+    if (numbers) {
+      this.rate = numbers.rate;
+    }
+    if (piece) {
+      this.pieces.push(piece);
+      if (this.pieces.length > KEEP_PIECES) {
+        this.pieces.shift();
+      }
+    }
+  }
+
+  /** A frame was drawn `lateMs` after its sound was heard (negative: before). */
+  faceShown(lateMs) {
+    this.faceLateMs.push(lateMs);
   }
 
   /**
-   * A new run of the voice (a new connection; a replay sought, looped, paused or played at
-   * another speed): the timeline forgotten, and `rate` stream seconds heard per second
-   * from now on.
+   * Tunes how much longer than the jitter asks the voice waits for the face, from how late
+   * the frames drawn since the last call were (a controller called about once a second):
+   * their 95th percentile is brought to FACE_LATE_AIM_MS, half the difference at a time,
+   * so a page that draws slowly delays the voice until its face keeps up, and one that
+   * draws in time takes the delay back.
    */
-  restart(rate) {
-    // The playout delay the last run needed is where the next starts: a replay's runs
-    // come over the same connection, with the same jitter.
-    const delay = this.offset === null ? null : this.offset - Math.min(...this.transits);
-    this.reset();
-    this.startDelay = delay;
-    this.rate = rate > 0 ? rate : 1;
-  }
-
-  /** True once a click started the context and it runs. */
-  get playing() {
-    return this.context !== null && this.context.state === "running";
-  }
-
-  /** The user's click: starts (or resumes) the context. Returns a promise. */
-  async enable() {
-    if (!this.context) {
-      this.context = new AudioContext({ latencyHint: "interactive" });
-      this.gain = this.context.createGain();
-      this.gain.connect(this.context.destination);
-      this.applyVolume();
-      this.context.onstatechange = () => this.onChange();
+  tuneFace() {
+    if (!this.node || this.faceLateMs.length < FACE_SHOWN_ENOUGH) {
+      return;
     }
-    await this.context.resume();
-    this.onChange();
+    const late = quantile(this.faceLateMs, 0.95);
+    this.faceLateMs = [];
+    const extra = Math.min(MAX_FACE_EXTRA_S, Math.max(0, this.faceExtraS + (FACE_GAIN * (late - FACE_LATE_AIM_MS)) / 1000));
+    if (Math.abs(extra - this.faceExtraS) >= FACE_EXTRA_STEP_S || (extra === 0 && this.faceExtraS !== 0)) {
+      this.faceExtraS = extra;
+      this.node.port.postMessage({ faceExtraS: extra });
+    }
   }
 
   setVolume(volume) {
@@ -140,112 +188,6 @@ export class Sound {
     if (this.gain) {
       this.gain.gain.value = this.muted ? 0 : this.volume;
     }
-  }
-
-  /** An audio chunk as decodeAudio gives it, just arrived. */
-  push(chunk) {
-    this.codec = chunk.codec;
-    if (!this.playing) {
-      return; // nothing to play it on yet; the timeline starts with the first chunk after the click
-    }
-    if (chunk.codec === "pcm") {
-      const floats = new Float32Array(chunk.samples.length);
-      for (let i = 0; i < floats.length; i++) {
-        floats[i] = chunk.samples[i] / 32768;
-      }
-      this.schedule(chunk.t, chunk.sampleRate, floats, chunk.serverReceiveUs);
-    } else {
-      this.decodeOpus(chunk);
-    }
-  }
-
-  decodeOpus(chunk) {
-    if (!this.decoder) {
-      this.decoder = new AudioDecoder({
-        output: (data) => this.decoded(data),
-        error: () => {
-          this.decoder = null; // made anew at the next packet
-          this.decoding = [];
-        },
-      });
-      this.decoder.configure({ codec: "opus", sampleRate: OPUS_RATE, numberOfChannels: 1 });
-    }
-    // Outputs come in order: the queue keeps each packet's exact t and receipt.
-    this.decoding.push(chunk);
-    const timestamp = Math.round(chunk.t * 1e6);
-    this.decoder.decode(new EncodedAudioChunk({ type: "key", timestamp, data: chunk.packet }));
-  }
-
-  decoded(data) {
-    const chunk = this.decoding.shift();
-    const floats = new Float32Array(data.numberOfFrames);
-    data.copyTo(floats, { planeIndex: 0, format: "f32-planar" });
-    const rate = data.sampleRate;
-    data.close();
-    if (chunk) {
-      this.schedule(chunk.t, rate, floats, chunk.serverReceiveUs);
-    }
-  }
-
-  /**
-   * Plays `floats` (mono, at `rate` Hz) for stream time `t` after the playout delay: on
-   * the context's clock at `u + offset`, `u` the stream time in seconds heard (t / the
-   * sound's rate).
-   */
-  schedule(t, rate, floats, serverReceiveUs) {
-    const context = this.context;
-    const now = context.currentTime;
-    const u = t / this.rate;
-    this.transits.push(now - u);
-    if (this.transits.length > TRANSIT_WINDOW) {
-      this.transits.shift();
-    }
-    const fastest = Math.min(...this.transits);
-    const target = fastest + this.targetDelay();
-    if (this.offset === null) {
-      this.offset = Math.max(target, fastest + (this.startDelay ?? 0));
-    }
-    let at = u + this.offset;
-    if (at < now + SCHEDULE_AHEAD_S) {
-      // Too late to play: a longer delay from now on (the gap is heard once).
-      this.numbers.late += 1;
-      this.offset = Math.max(target, now + SCHEDULE_AHEAD_S + DELAY_MARGIN_S - u);
-      at = u + this.offset;
-    } else if (this.offset > target + LOWER_BY_OVER_S && rms(floats) < QUIET_RMS) {
-      // More delay than the jitter needs: shorten it in a pause, dropping this quiet chunk's overlap.
-      this.numbers.lowered += 1;
-      this.offset = Math.max(target, now + SCHEDULE_AHEAD_S - u);
-      at = u + this.offset;
-    }
-    // Never over audio already scheduled: skip what would overlap.
-    let skip = 0;
-    if (at < this.scheduledEnd - EPSILON_S) {
-      skip = Math.min(floats.length, Math.ceil((this.scheduledEnd - at) * rate));
-    }
-    if (skip < floats.length) {
-      const buffer = context.createBuffer(1, floats.length - skip, rate);
-      buffer.copyToChannel(skip > 0 ? floats.subarray(skip) : floats, 0);
-      const source = context.createBufferSource();
-      source.buffer = buffer;
-      source.connect(this.gain);
-      const start = at + skip / rate;
-      source.start(start);
-      this.scheduledEnd = start + (floats.length - skip) / rate;
-      const pieceT = t + (skip / rate) * this.rate;
-      this.pieces.push({ start, end: this.scheduledEnd, t: pieceT, rate: this.rate, serverReceiveUs });
-      if (this.pieces.length > KEEP_PIECES) {
-        this.pieces.shift();
-      }
-    }
-  }
-
-  /** Jitter of the arrivals (95th percentile of transit above the fastest) plus the margin. */
-  targetDelay() {
-    if (this.transits.length === 0) {
-      return MIN_DELAY_S;
-    }
-    const jitter = quantile(this.transits, 0.95) - Math.min(...this.transits);
-    return Math.min(MAX_DELAY_S, Math.max(MIN_DELAY_S, jitter + DELAY_MARGIN_S));
   }
 
   /** The context time being heard at `perfNow` (performance.now() milliseconds). */
@@ -318,19 +260,21 @@ export class Sound {
 
   /** The numbers the page shows: delay and output latency (ms), late chunks so far. */
   summary(perfNow) {
-    if (!this.playing || this.offset === null || this.transits.length === 0) {
+    const numbers = this.numbers;
+    if (!this.playing || !numbers) {
       return null;
     }
     const context = this.context;
     const output = context.outputLatency || context.baseLatency || 0;
     return {
-      codec: this.codec,
-      delayMs: (this.offset - Math.min(...this.transits)) * 1000,
-      targetMs: this.targetDelay() * 1000,
+      codec: numbers.codec,
+      delayMs: numbers.delayS * 1000,
+      targetMs: numbers.targetS * 1000,
+      faceMs: numbers.faceExtraS * 1000,
       outputMs: output * 1000,
       earMs: this.earLatencyMs(perfNow),
-      late: this.numbers.late,
-      lowered: this.numbers.lowered,
+      late: numbers.late,
+      lowered: numbers.lowered,
     };
   }
 }

@@ -7,18 +7,14 @@
 // page does not read (it asks for FWF2). A deleted head (close 4410) is reconnected to,
 // so a head registered again under the same id shows up. The URL comes from a function
 // asked again after every lost connection, so the page can move to another node
-// (nodes.js); the backoff starts over once a node sends its snapshot.
+// (nodes.js); the backoff starts over once a node sends its snapshot. The socket itself
+// is read off the main thread (socket-thread.js), which takes the voice's chunks to the
+// sound's audio thread and tells the page only how many bytes came.
 
 import { END_REASONS, FINAL_CLOSE_CODES } from "./codes.js";
+import { SocketThread } from "./socket-thread.js";
 
 const FIRST_RETRY_MS = 500;
-/** The first bytes of an audio chunk; every other binary message is a frame. */
-const AUDIO_MAGIC = [0x46, 0x57, 0x41, 0x31]; // "FWA1"
-
-function isAudio(buffer) {
-  const head = new Uint8Array(buffer, 0, Math.min(4, buffer.byteLength));
-  return head.length === 4 && AUDIO_MAGIC.every((b, i) => head[i] === b);
-}
 const MAX_RETRY_MS = 15_000;
 /** The frame layout the page asks for (`format=`). */
 export const VIEW_FORMAT = "fwf2";
@@ -36,16 +32,37 @@ function formatProblem({ format }) {
 
 export class ViewerSocket {
   /**
-   * `handlers`: onSnapshot(snapshot), onFrame(ArrayBuffer, arrivalUs), onAudio(ArrayBuffer)
-   * for an audio chunk (asked for with `audio=`), onReplay(message) for a replay's state
-   * (proto/PROTOCOL.md, "Recordings and replay"), and onState(state, detail) where detail
-   * is { message, code, retryMs } as far as known.
+   * `handlers`: onSnapshot(snapshot), onFrame(ArrayBuffer, arrivalUs), onAudio({bytes,
+   * codec} or {bytes, problem}) for an audio chunk (asked for with `audio=`), onReplay(message)
+   * for a replay's state (proto/PROTOCOL.md, "Recordings and replay"), and onState(state,
+   * detail) where detail is { message, code, retryMs } as far as known.
    */
   constructor(handlers) {
     this.handlers = handlers;
-    this.socket = null;
+    this.thread = null;
+    /** The current connection's number: events of an older one are ignored. */
+    this.id = 0;
+    this.connected = false;
+    this.isOpen = false;
+    this.refusal = null;
     this.timer = 0;
     this.state = "closed";
+  }
+
+  /** The socket's thread, started at first use. */
+  pump(request, transfer = []) {
+    this.thread ??= new SocketThread((event) => this.pumped(event));
+    this.thread.request(request, transfer);
+  }
+
+  /** True when the socket is read in a worker, not on the page's main thread (socket-thread.js). */
+  get offMainThread() {
+    return Boolean(this.thread?.worker);
+  }
+
+  /** Where the voice's chunks go: a MessagePort to the sound's audio thread, or null. */
+  setAudioSink(port) {
+    this.pump({ op: "sink", port }, port ? [port] : []);
   }
 
   /**
@@ -63,21 +80,29 @@ export class ViewerSocket {
 
   /** Sends `message` as JSON text (a replay's control), if the socket is open; true if sent. */
   send(message) {
-    if (this.socket?.readyState !== WebSocket.OPEN) {
+    if (!this.isOpen) {
       return false;
     }
-    this.socket.send(JSON.stringify(message));
+    this.pump({ op: "send", id: this.id, text: JSON.stringify(message) });
     return true;
   }
 
   close() {
     clearTimeout(this.timer);
-    if (this.socket) {
-      const socket = this.socket;
-      this.socket = null;
-      socket.close(1000, "viewer closed");
+    if (this.connected) {
+      this.pump({ op: "close", id: this.id, code: 1000, reason: "viewer closed" });
     }
+    this.id += 1;
+    this.connected = false;
+    this.isOpen = false;
     this.state = "closed";
+  }
+
+  /** Closes for good: the socket's thread stops. */
+  destroy() {
+    this.close();
+    this.thread?.terminate();
+    this.thread = null;
   }
 
   setState(state, detail = {}) {
@@ -87,64 +112,72 @@ export class ViewerSocket {
 
   connect() {
     this.setState("connecting");
-    const socket = new WebSocket(this.url);
-    socket.binaryType = "arraybuffer";
-    this.socket = socket;
-    let refusal = null;
-    socket.onmessage = (event) => {
-      if (socket !== this.socket) {
-        return;
+    this.id += 1;
+    this.connected = true;
+    this.isOpen = false;
+    this.refusal = null;
+    this.pump({ op: "open", id: this.id, url: this.url });
+  }
+
+  /** What the socket's pump posted (socket-pump.js). */
+  pumped(event) {
+    if (event.id !== this.id || !this.connected) {
+      return;
+    }
+    if (event.kind === "open") {
+      this.isOpen = true;
+    } else if (event.kind === "text") {
+      this.text(event.data);
+    } else if (event.kind === "frame") {
+      if (this.state !== "live") {
+        this.setState("live");
       }
-      if (typeof event.data !== "string" && isAudio(event.data)) {
-        this.handlers.onAudio?.(event.data);
-        return;
+      this.handlers.onFrame(event.data, event.arrivalUs);
+    } else if (event.kind === "audio") {
+      this.handlers.onAudio?.(event);
+    } else if (event.kind === "close") {
+      this.closed(event);
+    }
+  }
+
+  text(data) {
+    let message;
+    try {
+      message = JSON.parse(data);
+    } catch {
+      return this.setState("error", { message: `unreadable message from the server: ${data.slice(0, 80)}` });
+    }
+    if (message.type === "snapshot") {
+      const problem = formatProblem(message);
+      if (problem) {
+        this.close();
+        return this.setState("error", { message: problem });
       }
-      if (typeof event.data !== "string") {
-        const arrivalUs = Date.now() * 1000;
-        if (this.state !== "live") {
-          this.setState("live");
-        }
-        this.handlers.onFrame(event.data, arrivalUs);
-        return;
-      }
-      let message;
-      try {
-        message = JSON.parse(event.data);
-      } catch {
-        return this.setState("error", { message: `unreadable message from the server: ${event.data.slice(0, 80)}` });
-      }
-      if (message.type === "snapshot") {
-        const problem = formatProblem(message);
-        if (problem) {
-          this.close();
-          return this.setState("error", { message: problem });
-        }
-        this.attempt = 0;
-        this.handlers.onSnapshot(message);
-        this.setState("waiting");
-      } else if (message.type === "replay") {
-        this.handlers.onReplay?.(message);
-      } else if (message.type === "end") {
-        this.setState("ended", { message: END_REASONS[message.reason] || message.message || message.reason });
-      } else if (message.type === "error") {
-        refusal = message;
-      }
-    };
-    socket.onclose = (event) => {
-      if (socket !== this.socket) {
-        return;
-      }
-      this.socket = null;
-      const message = refusal ? `${refusal.message} (${refusal.code})` : event.reason || "connection lost";
-      if (FINAL_CLOSE_CODES.has(event.code)) {
-        this.setState("error", { message, code: event.code });
-        return;
-      }
-      const retryMs = Math.min(MAX_RETRY_MS, FIRST_RETRY_MS * 2 ** this.attempt) * (0.8 + 0.4 * Math.random());
-      this.attempt += 1;
-      this.url = this.target(true);
-      this.setState("reconnecting", { message, code: event.code, retryMs });
-      this.timer = setTimeout(() => this.connect(), retryMs);
-    };
+      this.attempt = 0;
+      this.handlers.onSnapshot(message);
+      this.setState("waiting");
+    } else if (message.type === "replay") {
+      this.handlers.onReplay?.(message);
+    } else if (message.type === "end") {
+      this.setState("ended", { message: END_REASONS[message.reason] || message.message || message.reason });
+    } else if (message.type === "error") {
+      this.refusal = message;
+    }
+  }
+
+  closed({ code, reason }) {
+    this.connected = false;
+    this.isOpen = false;
+    const refusal = this.refusal;
+    const message = refusal ? `${refusal.message} (${refusal.code})` : reason || "connection lost";
+    if (FINAL_CLOSE_CODES.has(code)) {
+      this.setState("error", { message, code });
+      return;
+    }
+    const retryMs = Math.min(MAX_RETRY_MS, FIRST_RETRY_MS * 2 ** this.attempt) * (0.8 + 0.4 * Math.random());
+    this.attempt += 1;
+    this.url = this.target(true);
+    this.setState("reconnecting", { message, code, retryMs });
+    this.timer = setTimeout(() => this.connect(), retryMs);
   }
 }

@@ -12,7 +12,7 @@ const JS: &str = "text/javascript; charset=utf-8";
 
 /// `(path, content type, body)` of every embedded file. The `web/*.test.mjs` scripts and
 /// `web/package.json` are for the tests (`tests/service/web_decode.rs`), not served.
-const ASSETS: [(&str, &str, &str); 20] = [
+const ASSETS: [(&str, &str, &str); 26] = [
     ("/", HTML, include_str!("../../web/index.html")),
     ("/style.css", CSS, include_str!("../../web/style.css")),
     ("/app.js", JS, include_str!("../../web/app.js")),
@@ -30,8 +30,26 @@ const ASSETS: [(&str, &str, &str); 20] = [
     ("/head-view.js", JS, include_str!("../../web/head-view.js")),
     ("/nodes.js", JS, include_str!("../../web/nodes.js")),
     ("/panel.js", JS, include_str!("../../web/panel.js")),
+    ("/playout.js", JS, include_str!("../../web/playout.js")),
+    (
+        "/playout-worklet.js",
+        JS,
+        include_str!("../../web/playout-worklet.js"),
+    ),
+    ("/quantile.js", JS, include_str!("../../web/quantile.js")),
     ("/render.js", JS, include_str!("../../web/render.js")),
     ("/replay.js", JS, include_str!("../../web/replay.js")),
+    ("/socket-pump.js", JS, include_str!("../../web/socket-pump.js")),
+    (
+        "/socket-thread.js",
+        JS,
+        include_str!("../../web/socket-thread.js"),
+    ),
+    (
+        "/socket-worker.js",
+        JS,
+        include_str!("../../web/socket-worker.js"),
+    ),
     ("/sound.js", JS, include_str!("../../web/sound.js")),
     ("/stream.js", JS, include_str!("../../web/stream.js")),
     ("/talk.js", JS, include_str!("../../web/talk.js")),

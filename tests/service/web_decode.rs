@@ -5,8 +5,10 @@
 //! malformed ones) and a `mesh.bin`, written with the values the Rust decoder reads from
 //! them to a JSON file that `node web/decode.test.mjs` checks; the page's node list
 //! (`node web/nodes.test.mjs`), its fit report (`node web/fit.test.mjs`) and a view's look
-//! (`node web/look.test.mjs`), and a head's registration from the page (`node
-//! web/upload.test.mjs`).
+//! (`node web/look.test.mjs`), a head's registration from the page (`node
+//! web/upload.test.mjs`), the voice's jitter buffer (`node web/playout.test.mjs`), its
+//! wait for the face (`node web/sound.test.mjs`) and a view's socket off the main thread
+//! (`node web/socket-pump.test.mjs`).
 
 use crate::common::repo_path;
 
@@ -773,6 +775,28 @@ fn upload_js_builds_a_head_s_registration() {
     // "Your own head": ids from file names, which files make a head (and the words for
     // those that do not), and the requests as PROTOCOL.md has POST /v1/heads.
     run_node_test("web/upload.test.mjs", &[]);
+}
+
+#[test]
+fn playout_js_places_the_voice_after_a_delay_that_follows_the_jitter() {
+    // The voice's jitter buffer (the page's audio thread): placement after the delay, a
+    // late chunk raising it, a quiet one lowering it, 16 kHz interpolated with a smooth
+    // seam, a replay's rate, the ring's reach, hand-computed.
+    run_node_test("web/playout.test.mjs", &[]);
+}
+
+#[test]
+fn sound_js_lets_the_voice_wait_for_a_face_drawn_late() {
+    // The sound's wait for the face: lengthened by half the frames' lateness above the
+    // aim, given back when they are in time, never below nothing.
+    run_node_test("web/sound.test.mjs", &[]);
+}
+
+#[test]
+fn socket_pump_js_reads_a_view_s_socket_and_feeds_the_voice() {
+    // A view's socket off the main thread: text and frames handed on, the voice decoded to
+    // the audio thread's port, its timeline started over in order with the chunks.
+    run_node_test("web/socket-pump.test.mjs", &["proto/fixtures/fwf2"]);
 }
 
 #[test]
