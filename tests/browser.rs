@@ -1817,6 +1817,12 @@ async fn check_the_face_is_seen_when_its_voice_is_heard(browser: &Browser, url: 
     assert!(!ears.is_empty(), "the page never showed its latency to the ear");
     let ear_median = ears[ears.len() / 2];
     extras.sort_by(f64::total_cmp);
+    // How far apart the page's chances to draw were (a frame shows up to half of it either
+    // side of its sound): SwiftShader's draw rate, which |p95| follows.
+    let between = browser
+        .js("const i = [...window.facewireDraw.intervals].sort((a, b) => a - b); return i[i.length >> 1]")
+        .await;
+    println!("Chances to draw: median {between} ms apart over the last 31");
     println!(
         "Producer to ear over {} readings, less the face's extra delay: median {ear_median:.0} ms, max {:.0} ms; \
          the face's extra: median {:.0} ms, max {:.0} ms",
