@@ -23,8 +23,9 @@ const FACE_LATE_AIM_MS = 20;
 const FACE_GAIN = 0.5;
 /** The most the voice waits for the face, seconds. */
 const MAX_FACE_EXTRA_S = 0.5;
-/** Fewer frames shown since the last tuning and it waits. */
+/** Fewer frames shown since the last tuning and it waits; more are not kept. */
 const FACE_SHOWN_ENOUGH = 5;
+const FACE_SHOWN_KEPT = 1000;
 /** The face's extra is told again when it moves by this much, seconds. */
 const FACE_EXTRA_STEP_S = 0.005;
 /** Drawn frames whose distance from their sound is kept (logSync): 10 min of 30 fps. */
@@ -151,6 +152,9 @@ export class Sound {
   /** A frame was drawn `lateMs` after its sound was heard (negative: before). */
   faceShown(lateMs) {
     this.faceLateMs.push(lateMs);
+    if (this.faceLateMs.length > FACE_SHOWN_KEPT) {
+      this.faceLateMs.shift();
+    }
   }
 
   /**
