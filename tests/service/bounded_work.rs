@@ -230,9 +230,15 @@ async fn a_fit_whose_request_ended_stops_and_holds_its_slot_until_then() {
     let (status, body) = post(&server, "/v1/heads", request, "application/json").await;
     assert_eq!(status, 408, "{body}");
     // The request is over; its fit still holds the one slot until it has stopped, and it
-    // stops within a step of its cancelling.
+    // stops within a step of its cancelling. It may have stopped already: the fit counts
+    // its cancelling before it gives the slot back, so a free slot, read first, means the
+    // count is there when read next.
     let busy = server.healthz().await["work"]["busy"].as_u64().unwrap();
-    assert_eq!(busy, 1, "the slot was freed while the fit ran on");
+    let stopped = server.metrics().await.contains("facewire_fits_cancelled_total 1");
+    assert!(
+        busy == 1 || stopped,
+        "the slot was freed while the fit ran on (busy {busy})"
+    );
     let started = Instant::now();
     while server.healthz().await["work"]["busy"].as_u64() != Some(0) {
         assert!(started.elapsed() < Duration::from_secs(10), "the fit ran on");
