@@ -659,6 +659,30 @@ async fn check_a_head_uploaded(browser: &Browser, url: &str, long: Duration) {
             )
             .await;
     };
+    // Picks `path` with the id field cleared, checks the id the page makes of the file's
+    // name, registers, and returns what the page says once `id` is registered.
+    let register_picked = async |path: &std::path::Path, id: &str| {
+        browser
+            .js("document.getElementById('upload-id').value = ''; return true")
+            .await;
+        pick(path).await;
+        let made = browser
+            .js("return document.getElementById('upload-id').value")
+            .await;
+        assert_eq!(made, id, "the id made from the file's name");
+        browser.click("#upload-register").await;
+        browser
+            .wait_for(
+                &format!("{id} registered"),
+                &format!(
+                    "const s = document.getElementById('upload-status'); \
+                     return s.dataset.kind === 'error' ? 'error: ' + s.textContent \
+                       : s.textContent.includes('\"{id}\" is registered') && s.textContent"
+                ),
+                long,
+            )
+            .await
+    };
     // An image alone is no head.
     pick(&image).await;
     browser
@@ -676,24 +700,7 @@ async fn check_a_head_uploaded(browser: &Browser, url: &str, long: Duration) {
     assert!(refused.as_str().unwrap().contains("pick a head"), "{refused}");
 
     // The avatar: its id from its file name, registered, fitted and shown.
-    browser
-        .js("document.getElementById('upload-id').value = ''; return true")
-        .await;
-    pick(&avatar).await;
-    let id = browser
-        .js("return document.getElementById('upload-id').value")
-        .await;
-    assert_eq!(id, "my-avatar", "the id made from the file's name");
-    browser.click("#upload-register").await;
-    let said = browser
-        .wait_for(
-            "the avatar registered",
-            "const s = document.getElementById('upload-status'); \
-             return s.dataset.kind === 'error' ? 'error: ' + s.textContent \
-               : s.textContent.includes('registered') && s.textContent",
-            long,
-        )
-        .await;
+    let said = register_picked(&avatar, "my-avatar").await;
     println!("your own head: {said}");
     assert!(
         said.as_str().unwrap().contains("\"my-avatar\" is registered")
@@ -742,24 +749,7 @@ async fn check_a_head_uploaded(browser: &Browser, url: &str, long: Duration) {
     let paths: Vec<String> = files.iter().map(|p| p.display().to_string()).collect();
     // One file input, several files: the paths newline-separated.
     let gltf = std::path::PathBuf::from(paths.join("\n"));
-    browser
-        .js("document.getElementById('upload-id').value = ''; return true")
-        .await;
-    pick(&gltf).await;
-    let id = browser
-        .js("return document.getElementById('upload-id').value")
-        .await;
-    assert_eq!(id, "avatar-separate");
-    browser.click("#upload-register").await;
-    let said = browser
-        .wait_for(
-            "the separate glTF registered",
-            "const s = document.getElementById('upload-status'); \
-             return s.dataset.kind === 'error' ? 'error: ' + s.textContent \
-               : s.textContent.includes('\"avatar-separate\" is registered') && s.textContent",
-            long,
-        )
-        .await;
+    let said = register_picked(&gltf, "avatar-separate").await;
     println!("your own head, separate files: {said}");
     assert!(said.as_str().unwrap().contains("image/png"), "{said}");
     let info: Value = reqwest::get(format!("{url}v1/heads/avatar-separate"))

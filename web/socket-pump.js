@@ -57,6 +57,7 @@ export class SocketPump {
       }
     } else if (request.op === "sink") {
       this.sink = request.port ?? null;
+      this.lastSeq = null;
       this.closeDecoder();
       this.toSink({ type: "restart", rate: this.rate });
     }
@@ -101,7 +102,9 @@ export class SocketPump {
     } else if (isAudio(data)) {
       this.audio(data);
     } else {
-      this.timelineFromFrame(data);
+      if (this.sink) {
+        this.timelineFromFrame(data); // the page reads every header anyway; this one only for a voice
+      }
       this.post({ kind: "frame", id, data, arrivalUs: Date.now() * 1000 }, [data]);
     }
   }
