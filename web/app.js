@@ -124,8 +124,9 @@ const group = new HeadGroup({
     }
   },
 });
-// For tests and the curious: the lags and chances the draw target is made from.
-window.facewireDraw = { lags: group.lags, intervals: group.intervals };
+// For tests and the curious: the lags and chances the draw target is made from, and the
+// pixels drawn while the voice plays (draw-scale.js).
+window.facewireDraw = { lags: group.lags, intervals: group.intervals, scale: group.drawScale };
 /**
  * The fit report's fetches: `seen` is the chosen head's status when the last one started
  * (a change, e.g. registering to ready, fetches again), `retry` that it failed in a way

@@ -7,6 +7,7 @@
 // sound plays, the frame whose `t` is being heard, so two views of one stream stay in step
 // and the face is seen when its voice is heard.
 
+import { DrawScale } from "./draw-scale.js";
 import { quantile } from "./quantile.js";
 
 /** A member whose last frame is older than this does not hold the others back, ms. */
@@ -46,6 +47,8 @@ export class HeadGroup {
      */
     this.intervals = [];
     this.lastChance = null;
+    /** The pixels the members are drawn with while their voice plays (draw-scale.js). */
+    this.drawScale = new DrawScale();
     this.faceTuned = -Infinity;
     /** The rest mesh the camera was framed on last. */
     this.framed = null;
@@ -123,10 +126,14 @@ export class HeadGroup {
     const members = this.members.filter((m) => m.headView);
     if (!this.decoding && members.length > 0) {
       const views = members.map((m) => m.headView);
-      const target = this.drawTarget(now, views);
+      // Chosen by the time it is, not the animation frame's stamp: a callback may run well
+      // after its frame began (a long draw before it), and the frame is shown after it runs.
+      const chosenAt = performance.now();
+      const target = this.drawTarget(chosenAt, views);
       const work = views.map((view) => view.prepare(target));
       if (this.lastChance !== null) {
         remember(this.intervals, now - this.lastChance);
+        this.drawScale.chance(now - this.lastChance, target.t !== undefined);
       }
       this.lastChance = now;
       if (work.some(Boolean)) {
@@ -141,7 +148,7 @@ export class HeadGroup {
                 this.drawnWhenHeard(frame);
               }
             });
-            remember(this.lags, performance.now() - now);
+            remember(this.lags, performance.now() - chosenAt);
           })
           .finally(() => {
             this.decoding = false;
@@ -149,6 +156,7 @@ export class HeadGroup {
       }
     }
     for (const member of members) {
+      member.headView.renderer.setDrawScale(this.drawScale.scale);
       member.draw(this.cameraMoved);
     }
     this.cameraMoved = false;

@@ -455,6 +455,10 @@ export class Panel {
     if (summary.late > 0) {
       parts.push(`${summary.late} late`);
     }
+    const scale = this.head.group?.drawScale.scale ?? 1;
+    if (scale < 1) {
+      parts.push(`drawn at ${Math.round(scale * 100)} % a side to keep up`);
+    }
     return parts.join(" · ");
   }
 }

@@ -309,6 +309,8 @@ export class HeadRenderer {
     this.shapedPart = null;
     /** How the head is looked at (setLook) and the point the cut goes through (setCutCentre). */
     this.look = { mode: "front", cutDeg: 0 };
+    /** The fraction of the device's pixels a side drawn (draw-scale.js). */
+    this.drawScale = 1;
     /** How the lips are drawn (setLips): one of LIP_MODES and the tint's strength, 0 to 1. */
     this.lips = { mode: "tint", strength: 1 };
     this.cutCentre = [0, 0, 0];
@@ -718,9 +720,14 @@ export class HeadRenderer {
     }
   }
 
-  /** Matches the drawing buffer to the canvas's CSS size; true when it changed. */
+  /** Draws with `scale` (0..1) of the device's pixels a side (draw-scale.js), from the next draw. */
+  setDrawScale(scale) {
+    this.drawScale = scale;
+  }
+
+  /** Matches the drawing buffer to the canvas's CSS size at the draw scale; true when it changed. */
   fitCanvas() {
-    const ratio = window.devicePixelRatio || 1;
+    const ratio = (window.devicePixelRatio || 1) * this.drawScale;
     const width = Math.max(1, Math.round(this.canvas.clientWidth * ratio));
     const height = Math.max(1, Math.round(this.canvas.clientHeight * ratio));
     if (this.canvas.width === width && this.canvas.height === height) {

@@ -12,7 +12,7 @@ const JS: &str = "text/javascript; charset=utf-8";
 
 /// `(path, content type, body)` of every embedded file. The `web/*.test.mjs` scripts and
 /// `web/package.json` are for the tests (`tests/service/web_decode.rs`), not served.
-const ASSETS: [(&str, &str, &str); 26] = [
+const ASSETS: [(&str, &str, &str); 27] = [
     ("/", HTML, include_str!("../../web/index.html")),
     ("/style.css", CSS, include_str!("../../web/style.css")),
     ("/app.js", JS, include_str!("../../web/app.js")),
@@ -20,6 +20,7 @@ const ASSETS: [(&str, &str, &str); 26] = [
     ("/chart.js", JS, include_str!("../../web/chart.js")),
     ("/codes.js", JS, include_str!("../../web/codes.js")),
     ("/decode.js", JS, include_str!("../../web/decode.js")),
+    ("/draw-scale.js", JS, include_str!("../../web/draw-scale.js")),
     (
         "/facewire-head.js",
         JS,

@@ -7,8 +7,9 @@
 //! (`node web/nodes.test.mjs`), its fit report (`node web/fit.test.mjs`) and a view's look
 //! (`node web/look.test.mjs`), a head's registration from the page (`node
 //! web/upload.test.mjs`), the voice's jitter buffer (`node web/playout.test.mjs`), its
-//! wait for the face (`node web/sound.test.mjs`) and a view's socket off the main thread
-//! (`node web/socket-pump.test.mjs`).
+//! wait for the face (`node web/sound.test.mjs`), a view's socket off the main thread
+//! (`node web/socket-pump.test.mjs`) and the pixels drawn while the voice plays (`node
+//! web/draw-scale.test.mjs`).
 
 use crate::common::repo_path;
 
@@ -790,6 +791,14 @@ fn sound_js_lets_the_voice_wait_for_a_face_drawn_late() {
     // The sound's wait for the face: lengthened by half the frames' lateness above the
     // aim, given back when they are in time, never below nothing.
     run_node_test("web/sound.test.mjs", &[]);
+}
+
+#[test]
+fn draw_scale_js_draws_fewer_pixels_only_while_that_keeps_the_face_in_time() {
+    // The pixels drawn while the voice plays: cut while the draws are slow for their
+    // pixels, no further than needed, a cut that does not help undone, raises taken back
+    // tried ever more rarely, full resolution without a voice; simulated 60 Hz pages.
+    run_node_test("web/draw-scale.test.mjs", &[]);
 }
 
 #[test]
