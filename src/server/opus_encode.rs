@@ -2,8 +2,11 @@
 //! producer sends PCM: encoded once per stream (never per viewer) in 40 ms packets (a
 //! packet time WebRTC offers too), at 20 kbit/s in libopus's VoIP mode, complexity 5.
 //! Chunks of any length are cut into 40 ms frames on the stream's timeline; a gap in it
-//! (silence the producer did not send) closes the pending frame with zeros, so every
-//! packet's `t` is where its first sample plays, and so does the voice's end.
+//! (silence the producer did not send) closes the pending frame with zeros, and the
+//! voice's end does too. A packet's `t` is the stream time of its first decoded sample:
+//! the encoder's look-ahead (6.5 ms at 16 kHz in VoIP mode) before the first sample it
+//! was given, since a decoder plays every sample that much after the packet's start, as
+//! RTP timestamps Opus; so a click plays at its own `t`.
 
 use facewire_proto::audio_chunk::MAX_OPUS_PACKET;
 
@@ -36,6 +39,8 @@ pub struct OpusStreamEncoder {
     /// Samples of the frame being filled, and the stream time of its first.
     pending: Vec<i16>,
     pending_t: f64,
+    /// The encoder's look-ahead: how long after its packet's start a sample decodes, s.
+    lookahead_s: f64,
     packet: Vec<u8>,
 }
 
@@ -46,8 +51,10 @@ impl OpusStreamEncoder {
         encoder.set_bitrate(opus::Bitrate::Bits(OPUS_BITRATE))?;
         encoder.set_complexity(OPUS_COMPLEXITY)?;
         let frame = (f64::from(sample_rate) * FRAME_S).round() as usize;
+        let lookahead_s = f64::from(encoder.get_lookahead()?) / f64::from(sample_rate);
         Ok(OpusStreamEncoder {
             encoder,
+            lookahead_s,
             rate: f64::from(sample_rate),
             frame,
             pending: Vec::with_capacity(frame),
@@ -56,8 +63,16 @@ impl OpusStreamEncoder {
         })
     }
 
+    /// How long after a packet's `t` the first sample given for it decodes, seconds (the
+    /// encoder's look-ahead): the time a caller on another clock (a replay at a speed)
+    /// takes off its own `t` instead of the one `emit` gets.
+    pub fn lookahead_s(&self) -> f64 {
+        self.lookahead_s
+    }
+
     /// Adds a chunk of `samples` whose first plays at stream time `t_s`; `emit` gets each
-    /// packet completed, with the stream time of its first sample.
+    /// packet completed, with the stream time of its first decoded sample (the look-ahead
+    /// before the first sample it was given).
     pub fn push(
         &mut self,
         t_s: f64,
@@ -98,7 +113,7 @@ impl OpusStreamEncoder {
 
     fn encode_pending(&mut self, emit: &mut impl FnMut(f64, &[u8])) -> Result<(), OpusEncodeError> {
         let length = self.encoder.encode(&self.pending, &mut self.packet)?;
-        emit(self.pending_t, &self.packet[..length]);
+        emit(self.pending_t - self.lookahead_s, &self.packet[..length]);
         self.pending.clear();
         Ok(())
     }
@@ -128,9 +143,12 @@ mod tests {
                 .unwrap();
             at += n;
         }
-        // 1,300 samples: two full frames of 640; 20 pending.
+        // 1,300 samples: two full frames of 640; 20 pending. Each packet's time is its
+        // first sample's less the look-ahead (104 samples at 16 kHz).
+        assert_eq!(encoder.lookahead_s(), 104.0 / 16_000.0);
+        let ahead = encoder.lookahead_s();
         assert_eq!(packets.len(), 2);
-        assert!((packets[0].0 - 0.0).abs() < 1e-12 && (packets[1].0 - 0.04).abs() < 1e-12);
+        assert!((packets[0].0 + ahead).abs() < 1e-12 && (packets[1].0 + ahead - 0.04).abs() < 1e-12);
         // A chunk a second later: the pending 20 samples close with silence first.
         encoder
             .push(1.0, &tone(16_000, 640), |t, p| packets.push((t, p.to_vec())))
@@ -138,7 +156,7 @@ mod tests {
         let times: Vec<f64> = packets.iter().map(|p| p.0).collect();
         assert_eq!(times.len(), 4);
         assert!(
-            (times[2] - 0.08).abs() < 1e-12 && (times[3] - 1.0).abs() < 1e-12,
+            (times[2] + ahead - 0.08).abs() < 1e-12 && (times[3] + ahead - 1.0).abs() < 1e-12,
             "{times:?}"
         );
 
@@ -157,6 +175,39 @@ mod tests {
     }
 
     #[test]
+    fn a_click_decodes_at_its_own_time() {
+        // A 2 ms click at 0.5125 s (not on a packet's edge) in a second of silence, sent in
+        // 20 ms chunks: decoded at 48 kHz from each packet's time, the click's first loud
+        // sample is heard within a millisecond of when it was sent (the encoder's
+        // look-ahead, 6.5 ms, is in the packets' times).
+        const CLICK_S: f64 = 0.5125;
+        let mut voice = vec![0i16; 16_000];
+        let at = (CLICK_S * 16_000.0) as usize;
+        voice[at..at + 32].fill(24_000);
+        let mut encoder = OpusStreamEncoder::new(16_000).unwrap();
+        let mut packets: Vec<(f64, Vec<u8>)> = Vec::new();
+        for (c, chunk) in voice.chunks(320).enumerate() {
+            encoder
+                .push(c as f64 * 0.02, chunk, |t, p| packets.push((t, p.to_vec())))
+                .unwrap();
+        }
+        let mut decoder = opus::Decoder::new(48_000, opus::Channels::Mono).unwrap();
+        let mut out = vec![0i16; 1920];
+        let mut heard = None;
+        for (t, packet) in &packets {
+            let n = decoder.decode(packet, &mut out, false).unwrap();
+            if let Some(i) = out[..n].iter().position(|&s| s.unsigned_abs() > 8_000) {
+                heard = heard.or(Some(t + i as f64 / 48_000.0));
+            }
+        }
+        let heard = heard.expect("the click is heard");
+        assert!(
+            (heard - CLICK_S).abs() < 1e-3,
+            "the click heard at {heard} s, sent at {CLICK_S} s"
+        );
+    }
+
+    #[test]
     fn the_voice_s_last_partial_frame_is_heard_when_it_ends() {
         // 50 ms of tone: one 40 ms packet while it plays, then its last 10 ms (160
         // samples) as a packet padded with silence when the voice ends.
@@ -168,7 +219,11 @@ mod tests {
         assert_eq!(packets.len(), 1);
         encoder.finish(|t, p| packets.push((t, p.to_vec()))).unwrap();
         assert_eq!(packets.len(), 2);
-        assert!((packets[1].0 - 0.04).abs() < 1e-12, "{}", packets[1].0);
+        assert!(
+            (packets[1].0 + encoder.lookahead_s() - 0.04).abs() < 1e-12,
+            "{}",
+            packets[1].0
+        );
         assert_eq!(opus_packet_samples(&packets[1].1, 0), Ok(1920));
         // Nothing is pending now: ending again sends nothing.
         encoder.finish(|t, p| packets.push((t, p.to_vec()))).unwrap();

@@ -116,10 +116,10 @@ impl ReplayVoice {
         }
         let t_s = run.from_t_s + run.next as f64 * run.chunk_s * run.speed;
         run.next += 1;
-        let body = if self.codec == AudioBody::OPUS {
+        let (t_s, body) = if self.codec == AudioBody::OPUS {
             // Opus takes whole frames: the last is padded with silence.
             match opus_packet(run, t_s) {
-                Ok(packet) => AudioBody::Opus { packet },
+                Ok((t_s, packet)) => (t_s, AudioBody::Opus { packet }),
                 Err(e) => {
                     tracing::warn!(error = %e, "replay voice stopped");
                     self.run = None;
@@ -127,10 +127,11 @@ impl ReplayVoice {
                 }
             }
         } else {
-            AudioBody::Pcm {
+            let body = AudioBody::Pcm {
                 sample_rate: run.sample_rate,
                 samples: run.samples[..given].to_vec(),
-            }
+            };
+            (t_s, body)
         };
         let chunk = AudioChunk {
             t_s,
@@ -142,8 +143,9 @@ impl ReplayVoice {
     }
 }
 
-/// The chunk in `run.samples` as an Opus packet, from the run's own encoder.
-fn opus_packet(run: &mut Run, t_s: f64) -> Result<Vec<u8>, OpusEncodeError> {
+/// The chunk in `run.samples`, whose first sample is at recording time `t_s`, as an Opus
+/// packet from the run's own encoder, with the recording time of its first decoded sample.
+fn opus_packet(run: &mut Run, t_s: f64) -> Result<(f64, Vec<u8>), OpusEncodeError> {
     let encoder = match run.encoder.take() {
         Some(encoder) => encoder,
         None => OpusStreamEncoder::new(run.sample_rate)?,
@@ -151,5 +153,7 @@ fn opus_packet(run: &mut Run, t_s: f64) -> Result<Vec<u8>, OpusEncodeError> {
     let encoder = run.encoder.insert(encoder);
     let mut packet = Vec::new();
     encoder.push(t_s, &run.samples, |_, bytes| packet = bytes.to_vec())?;
-    Ok(packet)
+    // Its samples decode the look-ahead late, on the voice as played: that much earlier on
+    // the recording's timeline, at the replay's speed.
+    Ok((t_s - encoder.lookahead_s() * run.speed, packet))
 }

@@ -10,6 +10,7 @@ use std::time::{Duration, Instant};
 use crate::common::nats::{subscribed, NatsServer};
 use crate::common::service::{
     close_code, connect, moving_jaw_line, next_json, next_message, pcm_chunk, post, Server, Socket,
+    OPUS_LOOKAHEAD_S,
 };
 use facewire_proto::messages::{HeadInfo, ServerMessage};
 use facewire_proto::viewer_frame::{decode, ViewerFrame};
@@ -550,12 +551,13 @@ async fn a_producer_s_voice_is_heard_on_another_node() {
         assert!(got.server_receive_us > 1_700_000_000_000_000);
     }
     // ... and the same voice in Opus, encoded once on node 1: thirteen 40 ms packets from
-    // t = 0 on, the last holding the final 20 ms closed with silence when the stream ended.
+    // t = 0 on (each stamped at its first decoded sample, the encoder's look-ahead
+    // earlier), the last holding the final 20 ms closed with silence when the stream ended.
     let packets = audio_until_end(&mut opus).await;
     assert_eq!(packets.len(), 13);
     for (i, packet) in packets.iter().enumerate() {
         assert!(
-            (packet.t_s - 0.04 * i as f64).abs() < 1e-9,
+            (packet.t_s - (0.04 * i as f64 - OPUS_LOOKAHEAD_S)).abs() < 1e-9,
             "packet {i} at {}",
             packet.t_s
         );

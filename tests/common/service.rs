@@ -45,6 +45,11 @@ impl Drop for KilledOnDrop {
 }
 
 /// The defaults with no data directory (heads in memory).
+/// The server's Opus encoder's look-ahead, s (libopus in VoIP mode: 2.5 ms plus 4 ms of
+/// delay compensation, at any rate): a packet's `t` is that much before the first sample
+/// it was given.
+pub const OPUS_LOOKAHEAD_S: f64 = 0.0065;
+
 pub fn memory_config() -> Config {
     Config {
         data_dir: None,

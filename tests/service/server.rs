@@ -3,6 +3,7 @@
 
 use crate::common::service::{
     connect, jaw_line, memory_config, next_frame, next_json, next_message, pcm_chunk, post, Server, Socket,
+    OPUS_LOOKAHEAD_S,
 };
 use crate::common::{data, register};
 
@@ -769,9 +770,11 @@ async fn a_producer_s_audio_reaches_the_viewers_that_ask_for_it() {
     }
     assert_eq!(deaf_heard, 0, "audio to a viewer that did not ask");
     assert_eq!(packets.len(), packets_due);
+    // Each packet at its first decoded sample: the encoder's 6.5 ms look-ahead before the
+    // first sample it was given.
     for (i, packet) in packets.iter().enumerate() {
         assert!(
-            (packet.t_s - 0.04 * i as f64).abs() < 1e-9,
+            (packet.t_s - (0.04 * i as f64 - OPUS_LOOKAHEAD_S)).abs() < 1e-9,
             "packet {i} at {}",
             packet.t_s
         );
@@ -803,7 +806,11 @@ async fn a_producer_s_audio_reaches_the_viewers_that_ask_for_it() {
         }
     }
     assert_eq!(tail.len(), 1, "packets after the end: {tail:?}");
-    assert!((tail[0] - 0.08).abs() < 1e-9, "the last packet at {}", tail[0]);
+    assert!(
+        (tail[0] - (0.08 - OPUS_LOOKAHEAD_S)).abs() < 1e-9,
+        "the last packet at {}",
+        tail[0]
+    );
     // An Opus producer is heard by a PCM viewer: each packet decoded once, at its own t.
     let mut pcm_viewer = connect(&server.ws("/v1/heads/mh/streams/o/view?format=fwf2&audio=pcm")).await;
     assert!(matches!(
