@@ -41,9 +41,9 @@ export class DrawScale {
     this.window = [];
     this.fastWindows = 0;
     this.windows = 0;
-    /** No cut before this window (a cut undone). */
+    /** No cut until after this window (a cut undone). */
     this.holdUntil = 0;
-    /** No raise before this window, and the wait after the next raise taken back. */
+    /** No raise until after this window, and the wait after the next raise taken back. */
     this.raiseHoldUntil = 0;
     this.raiseHold = FIRST_RAISE_HOLD;
     /** The cut being judged: the mean interval before it, ms. */

@@ -228,7 +228,7 @@ mod tests {
         // Nothing is pending now: ending again sends nothing.
         encoder.finish(|t, p| packets.push((t, p.to_vec()))).unwrap();
         assert_eq!(packets.len(), 2);
-        // The last packet decodes to the tone's 10 ms, then silence (Opus's 2.5 ms of
+        // The last packet decodes to the tone's 10 ms, then silence (the encoder's 6.5 ms
         // look-ahead shifts it; the first 5 ms are loud, the last 20 ms quiet).
         let mut decoder = opus::Decoder::new(16_000, opus::Channels::Mono).unwrap();
         let mut out = vec![0i16; 640];
