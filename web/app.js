@@ -26,7 +26,7 @@ import { ReplayBar } from "./replay.js";
 import { audioCodec, Sound } from "./sound.js";
 import { LIP_MODES } from "./render.js";
 import { Talk } from "./talk.js";
-import { idFromFileName, registerHead } from "./upload.js";
+import { idFromFileName, registerHead, sourceSummary } from "./upload.js";
 
 /** The stream the Talk button produces (the microphone, `derive=visemes`). */
 const TALK_STREAM = "talk";
@@ -631,8 +631,8 @@ async function registerUpload(event) {
     showUploadStatus(outcome.text, "error");
     return;
   }
-  const texture = outcome.source?.texture ? ` Texture: ${outcome.source.texture}.` : "";
-  showUploadStatus(`"${id}" is registered and shown above.${texture}`);
+  const became = sourceSummary(outcome.source);
+  showUploadStatus(`"${id}" is registered and shown above.${became ? ` ${became}` : ""}`);
   await refreshHeads();
   page.head = id;
   page.replay = null;

@@ -268,6 +268,31 @@ async function refusal(response) {
 }
 
 /**
+ * What a `.glb` became, in words for the page (empty for none): its texture, and the
+ * ARKit blendshapes its own morph targets drive, with the targets not taken.
+ */
+export function sourceSummary(source) {
+  if (!source) {
+    return "";
+  }
+  const said = [];
+  if (source.texture) {
+    said.push(`Texture: ${source.texture}.`);
+  }
+  const arkit = source.arkit_targets ?? [];
+  const leftOut = source.targets_left_out ?? [];
+  if (arkit.length > 0) {
+    said.push(`ARKit: ${arkit.length} blendshapes from its own morph targets.`);
+  }
+  if (leftOut.length > 0) {
+    const names = leftOut.slice(0, 5).map((t) => t.name).join(", ");
+    const more = leftOut.length > 5 ? ` and ${leftOut.length - 5} more` : "";
+    said.push(`Morph targets not used: ${names}${more} (${leftOut[0].why}${leftOut.length > 1 ? ", ..." : ""}).`);
+  }
+  return said.join(" ");
+}
+
+/**
  * Registers `files` as `id` on the server (`nodes`: nodes.js) and follows it to the end:
  * `onProgress(text)` as it goes. Resolves with `{ ok: true, source }` once the head is
  * ready (`source`: what a `.glb` became, from the answer), or `{ ok: false, text }`.

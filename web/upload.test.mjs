@@ -4,7 +4,17 @@
 // in base64, or a `.glb`'s bytes with `?id=`). Run `node web/upload.test.mjs`; the exit
 // status is the verdict. Not served: the page never loads this file.
 
-import { base64, chooseFiles, idFromFileName, packGlb, readGlb, registrationRequest, validId, writeGlb } from "./upload.js";
+import {
+  base64,
+  chooseFiles,
+  idFromFileName,
+  packGlb,
+  readGlb,
+  registrationRequest,
+  sourceSummary,
+  validId,
+  writeGlb,
+} from "./upload.js";
 
 const failures = [];
 
@@ -129,6 +139,25 @@ const glbWithUri = writeGlb(
 const repacked = readGlb((await registrationRequest(chooseFiles([file("av.glb", glbWithUri), png]), "av", "")).init.body);
 equal(repacked.json.images, [{ bufferView: 0, mimeType: "image/png" }], "glb: its URI image put inside");
 equal([...repacked.bin.subarray(0, 4)], [7, 7, 7, 7], "glb: its own chunk kept");
+
+// What a .glb became, in words.
+equal(sourceSummary(null), "", "source: none");
+equal(sourceSummary({ format: "glb", skin: "Head", parts: [], left_out: [] }), "", "source: nothing to say");
+equal(
+  sourceSummary({
+    texture: "the skin's base colour image, image/png",
+    arkit_targets: [{ blendshape: "jawOpen", from: ["jawOpen"] }, { blendshape: "browInnerUp", from: ["browInnerUp_L", "browInnerUp_R"] }],
+    targets_left_out: [{ name: "smile", why: "not named like an ARKit blendshape" }],
+  }),
+  "Texture: the skin's base colour image, image/png. ARKit: 2 blendshapes from its own morph targets. " +
+    "Morph targets not used: smile (not named like an ARKit blendshape).",
+  "source: texture, ARKit targets, one left out",
+);
+equal(
+  sourceSummary({ targets_left_out: ["a", "b", "c", "d", "e", "f", "g"].map((name) => ({ name, why: "w" })) }),
+  "Morph targets not used: a, b, c, d, e and 2 more (w, ...).",
+  "source: many left out",
+);
 
 if (failures.length > 0) {
   console.error(failures.join("\n"));

@@ -306,6 +306,11 @@ pub struct HeadInfo {
     /// In the answer to a registration from a glTF file: which of its meshes became what.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub source: Option<HeadSource>,
+    /// The ARKit blendshapes the head's own morph targets define (ARKit's names, in its
+    /// order): ARKit weights for these move the mask as the head's targets do, the others
+    /// as the shipped basis. Absent when it has none, and from servers before it.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub arkit_blendshapes: Vec<String>,
 }
 
 /// Which meshes of a registered file became the head's skin and parts.
@@ -322,6 +327,30 @@ pub struct HeadSource {
     /// out and why. Absent when it has none, and from servers before it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub texture: Option<String>,
+    /// The skin's morph targets taken as ARKit blendshapes, each with the targets it was
+    /// made from. Absent when none, and from servers before it.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub arkit_targets: Vec<ArkitTargetSource>,
+    /// The skin's morph targets not taken, each with why.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub targets_left_out: Vec<TargetLeftOut>,
+}
+
+/// An ARKit blendshape the head's own morph targets make.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ArkitTargetSource {
+    /// ARKit's name (`mouthSmileLeft`).
+    pub blendshape: String,
+    /// The file's target names it was made from: one, or two halves summed
+    /// (`browInnerUp_L`, `browInnerUp_R`).
+    pub from: Vec<String>,
+}
+
+/// A morph target of the file not used, and why.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TargetLeftOut {
+    pub name: String,
+    pub why: String,
 }
 
 /// A part and the file's mesh it was made from.

@@ -88,6 +88,7 @@ pub async fn register_heads(state: &AppState) -> Result<(), ApiError> {
                 })
                 .collect(),
             texture: None,
+            arkit_basis: None,
             meta: HeadMeta::default(),
         };
         state.registry.register(record, false, slot).await?;

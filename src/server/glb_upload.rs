@@ -13,7 +13,9 @@ use super::ids::valid_id;
 use super::store::PartRecord;
 use super::texture_image;
 use crate::head::{glb_head, obj, read_glb, BaseColour, GlbMesh, MeshRole};
-use facewire_proto::messages::{HeadSource, PartSource};
+use crate::stream::ArkitTargets;
+use crate::targets::ExpressionTarget;
+use facewire_proto::messages::{ArkitTargetSource, HeadSource, PartSource, TargetLeftOut};
 
 /// The body's content type that makes a registration a glTF one.
 pub const CONTENT_TYPE: &str = "model/gltf-binary";
@@ -35,12 +37,14 @@ pub struct GlbQuery {
     _token: Option<String>,
 }
 
-/// What a glTF file registers: the skin and the parts as OBJ texts, in metres, and the
-/// skin's base colour image when it has one the page can draw.
+/// What a glTF file registers: the skin and the parts as OBJ texts, in metres, the
+/// skin's base colour image when it has one the page can draw, and its morph targets that
+/// make ARKit blendshapes (named by ARKit, metres per unit weight).
 pub struct GlbUpload {
     pub obj: String,
     pub parts: Vec<PartRecord>,
     pub texture: Option<Vec<u8>>,
+    pub arkit_targets: Vec<ExpressionTarget>,
     pub source: HeadSource,
 }
 
@@ -48,7 +52,7 @@ pub struct GlbUpload {
 pub fn glb_upload(bytes: &[u8], roles: Option<&str>) -> Result<GlbUpload, ApiError> {
     let roles = parse_roles(roles.unwrap_or(""))?;
     let meshes = read_glb(bytes).map_err(|e| ApiError::BadHead(format!("glTF file: {e}")))?;
-    let head = glb_head(meshes, &roles).map_err(|e| ApiError::BadHead(format!("glTF file: {e}")))?;
+    let mut head = glb_head(meshes, &roles).map_err(|e| ApiError::BadHead(format!("glTF file: {e}")))?;
     let mut taken: Vec<String> = Vec::new();
     let mut parts = Vec::with_capacity(head.parts.len());
     let mut part_sources = Vec::with_capacity(head.parts.len());
@@ -66,6 +70,12 @@ pub fn glb_upload(bytes: &[u8], roles: Option<&str>) -> Result<GlbUpload, ApiErr
         });
     }
     let (texture, texture_note) = skin_texture(&head.skin);
+    let sorted = ArkitTargets::sort(
+        std::mem::take(&mut head.skin.targets)
+            .into_iter()
+            .map(|t| ExpressionTarget::from_displacements(&t.name, t.offsets))
+            .collect(),
+    );
     Ok(GlbUpload {
         obj: match (&texture, &head.skin.texture_coords) {
             (Some(_), Some(coords)) => textured_obj_text(&head.skin, coords),
@@ -79,7 +89,25 @@ pub fn glb_upload(bytes: &[u8], roles: Option<&str>) -> Result<GlbUpload, ApiErr
             parts: part_sources,
             left_out: head.left_out,
             texture: texture_note,
+            arkit_targets: sorted
+                .chosen
+                .iter()
+                .zip(&sorted.made_from)
+                .map(|(target, from)| ArkitTargetSource {
+                    blendshape: target.name.clone(),
+                    from: from.clone(),
+                })
+                .collect(),
+            targets_left_out: sorted
+                .left_out
+                .into_iter()
+                .map(|(name, why)| TargetLeftOut {
+                    name,
+                    why: why.to_string(),
+                })
+                .collect(),
         },
+        arkit_targets: sorted.chosen,
     })
 }
 

@@ -20,6 +20,7 @@ use super::store::HeadMeta;
 use super::stream::Stream;
 use crate::animate::AnimatedHead;
 use crate::fit::FitReport;
+use crate::stream::ArkitBasis;
 use facewire_proto::codes::EndReason;
 use facewire_proto::messages::{EyeInfo, FitSummary, HeadInfo, PartInfo};
 
@@ -57,6 +58,9 @@ pub struct ReadyHead {
     /// `fit.png` from the front and the side, drawn when first asked for.
     pub fit_pictures: [OnceLock<Bytes>; 2],
     pub bindings: BindingCache,
+    /// What ARKit weights do to its mask: its own targets' basis where it has them, the
+    /// shipped basis elsewhere.
+    pub arkit: Arc<ArkitBasis>,
 }
 
 impl ReadyHead {
@@ -304,6 +308,7 @@ impl HeadEntry {
             fit: ready.as_ref().map(|r| r.fit.clone()),
             algorithms: ready.map(|r| r.bindings.bound()).unwrap_or_default(),
             source: None,
+            arkit_blendshapes: self.meta.arkit_blendshapes.clone(),
         }
     }
 }

@@ -17,7 +17,7 @@ use super::error::ApiError;
 use super::glb_upload::{self, GlbQuery};
 use super::head::HeadTexture;
 use super::ids::valid_id;
-use super::registration::{fit_automatically, fit_from_landmarks, AutomaticFitFailure};
+use super::registration::{fit_automatically, fit_from_landmarks, own_arkit_basis, AutomaticFitFailure};
 use super::store::{HeadMeta, HeadRecord, PartRecord};
 use super::texture_image;
 use super::AppState;
@@ -26,6 +26,7 @@ use crate::deform::AlgoSpec;
 use crate::fit::AutomaticFitError;
 use crate::fit::FitReport;
 use crate::head::{check_part_names, PartRole, MM_PER_METRE};
+use crate::targets::ExpressionTarget;
 use facewire_proto::messages::{HeadInfo, HeadSource, RecordingInfo};
 
 /// How long a registration request waits for a free registration slot.
@@ -154,6 +155,7 @@ pub async fn register_head(
             producer_token,
             parts: from_file.parts,
             texture: from_file.texture,
+            arkit_targets: from_file.arkit_targets,
             mm_per_unit: Some(MM_PER_METRE),
             source: Some(from_file.source),
         }
@@ -175,6 +177,7 @@ pub async fn register_head(
             producer_token: request.producer_token,
             parts: part_records(request.parts)?,
             texture: texture_bytes(request.texture.as_deref())?,
+            arkit_targets: Vec::new(),
             mm_per_unit: None,
             source: None,
         }
@@ -195,6 +198,8 @@ struct Upload {
     producer_token: Option<String>,
     parts: Vec<PartRecord>,
     texture: Option<Vec<u8>>,
+    /// Morph targets that make ARKit blendshapes (named by ARKit, head units).
+    arkit_targets: Vec<ExpressionTarget>,
     /// Known from the file's format (glTF: metres), for the automatic fit.
     mm_per_unit: Option<f32>,
     source: Option<HeadSource>,
@@ -243,13 +248,27 @@ async fn register(
             ))
         }
     };
+    let targets = upload.arkit_targets;
+    let (slot, obj, fit_toml, own_arkit) = tokio::task::spawn_blocking(move || {
+        let own = own_arkit_basis(obj.as_bytes(), &fit_toml, &targets, budget);
+        (slot, obj, fit_toml, own)
+    })
+    .await
+    .map_err(ApiError::internal)?;
+    let own_arkit = own_arkit.map_err(|e| ApiError::BadHead(e.to_string()))?;
+    let mut meta = HeadMeta::with_producer_token(upload.producer_token.as_deref());
+    let arkit_basis = own_arkit.map(|own| {
+        meta.arkit_blendshapes = own.blendshapes;
+        own.basis
+    });
     let record = HeadRecord {
         id: upload.id,
         obj: obj.into_bytes(),
         fit_toml,
         parts: upload.parts,
         texture: upload.texture,
-        meta: HeadMeta::with_producer_token(upload.producer_token.as_deref()),
+        arkit_basis,
+        meta,
     };
     let entry = state.registry.register(record, true, slot).await?;
     state.telemetry.heads.set(state.registry.list().len() as i64);

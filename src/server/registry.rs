@@ -181,6 +181,8 @@ impl Registry {
             fit_toml: record.fit_toml,
             parts: record.parts,
             texture: record.texture,
+            arkit_basis: record.arkit_basis,
+            arkit_blendshapes: record.meta.arkit_blendshapes,
             budget: self.inner.limits.budget,
             max_bindings: self.inner.limits.max_bindings,
         };

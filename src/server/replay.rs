@@ -98,7 +98,7 @@ async fn open_replay(state: &AppState, id: &str, name: &str, query: &ViewQuery) 
         _ = state.shutdown.cancelled() => return Err(ApiError::ShuttingDown),
     };
     let binding = ready.bindings.get(&ready.animated, &spec).await?;
-    let (animated, arkit) = (ready.animated.clone(), state.arkit.clone());
+    let (animated, arkit) = (ready.animated.clone(), ready.arkit.clone());
     // Its meters' tables take milliseconds on a large head: off the runtime.
     let job = tokio::task::spawn_blocking(move || FrameJob::new(animated, binding, arkit, heat))
         .await

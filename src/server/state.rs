@@ -25,7 +25,6 @@ use crate::deform::AlgoSpec;
 use crate::head::MeshBudget;
 use crate::mask::Mask;
 use crate::speech::{ModelError, VisemeModel};
-use crate::stream::ArkitBasis;
 
 /// Everything the handlers share; cloning is cheap.
 #[derive(Clone)]
@@ -50,7 +49,6 @@ pub struct Shared {
     /// Gives the memory of retired pipelines back, at most once a second.
     pub trimmer: Arc<Trimmer>,
     pub mask: Arc<Mask>,
-    pub arkit: Arc<ArkitBasis>,
     /// The viseme model of audio-only producers (`derive=visemes`).
     pub speech_model: Arc<VisemeModel>,
     pub started: Instant,
@@ -209,7 +207,6 @@ impl AppState {
                 viewer_slots: Arc::new(Semaphore::new(limits.max_viewers)),
                 trimmer: Arc::default(),
                 mask,
-                arkit: Arc::new(ArkitBasis::shipped()),
                 speech_model,
                 started: Instant::now(),
                 cluster,

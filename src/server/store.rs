@@ -1,6 +1,6 @@
 //! Where registered heads live between runs: one folder per head in the data directory
-//! (`heads/<id>/head.obj`, `fit.toml`, `parts/<name>.obj`, `texture` when it has one,
-//! `head.json`), every file
+//! (`heads/<id>/head.obj`, `fit.toml`, `parts/<name>.obj`, `texture` and `arkit_basis.tsv`
+//! when it has them, `head.json`), every file
 //! written atomically.
 //! `head.json` is written last and removed first, so a folder without it is an
 //! interrupted write: it is removed at start, with any temporary file left by a crash.
@@ -27,8 +27,15 @@ pub struct HeadRecord {
     /// Its texture image, PNG or JPEG, checked ([`super::texture_image`]), stored as
     /// `texture`.
     pub texture: Option<Vec<u8>>,
+    /// Its own ARKit retarget basis (`ArkitBasis` text, mask units), derived at
+    /// registration from its ARKit morph targets; the blendshapes it defines are
+    /// `meta.arkit_blendshapes`. Stored as `arkit_basis.tsv`.
+    pub arkit_basis: Option<String>,
     pub meta: HeadMeta,
 }
+
+/// A head's own ARKit basis in its folder.
+const ARKIT_BASIS_FILE: &str = "arkit_basis.tsv";
 
 /// A part mesh as registered.
 #[derive(Debug, Clone, PartialEq)]
@@ -66,6 +73,9 @@ pub struct HeadMeta {
     /// and registered again is a new head on every node).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub registration_tag: Option<String>,
+    /// The ARKit blendshapes the head's own basis (`arkit_basis.tsv`) defines.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub arkit_blendshapes: Vec<String>,
 }
 
 impl HeadMeta {
@@ -77,6 +87,7 @@ impl HeadMeta {
             producer_token: None,
             parts: Vec::new(),
             registration_tag: None,
+            arkit_blendshapes: Vec::new(),
         }
     }
 
@@ -177,6 +188,10 @@ impl Store {
         if let Some(texture) = &record.texture {
             let path = dir.join("texture");
             write_atomic(&path, texture).map_err(io(&path))?;
+        }
+        if let Some(basis) = &record.arkit_basis {
+            let path = dir.join(ARKIT_BASIS_FILE);
+            write_atomic(&path, basis.as_bytes()).map_err(io(&path))?;
         }
         self.save_meta(&record.id, &record.meta.listing(&record.parts))
     }
@@ -299,12 +314,19 @@ impl Store {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
             Err(e) => return Err(io(&texture_path)(e)),
         };
+        let basis_path = dir.join(ARKIT_BASIS_FILE);
+        let arkit_basis = match std::fs::read_to_string(&basis_path) {
+            Ok(text) => Some(text),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+            Err(e) => return Err(io(&basis_path)(e)),
+        };
         Ok(HeadRecord {
             id: id.to_string(),
             obj: std::fs::read(&obj_path).map_err(io(&obj_path))?,
             fit_toml: std::fs::read_to_string(&fit_path).map_err(io(&fit_path))?,
             parts,
             texture,
+            arkit_basis,
             meta,
         })
     }
@@ -321,6 +343,7 @@ mod tests {
             fit_toml: "scale = 1.0\n".into(),
             parts: Vec::new(),
             texture: None,
+            arkit_basis: None,
             meta: HeadMeta::with_producer_token(Some("t")),
         }
     }
@@ -370,6 +393,28 @@ mod tests {
             error.contains("heads/h3/texture") && error.contains("not a PNG or JPEG"),
             "{error}"
         );
+    }
+
+    #[test]
+    fn an_own_arkit_basis_is_stored_with_its_blendshapes_and_loaded_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(dir.path()).unwrap();
+        let mut head = record("h4");
+        head.arkit_basis = Some("jawOpen\t3\t0\t-0.1\t0\n".into());
+        head.meta.arkit_blendshapes = vec!["jawOpen".into(), "tongueOut".into()];
+        store.save(&head).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(dir.path().join("heads/h4/arkit_basis.tsv")).unwrap(),
+            "jawOpen\t3\t0\t-0.1\t0\n"
+        );
+        let stored = std::fs::read_to_string(dir.path().join("heads/h4/head.json")).unwrap();
+        assert!(stored.contains("\"arkit_blendshapes\""), "{stored}");
+        assert_eq!(store.load("h4").unwrap(), head);
+        // A head without one writes neither.
+        store.save(&record("h5")).unwrap();
+        assert!(!dir.path().join("heads/h5/arkit_basis.tsv").exists());
+        let stored = std::fs::read_to_string(dir.path().join("heads/h5/head.json")).unwrap();
+        assert!(!stored.contains("arkit"), "{stored}");
     }
 
     #[test]

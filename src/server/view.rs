@@ -169,7 +169,7 @@ async fn open_view(state: &AppState, id: &str, name: &str, query: &ViewQuery) ->
             crate::quote::quote(name)
         ))
     };
-    let (animated, arkit) = (ready.animated.clone(), state.arkit.clone());
+    let (animated, arkit) = (ready.animated.clone(), ready.arkit.clone());
     let (trimmer, telemetry) = (state.trimmer.clone(), state.telemetry.clone());
     let frames = stream
         .pipeline(key, max_pipelines, full, move |params| async move {

@@ -203,6 +203,23 @@ async fn three_nodes_share_a_head_and_a_stream_frame_for_frame() {
     assert_eq!(texture.bytes().await.unwrap().as_ref(), png.as_slice());
     let uv = reqwest::get(n4.http("/v1/heads/late/uv.bin")).await.unwrap();
     assert_eq!(uv.status(), 200);
+
+    // An avatar's own ARKit basis travels with it.
+    let (status, body) = post(
+        &n1,
+        "/v1/heads?id=avatar",
+        crate::common::glb::ict_avatar_with_targets(),
+        "model/gltf-binary",
+    )
+    .await;
+    assert_eq!(status, 202, "{body}");
+    n4.wait_ready_in_cluster("avatar", Duration::from_secs(30)).await;
+    let on_n4 = info(&n4, "avatar").await.unwrap();
+    assert_eq!(
+        on_n4.arkit_blendshapes,
+        n1.wait_ready("avatar", "").await.arkit_blendshapes
+    );
+    assert_eq!(on_n4.arkit_blendshapes.len(), 51);
 }
 
 /// Sends frames from `first` at 30 fps until `stop`, then returns the next seq. Reconnects

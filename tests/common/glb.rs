@@ -266,9 +266,31 @@ pub fn ict_avatar() -> Vec<u8> {
     ict_avatar_textured(None)
 }
 
+/// [`ict_avatar`] with the ICT Face Model's 53 expression targets on its skin as morph
+/// targets under the model's own names (`mouthSmile_L`, `browInnerUp_L` and `_R`, no
+/// `tongueOut`), and a `smile` (a copy of `mouthSmile_L`) that no ARKit name fits.
+pub fn ict_avatar_with_targets() -> Vec<u8> {
+    ict_avatar_built(None, true)
+}
+
+/// The ICT Face Model's expression targets of the shipped ICT head (centimetres, +y up),
+/// by name.
+pub fn ict_targets() -> Vec<facewire::targets::ExpressionTarget> {
+    let head = facewire::head::Head::load(&super::data("heads/ict_head.obj")).unwrap();
+    facewire::targets::ExpressionTarget::load_dir(
+        &super::data("heads/ict_targets/skin"),
+        head.positions.len(),
+    )
+    .unwrap()
+}
+
 /// [`ict_avatar`] with its skin textured: `TEXCOORD_0` from each vertex's place across
 /// the face (x and the file's up, z) and the base colour image `image` (MIME type, bytes).
 pub fn ict_avatar_textured(image: Option<(String, Vec<u8>)>) -> Vec<u8> {
+    ict_avatar_built(image, false)
+}
+
+fn ict_avatar_built(image: Option<(String, Vec<u8>)>, with_targets: bool) -> Vec<u8> {
     use facewire::head::Head;
     let load = |file: &str| Head::load(&super::data(&format!("heads/{file}"))).unwrap();
     let (upper, lower) = (load("ict_head_teeth_upper.obj"), load("ict_head_teeth_lower.obj"));
@@ -289,6 +311,25 @@ pub fn ict_avatar_textured(image: Option<(String, Vec<u8>)>) -> Vec<u8> {
         vec![[0, 1, 2]],
     );
     let mut skin = z_up_mesh("Head", &load("ict_head.obj"));
+    if with_targets {
+        let turn = glam::Mat4::from_rotation_x(90f32.to_radians());
+        let mut targets = ict_targets();
+        let smile = targets.iter().find(|t| t.name == "mouthSmile_L").unwrap().clone();
+        targets.push(facewire::targets::ExpressionTarget {
+            name: "smile".into(),
+            ..smile
+        });
+        skin.target_names = targets.iter().map(|t| t.name.clone()).collect();
+        skin.primitives[0].targets = targets
+            .iter()
+            .map(|t| {
+                t.displacements
+                    .iter()
+                    .map(|&d| turn.transform_vector3(d).to_array())
+                    .collect()
+            })
+            .collect();
+    }
     if let Some(image) = image {
         for primitive in &mut skin.primitives {
             let (lo, hi) = primitive

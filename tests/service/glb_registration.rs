@@ -228,3 +228,125 @@ async fn an_avatar_takes_its_own_producer_token_from_a_header() {
     assert_eq!(end_producer("producer").await.unwrap().status().as_u16(), 401);
     server.stop().await;
 }
+
+/// The served pose of `head` for one ARKit frame (on a stream of its own), beside its
+/// rest mesh: (rest, posed), metres, flattened.
+async fn arkit_pose(server: &Server, head: &str, arkit: &str) -> (Vec<f32>, Vec<f32>) {
+    use crate::common::service::{connect, next_frame};
+    use futures_util::SinkExt;
+    use tokio_tungstenite::tungstenite::Message;
+    let bytes = reqwest::get(server.http(&format!("/v1/heads/{head}/mesh.bin")))
+        .await
+        .unwrap()
+        .bytes()
+        .await
+        .unwrap();
+    let rest = facewire_proto::mesh::RestMesh::decode(&bytes).unwrap();
+    let rest: Vec<f32> = rest.positions.iter().flatten().copied().collect();
+    let stream = arkit
+        .to_ascii_lowercase()
+        .replace(|c: char| !c.is_ascii_alphanumeric(), "");
+    let mut viewer = connect(&server.ws(&format!("/v1/heads/{head}/streams/{stream}/view"))).await;
+    let mut producer = connect(&server.ws(&format!("/v1/heads/{head}/streams/{stream}/produce"))).await;
+    let line = format!(r#"{{"seq":0,"t":0,"arkit":{arkit}}}"#);
+    producer.send(Message::Text(line.into())).await.unwrap();
+    let frame = next_frame(&mut viewer).await;
+    let mut posed = Vec::new();
+    frame.apply(&rest, &mut posed);
+    (rest, posed)
+}
+
+/// How far `posed` is from `rest` moved by the ICT target `name` (centimetres in the
+/// file, metres on the server), over the vertices the target moves more than 0.1 mm:
+/// (RMS, median), mm. The largest errors of any basis are inside the mouth socket, which
+/// the model's jawOpen moves 32 mm and the mask does not reach; the median reads the face.
+fn target_error_mm(rest: &[f32], posed: &[f32], name: &str) -> (f32, f32) {
+    let target = crate::common::glb::ict_targets()
+        .into_iter()
+        .find(|t| t.name == name)
+        .unwrap();
+    assert_eq!(
+        rest.len(),
+        3 * target.displacements.len(),
+        "the skin kept its vertices"
+    );
+    let mut errors: Vec<f32> = (0..target.displacements.len())
+        .filter(|&v| target.displacements[v].length() * 10.0 > 0.1)
+        .map(|v| {
+            let expected = glam::Vec3::from_slice(&rest[3 * v..]) + target.displacements[v] * 0.01;
+            (glam::Vec3::from_slice(&posed[3 * v..]) - expected).length() * 1e3
+        })
+        .collect();
+    errors.sort_by(f32::total_cmp);
+    let rms = (errors.iter().map(|e| e * e).sum::<f32>() / errors.len() as f32).sqrt();
+    (rms, errors[errors.len() / 2])
+}
+
+/// An avatar's ARKit-named morph targets are kept with it: listed at registration and in
+/// head info, they drive ARKit streams on it (its own retarget basis, derived from its
+/// targets and its fit, completed by the shipped basis), and they survive a restart.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_avatar_s_arkit_targets_drive_its_arkit_streams() {
+    use crate::common::glb::ict_avatar_with_targets;
+    let dir = tempfile::tempdir().unwrap();
+    let config = || Config {
+        data_dir: Some(dir.path().to_path_buf()),
+        ..Config::default()
+    };
+    let server = Server::start(config()).await;
+    let (status, body) = post_glb(&server, "?id=talker", ict_avatar_with_targets()).await;
+    assert_eq!(status, 202, "{body}");
+    // The ICT model's 53 targets make 51 ARKit blendshapes (its brows' inner raise and its
+    // cheeks' puff come in halves, summed; it has no tongueOut); `smile` is no ARKit name.
+    let taken = body["source"]["arkit_targets"].as_array().unwrap();
+    assert_eq!(taken.len(), 51, "{body}");
+    assert_eq!(
+        taken[0],
+        serde_json::json!({"blendshape": "eyeBlinkLeft", "from": ["eyeBlink_L"]})
+    );
+    assert!(taken.contains(
+        &serde_json::json!({"blendshape": "browInnerUp", "from": ["browInnerUp_L", "browInnerUp_R"]})
+    ));
+    assert_eq!(
+        body["source"]["targets_left_out"],
+        serde_json::json!([{"name": "smile", "why": "not named like an ARKit blendshape"}])
+    );
+    let (status, body) = post_glb(&server, "?id=plain", ict_avatar()).await;
+    assert_eq!(status, 202, "{body}");
+    assert!(body["source"].get("arkit_targets").is_none(), "{body}");
+    let info = server.wait_ready("talker", "").await;
+    assert_eq!(info.arkit_blendshapes.len(), 51);
+    assert_eq!(info.arkit_blendshapes[0], "eyeBlinkLeft");
+    assert!(!info.arkit_blendshapes.iter().any(|n| n == "tongueOut"));
+    assert!(server.wait_ready("plain", "").await.arkit_blendshapes.is_empty());
+
+    // jawOpen at full weight, against the model's own jawOpen: through the head's own
+    // basis, and through the shipped one (made from another head's artist's jawOpen).
+    let jaw = r#"{"jawOpen":1}"#;
+    let mut own_jaw = Vec::new();
+    for (arkit, target) in [(jaw, "jawOpen"), (r#"{"mouthSmileLeft":1}"#, "mouthSmile_L")] {
+        let (rest, own) = arkit_pose(&server, "talker", arkit).await;
+        let own_mm = target_error_mm(&rest, &own, target);
+        let (rest, shipped) = arkit_pose(&server, "plain", arkit).await;
+        let shipped_mm = target_error_mm(&rest, &shipped, target);
+        eprintln!(
+            "ICT avatar, {target} from the model's own: RMS {:.2} mm, median {:.2} mm with its own \
+             targets; {:.2}, {:.2} mm with the shipped basis",
+            own_mm.0, own_mm.1, shipped_mm.0, shipped_mm.1
+        );
+        assert!(own_mm.0 < shipped_mm.0, "{own_mm:?} vs {shipped_mm:?}");
+        assert!(own_mm.1 < 0.7 * shipped_mm.1, "{own_mm:?} vs {shipped_mm:?}");
+        if arkit == jaw {
+            own_jaw = own;
+        }
+    }
+    server.stop().await;
+
+    // After a restart: the same blendshapes, the same pose.
+    let server = Server::start(config()).await;
+    let info = server.wait_ready("talker", "").await;
+    assert_eq!(info.arkit_blendshapes.len(), 51);
+    let (_, again) = arkit_pose(&server, "talker", jaw).await;
+    assert_eq!(again, own_jaw);
+    server.stop().await;
+}

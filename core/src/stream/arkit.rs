@@ -32,6 +32,14 @@ pub const SHIPPED_BASIS_TSV: &str = include_str!("../../../data/arkit/basis.tsv"
 pub const SHIPPED_BASIS_COMMAND: &str = "facewire arkit-basis --head data/heads/makehuman_head.obj \
      --fit data/heads/makehuman_head.fit.toml --targets data/heads/makehuman_arkit --out data/arkit/basis.tsv";
 
+/// The shipped basis's sources, as its header credits them.
+const SHIPPED_BASIS_SOURCES: &str =
+    "# Derived from the Face Units expression targets by Mika Suominen (CC0 1.0) on the\n\
+     # MakeHuman hm08 base mesh (MakeHuman team / Data Collection AB, CC0 1.0); see\n\
+     # data/heads/LICENSES.md (no attribution required; this is a courtesy credit).\n\
+     # Each offset is a target's displacement d at the anchor of a mask vertex used by a\n\
+     # triangle, taken into mask units with the MakeHuman fit's pose: S^-1 R^T d.\n";
+
 /// Decimal places of the offsets written by [`ArkitBasis::to_tsv`]: 1e-6 mask units, about
 /// 1e-4 mm on an adult face.
 pub const OFFSET_DECIMALS: usize = 6;
@@ -217,6 +225,27 @@ impl ArkitBasis {
         Ok(ArkitBasis::from_rows(rows))
     }
 
+    /// This basis for the blendshapes in `own` (indices into [`ARKIT_BLENDSHAPES`]; a
+    /// blendshape listed there with no offsets moves nothing), `fallback`'s for the others:
+    /// a head's own targets where it has them, the shipped basis elsewhere.
+    pub fn completed_by(&self, own: &[u8], fallback: &ArkitBasis) -> ArkitBasis {
+        let mut rows = Vec::new();
+        for shape in 0..52u8 {
+            let from = if own.contains(&shape) { self } else { fallback };
+            rows.extend(
+                from.blendshape_offsets(shape)
+                    .iter()
+                    .map(|&(vertex, offset)| (shape, vertex, offset)),
+            );
+        }
+        ArkitBasis::from_rows(rows)
+    }
+
+    /// The largest mask vertex index any blendshape moves, if any moves one.
+    pub fn max_vertex(&self) -> Option<u32> {
+        self.offsets.iter().map(|&(vertex, _)| vertex).max()
+    }
+
     fn from_rows(mut rows: Vec<(u8, u32, Vec3)>) -> ArkitBasis {
         rows.sort_by_key(|&(shape, vertex, _)| (shape, vertex));
         let mut ranges: [Range<usize>; 52] = std::array::from_fn(|_| 0..0);
@@ -257,22 +286,24 @@ impl ArkitBasis {
         }
     }
 
-    /// The basis as the documented text file: a header (what it is, its sources and their
-    /// licence, `generator_command`), then one tab-separated row `arkit_name mask_vertex dx
-    /// dy dz` per stored offset, numbers rounded to [`OFFSET_DECIMALS`] places. Rows that
-    /// round to zero are left out.
+    /// The shipped basis's text ([`ArkitBasis::to_tsv_from`] with the MakeHuman targets'
+    /// credit).
     pub fn to_tsv(&self, generator_command: &str) -> String {
+        self.to_tsv_from(SHIPPED_BASIS_SOURCES, generator_command)
+    }
+
+    /// The basis as the documented text file: a header (what it is, then `sources`: where
+    /// the targets came from and their licence, `#` lines, and `generator_command`), then one
+    /// tab-separated row `arkit_name mask_vertex dx dy dz` per stored offset, numbers rounded
+    /// to [`OFFSET_DECIMALS`] places. Rows that round to zero are left out.
+    pub fn to_tsv_from(&self, sources: &str, generator_command: &str) -> String {
         let mut out = String::from(
             "# facewire ARKit retarget basis: each ARKit blendshape at weight 1 as offsets of the\n\
              # CANDIDE-3.1.6 mask vertices, in mask units (+x the face's left, +y up, +z out of the\n\
              # face), added to the mask before the fit's pose. Format and numbers: docs/STREAMS.md.\n\
-             #\n\
-             # Derived from the Face Units expression targets by Mika Suominen (CC0 1.0) on the\n\
-             # MakeHuman hm08 base mesh (MakeHuman team / Data Collection AB, CC0 1.0); see\n\
-             # data/heads/LICENSES.md (no attribution required; this is a courtesy credit).\n\
-             # Each offset is a target's displacement d at the anchor of a mask vertex used by a\n\
-             # triangle, taken into mask units with the MakeHuman fit's pose: S^-1 R^T d.\n",
+             #\n",
         );
+        out.push_str(sources);
         let still: Vec<&str> = (0u8..)
             .zip(ARKIT_BLENDSHAPES)
             .filter(|&(shape, _)| self.rows_of(shape).next().is_none())
@@ -441,6 +472,30 @@ mod tests {
         anchors.vertex.pop();
         let short = error(&anchors, &[target("jawOpen")]);
         assert_eq!(short, "the anchors cover 112 mask vertices, the mask has 113");
+    }
+
+    #[test]
+    fn a_head_s_own_blendshapes_replace_the_fallback_s_and_only_those() {
+        let own = ArkitBasis::parse("own", "jawOpen 3 1 0 0\nmouthClose 4 0 1 0\n").unwrap();
+        let shipped = ArkitBasis::parse(
+            "shipped",
+            "jawOpen 3 9 9 9\njawOpen 5 9 0 0\neyeBlinkLeft 2 0 0 7\n",
+        )
+        .unwrap();
+        // The head's own jawOpen and mouthClose; tongueOut listed as its own but moving
+        // nothing; eyeBlinkLeft from the fallback.
+        let (jaw, close, blink, tongue) = (17, 18, 0, 51);
+        let merged = own.completed_by(&[jaw, close, tongue], &shipped);
+        assert_eq!(merged.blendshape_offsets(jaw), [(3, Vec3::X)]);
+        assert_eq!(merged.blendshape_offsets(close), [(4, Vec3::Y)]);
+        assert_eq!(merged.blendshape_offsets(blink), [(2, Vec3::new(0.0, 0.0, 7.0))]);
+        assert_eq!(merged.blendshape_offsets(tongue), []);
+        assert_eq!(merged.max_vertex(), Some(4));
+        // Without own blendshapes it is the fallback.
+        let fallback_only = own.completed_by(&[], &shipped);
+        assert_eq!(fallback_only.blendshape_offsets(jaw).len(), 2);
+        assert_eq!(fallback_only.blendshape_offsets(close), []);
+        assert_eq!(fallback_only.max_vertex(), Some(5));
     }
 
     #[test]

@@ -10,6 +10,7 @@
 //! Plain synchronous Rust: the service wraps these in its own tasks.
 
 pub mod arkit;
+mod arkit_targets;
 pub mod au_text;
 mod blendshapes;
 mod check;
@@ -35,6 +36,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 pub use arkit::{ArkitBasis, ArkitBasisError};
+pub use arkit_targets::{arkit_target_name, ArkitTargetName, ArkitTargets, Side};
 pub use au_text::{AuTextOptions, AuTextReader, AuTextWriter};
 pub use blendshapes::{arkit_index, ARKIT_BLENDSHAPES, ARKIT_LOOK_RAD};
 pub use check::{

@@ -164,15 +164,19 @@ impl SharedHead {
             }
             expected.push(format!("parts/{part}.obj"));
         }
-        // A texture is the one object a head may have or not.
+        // A texture is the one object a head may have or not; its own ARKit basis comes
+        // with the blendshapes it defines.
         if self.objects.contains_key("texture") {
             expected.push("texture".to_string());
+        }
+        if !self.meta.arkit_blendshapes.is_empty() {
+            expected.push(ARKIT_BASIS_OBJECT.to_string());
         }
         expected.sort();
         let named: Vec<&String> = self.objects.keys().collect();
         if named != expected.iter().collect::<Vec<_>>() {
             return Err(format!(
-                "names the objects {named:?}, its mesh, parts and texture are {expected:?}"
+                "names the objects {named:?}, its mesh, parts, texture and ARKit basis are {expected:?}"
             ));
         }
         Ok(())
@@ -236,6 +240,13 @@ fn part_name(id: &str, tag: &str, part: &str) -> String {
 
 fn texture_name(id: &str, tag: &str) -> String {
     format!("{id}/{tag}/texture")
+}
+
+/// A head's own ARKit basis among its objects.
+const ARKIT_BASIS_OBJECT: &str = "arkit_basis.tsv";
+
+fn arkit_basis_name(id: &str, tag: &str) -> String {
+    format!("{id}/{tag}/{ARKIT_BASIS_OBJECT}")
 }
 
 fn place(id: &str) -> String {
@@ -368,16 +379,19 @@ impl ClusterHeads {
             record.id.as_str(),
             record.meta.registration_tag.as_deref().unwrap_or_default(),
         );
-        let mut objects = vec![(mesh_name(id, tag), &record.obj)];
+        let mut objects: Vec<(String, &[u8])> = vec![(mesh_name(id, tag), &record.obj)];
         for part in &record.parts {
             objects.push((part_name(id, tag, &part.name), &part.obj));
         }
         if let Some(texture) = &record.texture {
             objects.push((texture_name(id, tag), texture));
         }
+        if let Some(basis) = &record.arkit_basis {
+            objects.push((arkit_basis_name(id, tag), basis.as_bytes()));
+        }
         let mut names = Vec::with_capacity(objects.len());
-        for (name, bytes) in objects {
-            if let Err(e) = self.objects.put(name.as_str(), &mut bytes.as_slice()).await {
+        for (name, mut bytes) in objects {
+            if let Err(e) = self.objects.put(name.as_str(), &mut bytes).await {
                 self.remove_objects(names.into_iter()).await;
                 return Err(bus(e));
             }
@@ -397,6 +411,9 @@ impl ClusterHeads {
         }
         if let Some(texture) = &record.texture {
             objects.insert("texture".to_string(), ObjectDigest::of(texture));
+        }
+        if let Some(basis) = &record.arkit_basis {
+            objects.insert(ARKIT_BASIS_OBJECT.to_string(), ObjectDigest::of(basis.as_bytes()));
         }
         let value = SharedHead {
             tag,
@@ -579,12 +596,24 @@ impl ClusterHeads {
                 Some(bytes)
             }
         };
+        let arkit_basis = match digest(ARKIT_BASIS_OBJECT) {
+            None => None,
+            Some(digest) => {
+                let bytes = self
+                    .read_object(&arkit_basis_name(id, &shared.tag), Some(digest))
+                    .await?;
+                Some(String::from_utf8(bytes).map_err(|_| {
+                    SharedHeadError::Bus(format!("head {id:?}: {ARKIT_BASIS_OBJECT} is not UTF-8"))
+                })?)
+            }
+        };
         Ok(HeadRecord {
             id: id.to_string(),
             obj,
             fit_toml: shared.fit_toml,
             parts,
             texture,
+            arkit_basis,
             meta: shared.meta,
         })
     }
