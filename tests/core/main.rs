@@ -24,6 +24,7 @@ mod glb;
 mod head_motion;
 mod jaw;
 mod kshirsagar;
+mod lip_sides;
 mod lip_tint;
 mod metrics;
 mod mouth_calibration;

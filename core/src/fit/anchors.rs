@@ -13,8 +13,11 @@
 
 use glam::Vec3;
 
+use super::lip_seeds::on_their_own_lip;
 use crate::head::{Head, SurfaceDistance, VertexIndex};
-use crate::mask::{LOWER_LIP, LOWER_LIP_INNER, LOWER_LIP_OUTER, UPPER_LIP, UPPER_LIP_INNER, UPPER_LIP_OUTER};
+use crate::mask::{
+    CHIN, LOWER_LIP, LOWER_LIP_INNER, LOWER_LIP_OUTER, NOSE_TIP, UPPER_LIP, UPPER_LIP_INNER, UPPER_LIP_OUTER,
+};
 
 /// How far along the surface (mm) from the outer lip contours the lip split looks.
 const LIP_SPLIT_RADIUS_MM: f32 = 40.0;
@@ -41,13 +44,22 @@ pub fn anchor_mask(head: &Head, fitted: &[Vec3], mm_per_unit: f32) -> Anchors {
     }
 
     // Split the mouth region into upper and lower lip by surface distance to the outer
-    // contours' plain anchors (the outer contours are far apart, so those are right).
+    // contours' plain anchors (the outer contours are far apart), those on the other lip
+    // left out.
     let radius = LIP_SPLIT_RADIUS_MM / mm_per_unit;
+    let anchored = |lip: &[usize]| lip.iter().map(|&j| vertex[j]).collect::<Vec<u32>>();
+    let (upper_seeds, lower_seeds) = on_their_own_lip(
+        head,
+        &anchored(&UPPER_LIP_OUTER),
+        &anchored(&LOWER_LIP_OUTER),
+        vertex[NOSE_TIP],
+        vertex[CHIN],
+    );
     let mut from_upper = SurfaceDistance::new(head.positions.len());
     let mut from_lower = SurfaceDistance::new(head.positions.len());
-    let seeds = |lip: &[usize]| lip.iter().map(|&j| (vertex[j], 0.0)).collect::<Vec<_>>();
-    from_upper.run(&head.topology, &seeds(&UPPER_LIP_OUTER), radius);
-    from_lower.run(&head.topology, &seeds(&LOWER_LIP_OUTER), radius);
+    let seeds = |lip: &[u32]| lip.iter().map(|&v| (v, 0.0)).collect::<Vec<_>>();
+    from_upper.run(&head.topology, &seeds(&upper_seeds), radius);
+    from_lower.run(&head.topology, &seeds(&lower_seeds), radius);
     let side = |near: &SurfaceDistance, far: &SurfaceDistance| -> Vec<u32> {
         near.reached()
             .iter()

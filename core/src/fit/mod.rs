@@ -12,6 +12,7 @@ mod file;
 mod from_landmarks;
 mod landmarks;
 pub mod limits;
+mod lip_seeds;
 mod mouth_opening;
 pub mod report;
 pub mod residuals;

@@ -47,6 +47,9 @@ pub const INNER_LIP_MID_LOWER: usize = 40;
 pub const INNER_LIP_CORNERS: [usize; 2] = [88, 89];
 /// Outer-lip corners (MPEG-4 8.3 and 8.4): the mouth's width at rest.
 pub const OUTER_LIP_CORNERS: [usize; 2] = [31, 64];
+/// The nose tip (MPEG-4 9.3) and the chin's lowest point (2.1), which every fit holds.
+pub const NOSE_TIP: usize = 5;
+pub const CHIN: usize = 10;
 /// Every vertex facewire addresses by number (the lips above, the pupils and FAPU
 /// measures of [`fap::FapuValues::measure`]) is below this: the `.wfm` reader refuses a
 /// mask with fewer vertices rather than let a fit index past its end.
