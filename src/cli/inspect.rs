@@ -10,7 +10,8 @@ use crate::head::glb_parts::role_by_name;
 use crate::head::{glb_head, Bounds, Problem};
 use crate::mask::{FapuValues, Mask, UnitKind};
 use crate::stream::summary::ChannelKind;
-use crate::stream::{open_stream, summarize, StreamFormat};
+use crate::stream::{open_stream, summarize, ArkitTargets, StreamFormat};
+use crate::targets::ExpressionTarget;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -179,6 +180,8 @@ struct GlbMeshSummary {
     vertices: usize,
     triangles: usize,
     morph_targets: Vec<String>,
+    /// The ARKit blendshapes its morph targets make (a skin's drive ARKit streams on it).
+    arkit_blendshapes: Vec<String>,
     skinned: bool,
 }
 
@@ -208,6 +211,16 @@ fn glb_report(path: &std::path::Path, json: bool) -> CliResult {
                 vertices: m.positions.len(),
                 triangles: m.triangles.len(),
                 morph_targets: m.targets.iter().map(|t| t.name.clone()).collect(),
+                arkit_blendshapes: ArkitTargets::sort(
+                    m.targets
+                        .iter()
+                        .map(|t| ExpressionTarget::from_displacements(&t.name, t.offsets.clone()))
+                        .collect(),
+                )
+                .chosen
+                .into_iter()
+                .map(|t| t.name)
+                .collect(),
                 skinned: m.skinned,
             })
             .collect(),
@@ -219,13 +232,17 @@ fn glb_report(path: &std::path::Path, json: bool) -> CliResult {
     println!("{}: glTF binary, {}", path.display(), summary.units);
     for m in &summary.meshes {
         println!(
-            "  {:<24} {:<6} {} vertices ({} in the file), {} triangles, {} morph targets{}",
+            "  {:<24} {:<6} {} vertices ({} in the file), {} triangles, {} morph targets{}{}",
             m.name,
             m.role,
             m.vertices,
             m.file_vertices,
             m.triangles,
             m.morph_targets.len(),
+            match m.arkit_blendshapes.len() {
+                0 => String::new(),
+                n => format!(" ({n} ARKit blendshapes)"),
+            },
             if m.skinned { ", skinned" } else { "" }
         );
     }

@@ -128,6 +128,17 @@ fn inspect_says_what_each_mesh_of_a_gltf_avatar_is_taken_for() {
     let out = facewire(&["inspect", avatar.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("registers as it is"), "{text}");
+    assert!(!text.contains("ARKit"), "{text}");
+
+    // With the ICT model's 53 expressions on its skin: the 51 ARKit blendshapes they make.
+    std::fs::write(&avatar, crate::common::glb::ict_avatar_with_targets()).unwrap();
+    let report = json(&["inspect", avatar.to_str().unwrap(), "--json"]);
+    let skin = &report["meshes"][0];
+    assert_eq!(skin["morph_targets"].as_array().unwrap().len(), 54);
+    assert_eq!(skin["arkit_blendshapes"].as_array().unwrap().len(), 51);
+    let out = facewire(&["inspect", avatar.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("54 morph targets (51 ARKit blendshapes)"), "{text}");
 }
 
 #[test]
