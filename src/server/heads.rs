@@ -248,14 +248,24 @@ async fn register(
             ))
         }
     };
+    // Only a glTF file's ARKit morph targets have a basis to derive.
     let targets = upload.arkit_targets;
-    let (slot, obj, fit_toml, own_arkit) = tokio::task::spawn_blocking(move || {
-        let own = own_arkit_basis(obj.as_bytes(), &fit_toml, &targets, budget);
-        (slot, obj, fit_toml, own)
-    })
-    .await
-    .map_err(ApiError::internal)?;
-    let own_arkit = own_arkit.map_err(|e| ApiError::BadHead(e.to_string()))?;
+    let (slot, obj, fit_toml, own_arkit) = if targets.is_empty() {
+        (slot, obj, fit_toml, None)
+    } else {
+        let (slot, obj, fit_toml, own) = tokio::task::spawn_blocking(move || {
+            let own = own_arkit_basis(obj.as_bytes(), &fit_toml, &targets, budget);
+            (slot, obj, fit_toml, own)
+        })
+        .await
+        .map_err(ApiError::internal)?;
+        (
+            slot,
+            obj,
+            fit_toml,
+            own.map_err(|e| ApiError::BadHead(e.to_string()))?,
+        )
+    };
     let mut meta = HeadMeta::with_producer_token(upload.producer_token.as_deref());
     let arkit_basis = own_arkit.map(|own| {
         meta.arkit_blendshapes = own.blendshapes;

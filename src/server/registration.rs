@@ -290,8 +290,8 @@ pub struct OwnArkit {
 
 /// Derives a head's own ARKit basis from `targets` (named by ARKit, head units) and its
 /// fit, as `facewire arkit-basis` derives the shipped one: each target's displacement at
-/// the anchor of every mask vertex, in mask units (blocking; milliseconds beside the fit).
-/// `None` without targets.
+/// the anchor of every mask vertex, in mask units (blocking: it reads the head again and
+/// anchors the mask, tens of milliseconds beside the fit's second). `None` without targets.
 pub fn own_arkit_basis(
     obj: &[u8],
     fit_toml: &str,
